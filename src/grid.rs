@@ -1,0 +1,438 @@
+//! The grid model: world positions (f64), cells (structured IJK or an
+//! unstructured zoo of typed / explicitly faced cells) and named properties.
+//!
+//! This module does no I/O: readers in [`crate::io`] fill a [`Grid`], and the
+//! sweep structures ([`crate::cgraph`], [`crate::scgraph`]) are built from it.
+
+use thiserror::Error;
+
+/// VTK cell type ids understood by stratasweep.
+pub mod vtk_type {
+    /// Tetrahedron.
+    pub const TETRA: u8 = 10;
+    /// Voxel (axis-aligned hexahedron with VTK's voxel vertex order).
+    pub const VOXEL: u8 = 11;
+    /// Hexahedron.
+    pub const HEXAHEDRON: u8 = 12;
+    /// Wedge (triangular prism).
+    pub const WEDGE: u8 = 13;
+    /// Pyramid.
+    pub const PYRAMID: u8 = 14;
+    /// Pentagonal prism.
+    pub const PENTAGONAL_PRISM: u8 = 15;
+    /// Hexagonal prism.
+    pub const HEXAGONAL_PRISM: u8 = 16;
+    /// Polyhedron given by explicit faces.
+    pub const POLYHEDRON: u8 = 42;
+}
+
+/// The bit of VTK's `vtkGhostType` cell array that marks a hidden cell.
+pub const GHOST_HIDDEN_CELL: u8 = 32;
+
+/// A named scalar (or multi-component) property, per vertex or per cell.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Property {
+    /// Name as found in the input (e.g. `PORO`, `f`).
+    pub name: String,
+    /// Number of components per tuple (1 for scalars).
+    pub components: usize,
+    /// Tuples stored contiguously, `components` values each.
+    pub values: Vec<f64>,
+}
+
+impl Property {
+    /// A scalar property.
+    pub fn scalar(name: impl Into<String>, values: Vec<f64>) -> Self {
+        Property { name: name.into(), components: 1, values }
+    }
+    /// Number of tuples.
+    pub fn len(&self) -> usize {
+        self.values.len() / self.components.max(1)
+    }
+    /// True when there are no tuples.
+    pub fn is_empty(&self) -> bool {
+        self.values.is_empty()
+    }
+    /// Scalar value of tuple `i`: the component itself, or the Euclidean
+    /// magnitude for multi-component properties.
+    pub fn scalar_at(&self, i: usize) -> f64 {
+        if self.components == 1 {
+            self.values[i]
+        } else {
+            let t = &self.values[i * self.components..(i + 1) * self.components];
+            t.iter().map(|v| v * v).sum::<f64>().sqrt()
+        }
+    }
+}
+
+/// Unstructured cells in VTK's flat layout.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Cells {
+    /// VTK cell type id per cell (see [`vtk_type`]).
+    pub types: Vec<u8>,
+    /// `offsets[c]..offsets[c+1]` indexes `connectivity` for cell `c` (len = cells + 1).
+    pub offsets: Vec<u32>,
+    /// Global point ids of every cell, concatenated.
+    pub connectivity: Vec<u32>,
+    /// Per cell, `face_offsets[c]..face_offsets[c+1]` indexes `face_stream`
+    /// (empty range for cells that are not polyhedra). Empty vector when the
+    /// grid has no polyhedra.
+    pub face_offsets: Vec<u32>,
+    /// VTK legacy face stream per polyhedron: `nf, n0, ids.., n1, ids.., ...`
+    /// with global point ids.
+    pub face_stream: Vec<u32>,
+}
+
+impl Cells {
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        self.types.len()
+    }
+    /// True when there are no cells.
+    pub fn is_empty(&self) -> bool {
+        self.types.is_empty()
+    }
+    /// Point ids of cell `c`.
+    pub fn cell(&self, c: usize) -> &[u32] {
+        &self.connectivity[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+    }
+    /// Face stream of polyhedron `c` (empty for typed cells).
+    pub fn faces_of(&self, c: usize) -> &[u32] {
+        if self.face_offsets.is_empty() {
+            return &[];
+        }
+        &self.face_stream[self.face_offsets[c] as usize..self.face_offsets[c + 1] as usize]
+    }
+    /// Append a typed (non-polyhedral) cell.
+    pub fn push(&mut self, vtk_type: u8, ids: &[u32]) {
+        if self.offsets.is_empty() {
+            self.offsets.push(0);
+        }
+        self.types.push(vtk_type);
+        self.connectivity.extend_from_slice(ids);
+        self.offsets.push(self.connectivity.len() as u32);
+        if !self.face_offsets.is_empty() {
+            self.face_offsets.push(self.face_stream.len() as u32);
+        }
+    }
+    /// Append a polyhedron given by its faces (each an ordered loop of global ids).
+    pub fn push_polyhedron(&mut self, faces: &[Vec<u32>]) {
+        if self.offsets.is_empty() {
+            self.offsets.push(0);
+        }
+        if self.face_offsets.is_empty() {
+            self.face_offsets = vec![0; self.types.len() + 1];
+        }
+        let mut ids: Vec<u32> = faces.iter().flatten().copied().collect();
+        ids.sort_unstable();
+        ids.dedup();
+        self.types.push(vtk_type::POLYHEDRON);
+        self.connectivity.extend_from_slice(&ids);
+        self.offsets.push(self.connectivity.len() as u32);
+        self.face_stream.push(faces.len() as u32);
+        for f in faces {
+            self.face_stream.push(f.len() as u32);
+            self.face_stream.extend_from_slice(f);
+        }
+        self.face_offsets.push(self.face_stream.len() as u32);
+    }
+}
+
+/// How the cells of a grid are given.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Topology {
+    /// Curvilinear IJK hexahedra; `dims` are the point counts along I, J, K
+    /// and points are stored I fastest, then J, then K.
+    Structured {
+        /// Point counts along I, J, K.
+        dims: [usize; 3],
+    },
+    /// An unstructured (zoo or polyhedral) grid.
+    Unstructured(Cells),
+}
+
+/// A grid: geometry, topology and properties.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grid {
+    /// World positions, read as f64.
+    pub points: Vec<[f64; 3]>,
+    /// Cells.
+    pub topology: Topology,
+    /// Per-vertex properties.
+    pub point_data: Vec<Property>,
+    /// Per-cell properties.
+    pub cell_data: Vec<Property>,
+}
+
+/// Errors found while validating a grid.
+#[derive(Debug, Error, PartialEq)]
+pub enum GridError {
+    /// The grid has no points or no cells.
+    #[error("empty grid: {points} points, {cells} cells")]
+    Empty {
+        /// Point count.
+        points: usize,
+        /// Cell count.
+        cells: usize,
+    },
+    /// A coordinate is NaN or infinite.
+    #[error("point {point} has a non-finite coordinate {coord:?}")]
+    NonFinitePoint {
+        /// Point index.
+        point: usize,
+        /// The offending coordinates.
+        coord: [f64; 3],
+    },
+    /// A cell references a point that does not exist.
+    #[error("cell {cell} references point {point}, but the grid has {points} points")]
+    MissingVertex {
+        /// Cell index.
+        cell: usize,
+        /// Referenced point id.
+        point: u64,
+        /// Point count.
+        points: usize,
+    },
+    /// A cell type that stratasweep does not know.
+    #[error("cell {cell} has unsupported VTK cell type {vtk_type}")]
+    UnknownCellType {
+        /// Cell index.
+        cell: usize,
+        /// VTK type id.
+        vtk_type: u8,
+    },
+    /// A typed cell with the wrong number of vertices.
+    #[error("cell {cell} of VTK type {vtk_type} has {found} vertices, expected {expected}")]
+    WrongVertexCount {
+        /// Cell index.
+        cell: usize,
+        /// VTK type id.
+        vtk_type: u8,
+        /// Expected count.
+        expected: usize,
+        /// Found count.
+        found: usize,
+    },
+    /// A structured grid whose dims do not match the point count.
+    #[error("structured dims {dims:?} need {expected} points, found {found}")]
+    DimsMismatch {
+        /// Point dims.
+        dims: [usize; 3],
+        /// Expected point count.
+        expected: usize,
+        /// Found point count.
+        found: usize,
+    },
+    /// A property with the wrong number of tuples.
+    #[error("{kind} property '{name}' has {found} tuples, expected {expected}")]
+    PropertyLength {
+        /// "point" or "cell".
+        kind: &'static str,
+        /// Property name.
+        name: String,
+        /// Expected tuples.
+        expected: usize,
+        /// Found tuples.
+        found: usize,
+    },
+    /// A property value is NaN or infinite.
+    #[error("{kind} property '{name}' has a non-finite value at {index}")]
+    NonFiniteProperty {
+        /// "point" or "cell".
+        kind: &'static str,
+        /// Property name.
+        name: String,
+        /// Tuple index.
+        index: usize,
+    },
+    /// A polyhedron whose face stream is malformed.
+    #[error("polyhedron cell {cell}: {why}")]
+    BadPolyhedron {
+        /// Cell index.
+        cell: usize,
+        /// What is wrong.
+        why: String,
+    },
+    /// Too many points or cells for u32 ids.
+    #[error("grid too large: {what} = {count} exceeds u32 ids")]
+    TooLarge {
+        /// What overflowed.
+        what: &'static str,
+        /// The count.
+        count: usize,
+    },
+}
+
+/// Number of points of a VTK typed cell, or `None` for variable types.
+pub fn vertex_count_of(vtk_type: u8) -> Option<usize> {
+    use vtk_type::*;
+    Some(match vtk_type {
+        TETRA => 4,
+        VOXEL | HEXAHEDRON => 8,
+        WEDGE => 6,
+        PYRAMID => 5,
+        PENTAGONAL_PRISM => 10,
+        HEXAGONAL_PRISM => 12,
+        _ => return None,
+    })
+}
+
+impl Grid {
+    /// Number of cells.
+    pub fn cell_count(&self) -> usize {
+        match &self.topology {
+            Topology::Structured { dims } => {
+                dims[0].saturating_sub(1) * dims[1].saturating_sub(1) * dims[2].saturating_sub(1)
+            }
+            Topology::Unstructured(c) => c.len(),
+        }
+    }
+
+    /// Axis-aligned bounding box `(min, max)` of the points.
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &self.points {
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// The f64 origin the sweep structures rebase positions to: the bounding-box centre.
+    pub fn origin(&self) -> [f64; 3] {
+        let (lo, hi) = self.bounds();
+        [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]))
+    }
+
+    /// Positions as f32 relative to [`Grid::origin`].
+    pub fn rebased_positions(&self) -> Vec<[f32; 3]> {
+        let o = self.origin();
+        self.points
+            .iter()
+            .map(|p| [(p[0] - o[0]) as f32, (p[1] - o[1]) as f32, (p[2] - o[2]) as f32])
+            .collect()
+    }
+
+    /// Looks up a point property by name.
+    pub fn point_property(&self, name: &str) -> Option<&Property> {
+        self.point_data.iter().find(|p| p.name == name)
+    }
+
+    /// Looks up a cell property by name.
+    pub fn cell_property(&self, name: &str) -> Option<&Property> {
+        self.cell_data.iter().find(|p| p.name == name)
+    }
+
+    /// Per-cell hidden flags from VTK's `vtkGhostType` (bit 32), if present.
+    pub fn hidden_cells(&self) -> Option<Vec<bool>> {
+        let g = self.cell_property("vtkGhostType")?;
+        Some((0..g.len()).map(|i| (g.values[i] as u64 as u8) & GHOST_HIDDEN_CELL != 0).collect())
+    }
+
+    /// Checks counts, ids, finiteness and cell types. Never panics.
+    pub fn validate(&self) -> Result<(), GridError> {
+        let np = self.points.len();
+        let nc = self.cell_count();
+        if np == 0 || nc == 0 {
+            return Err(GridError::Empty { points: np, cells: nc });
+        }
+        if np >= u32::MAX as usize {
+            return Err(GridError::TooLarge { what: "points", count: np });
+        }
+        if nc >= u32::MAX as usize {
+            return Err(GridError::TooLarge { what: "cells", count: nc });
+        }
+        if let Some((i, p)) = self.points.iter().enumerate().find(|(_, p)| !p.iter().all(|v| v.is_finite())) {
+            return Err(GridError::NonFinitePoint { point: i, coord: *p });
+        }
+        match &self.topology {
+            Topology::Structured { dims } => {
+                let expected = dims[0] * dims[1] * dims[2];
+                if expected != np {
+                    return Err(GridError::DimsMismatch { dims: *dims, expected, found: np });
+                }
+            }
+            Topology::Unstructured(cells) => validate_cells(cells, np)?,
+        }
+        for (kind, props, n) in [("point", &self.point_data, np), ("cell", &self.cell_data, nc)] {
+            for p in props {
+                if p.len() != n || p.values.len() % p.components.max(1) != 0 {
+                    return Err(GridError::PropertyLength {
+                        kind,
+                        name: p.name.clone(),
+                        expected: n,
+                        found: p.len(),
+                    });
+                }
+                if let Some(i) = p.values.iter().position(|v| !v.is_finite()) {
+                    return Err(GridError::NonFiniteProperty {
+                        kind,
+                        name: p.name.clone(),
+                        index: i / p.components.max(1),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn validate_cells(cells: &Cells, np: usize) -> Result<(), GridError> {
+    let nc = cells.len();
+    if cells.offsets.len() != nc + 1 || cells.offsets[nc] as usize != cells.connectivity.len() {
+        return Err(GridError::BadPolyhedron { cell: 0, why: "inconsistent cell offsets".into() });
+    }
+    for c in 0..nc {
+        let t = cells.types[c];
+        let (a, b) = (cells.offsets[c] as usize, cells.offsets[c + 1] as usize);
+        if a > b {
+            return Err(GridError::BadPolyhedron { cell: c, why: "decreasing cell offsets".into() });
+        }
+        let ids = &cells.connectivity[a..b];
+        if let Some(&bad) = ids.iter().find(|&&v| v as usize >= np) {
+            return Err(GridError::MissingVertex { cell: c, point: bad as u64, points: np });
+        }
+        if t == vtk_type::POLYHEDRON {
+            validate_face_stream(c, cells.faces_of(c), np)?;
+        } else if let Some(n) = vertex_count_of(t) {
+            if ids.len() != n {
+                return Err(GridError::WrongVertexCount { cell: c, vtk_type: t, expected: n, found: ids.len() });
+            }
+        } else {
+            return Err(GridError::UnknownCellType { cell: c, vtk_type: t });
+        }
+    }
+    Ok(())
+}
+
+fn validate_face_stream(cell: usize, s: &[u32], np: usize) -> Result<(), GridError> {
+    let bad = |why: String| GridError::BadPolyhedron { cell, why };
+    let Some((&nf, mut rest)) = s.split_first() else {
+        return Err(bad("no face stream".into()));
+    };
+    if nf < 4 {
+        return Err(bad(format!("{nf} faces, a polyhedron needs at least 4")));
+    }
+    for f in 0..nf {
+        let Some((&n, r)) = rest.split_first() else {
+            return Err(bad(format!("face stream ends before face {f}")));
+        };
+        if n < 3 {
+            return Err(bad(format!("face {f} has {n} vertices, needs at least 3")));
+        }
+        if r.len() < n as usize {
+            return Err(bad(format!("face {f} is truncated")));
+        }
+        if let Some(&v) = r[..n as usize].iter().find(|&&v| v as usize >= np) {
+            return Err(bad(format!("face {f} references point {v}, but the grid has {np} points")));
+        }
+        rest = &r[n as usize..];
+    }
+    if !rest.is_empty() {
+        return Err(bad(format!("{} trailing values after {nf} faces", rest.len())));
+    }
+    Ok(())
+}

@@ -1,0 +1,4 @@
+//! Readers and writers. The only module (with the binary) that touches files.
+
+pub mod vtk_read;
+pub mod writers;

@@ -1,0 +1,1 @@
+//! VTK readers (legacy and XML).

@@ -1,0 +1,1 @@
+//! Writers: PLY, VTP polydata, and VTK XML grids.
