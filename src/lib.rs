@@ -5,3 +5,11 @@
 pub mod grid;
 pub mod io;
 pub mod mesh;
+pub mod metacell;
+pub mod bruteforce;
+pub mod cgraph;
+pub mod extract;
+pub mod field;
+pub mod scgraph;
+pub mod structure;
+pub mod sweep;

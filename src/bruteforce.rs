@@ -1,0 +1,55 @@
+//! The reference: tests every cell against every level with the same tie
+//! rule and the same polygon code as the sweep. O(N·K), used to check the
+//! structures and to benchmark against.
+
+use crate::extract::{code_of, emit_cell, intersects, EmitContext, LevelMesh};
+use crate::field::ScalarField;
+use crate::metacell::MAX_META_VERTICES;
+use crate::sweep::{CellGraph, LevelStats, NEVER};
+
+/// Extracts every level by testing every cell, in slot order. `on_level` is
+/// called once per level with the reused buffer `mesh` and its statistics.
+pub fn brute_force<G: CellGraph, F: ScalarField>(
+    g: &G,
+    f: &F,
+    levels: &[f32],
+    ctx: &EmitContext,
+    mesh: &mut LevelMesh,
+    mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
+) {
+    let valid: Vec<u32> = g
+        .initial_stamps()
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| **s != NEVER)
+        .map(|(i, _)| i as u32)
+        .collect();
+    let catalog = g.catalog();
+    let mut ids = [0u32; MAX_META_VERTICES];
+    let mut phi = [0f32; MAX_META_VERTICES];
+    for (k, &t) in levels.iter().enumerate() {
+        mesh.clear();
+        for &c in &valid {
+            let (m, n) = g.cell(c, &mut ids);
+            let mut lo = f32::INFINITY;
+            let mut hi = f32::NEG_INFINITY;
+            for i in 0..n {
+                phi[i] = f.phi(ids[i]);
+                lo = lo.min(phi[i]);
+                hi = hi.max(phi[i]);
+            }
+            if intersects(lo, hi, t) {
+                let code = code_of(&phi[..n], t);
+                emit_cell(catalog.get(m), &ids[..n], &phi[..n], t, code, c, ctx, mesh);
+            }
+        }
+        let stats = LevelStats {
+            cells: mesh.cut_cells as u64,
+            visited: valid.len() as u64,
+            polygons: mesh.polygon_count() as u64,
+            triangles: mesh.triangle_count() as u64,
+            area: mesh.area(),
+        };
+        on_level(k, mesh, &stats);
+    }
+}

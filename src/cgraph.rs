@@ -1,0 +1,370 @@
+//! CGraph: the zoo-grid cellular graph. Per cell: its meta-cell id, its
+//! vertex ids and its face neighbours (`u32::MAX` = none).
+//!
+//! Storage is flat. Each cell owns a block `nv` vertex ids followed by `nf`
+//! neighbour ids in `data`; for grids of one cell type the per-cell offsets
+//! and meta ids are implicit (`offset = cell · (nv + nf)`). Cells are sewn
+//! through a transient vertex → incident-cells map that is dropped after the
+//! build. Slots are the input cell ids; hidden and degenerate cells stay as
+//! dead slots (never swept, never anyone's neighbour).
+
+use rayon::prelude::*;
+
+use crate::grid::{vtk_type, Cells, Grid, Topology};
+use crate::metacell::{builtin, Catalog, MetaCell, MAX_META_VERTICES, VOXEL_TO_HEX};
+use crate::structure::{classify_cell, is_sweepable, BitSet, CellClass, StructureError};
+use crate::sweep::CellGraph;
+
+/// "No neighbour" marker.
+pub const NONE: u32 = u32::MAX;
+
+/// The cellular graph of a zoo grid.
+#[derive(Clone, Debug)]
+pub struct CGraph {
+    /// f64 origin of the rebased positions.
+    pub origin: [f64; 3],
+    /// Rebased f32 positions.
+    pub positions: Vec<[f32; 3]>,
+    /// Meta-cell catalog.
+    pub catalog: Catalog,
+    /// Meta id per cell, or empty when every cell has meta `uniform_meta`.
+    meta: Vec<u16>,
+    uniform_meta: u16,
+    /// Per-cell start in `data`, or empty when uniform.
+    offsets: Vec<u32>,
+    /// Vertex ids then neighbour ids, per cell.
+    data: Vec<u32>,
+    live: BitSet,
+    /// Counts of cell classes (valid, inverted, zero volume, repeated vertex).
+    pub class_counts: [usize; 4],
+    /// Cells per meta-cell id.
+    pub meta_counts: Vec<usize>,
+    /// Hidden cells excluded.
+    pub hidden_count: usize,
+    /// Number of cell faces with a neighbour (each interior face counted twice).
+    pub sewn_faces: usize,
+}
+
+/// Resolves each cell to a meta-cell id and its local-order vertex ids.
+fn resolve_cells(cells: &Cells, catalog: &mut Catalog) -> Result<(Vec<u16>, Vec<u32>, Vec<u32>), StructureError> {
+    let n = cells.len();
+    let mut metas = Vec::with_capacity(n);
+    let mut offsets = Vec::with_capacity(n + 1);
+    let mut verts = Vec::with_capacity(cells.connectivity.len());
+    offsets.push(0u32);
+    for c in 0..n {
+        let t = cells.types[c];
+        let ids = cells.cell(c);
+        let m = if t == vtk_type::POLYHEDRON {
+            let (local, faces) = polyhedron_local_faces(cells.faces_of(c)).map_err(|why| StructureError::UnsupportedCell { cell: c, why })?;
+            let m = catalog.for_faces(local.len(), &faces).map_err(|e| StructureError::UnsupportedCell {
+                cell: c,
+                why: format!("polyhedron: {e}"),
+            })?;
+            verts.extend_from_slice(&local);
+            m
+        } else {
+            let m = catalog.for_vtk_type(t).ok_or_else(|| StructureError::UnsupportedCell {
+                cell: c,
+                why: format!("unsupported VTK cell type {t}"),
+            })?;
+            if t == vtk_type::VOXEL {
+                verts.extend(VOXEL_TO_HEX.iter().map(|&i| ids[i]));
+            } else {
+                verts.extend_from_slice(ids);
+            }
+            m
+        };
+        if verts.len() - *offsets.last().unwrap() as usize != catalog.get(m).nv {
+            return Err(StructureError::UnsupportedCell { cell: c, why: "vertex count does not match its type".into() });
+        }
+        metas.push(m);
+        offsets.push(verts.len() as u32);
+    }
+    Ok((metas, offsets, verts))
+}
+
+/// Local vertex list (first-appearance order) and local face loops of a
+/// polyhedron face stream. Orientation is fixed later, geometrically.
+fn polyhedron_local_faces(stream: &[u32]) -> Result<(Vec<u32>, Vec<Vec<u8>>), String> {
+    let mut local: Vec<u32> = Vec::new();
+    let mut faces = Vec::new();
+    let nf = *stream.first().ok_or("empty face stream")? as usize;
+    let mut p = 1;
+    for f in 0..nf {
+        let n = *stream.get(p).ok_or(format!("face {f} missing"))? as usize;
+        let ids = stream.get(p + 1..p + 1 + n).ok_or(format!("face {f} truncated"))?;
+        let mut face = Vec::with_capacity(n);
+        for &g in ids {
+            let i = match local.iter().position(|&x| x == g) {
+                Some(i) => i,
+                None => {
+                    local.push(g);
+                    local.len() - 1
+                }
+            };
+            if i >= MAX_META_VERTICES {
+                return Err(format!(
+                    "polyhedron with more than {MAX_META_VERTICES} vertices needs CIEL (not available yet)"
+                ));
+            }
+            face.push(i as u8);
+        }
+        faces.push(face);
+        p += 1 + n;
+    }
+    Ok((local, faces))
+}
+
+impl CGraph {
+    /// Builds the CGraph of an unstructured grid (or of a structured grid,
+    /// whose cells become hexahedra). `hidden` marks cells to exclude.
+    pub fn build(grid: &Grid, hidden: Option<&[bool]>) -> Result<Self, StructureError> {
+        let mut catalog = Catalog::new();
+        let (mut metas, voff, mut verts) = match &grid.topology {
+            Topology::Unstructured(cells) => resolve_cells(cells, &mut catalog)?,
+            Topology::Structured { dims } => structured_as_hexes(*dims),
+        };
+        let n = metas.len();
+        if n == 0 {
+            return Err(StructureError::NoCells);
+        }
+        // Orient polyhedra outward: flip their meta-cell if the volume is negative.
+        let mut class = vec![CellClass::Valid; n];
+        for c in 0..n {
+            let ids = &verts[voff[c] as usize..voff[c + 1] as usize];
+            let mut cl = classify_cell(catalog.get(metas[c]), ids, &grid.points);
+            if cl == CellClass::Inverted && catalog.get(metas[c]).name.starts_with("polyhedron") {
+                let flipped: Vec<Vec<u8>> =
+                    catalog.get(metas[c]).faces.iter().map(|f| f.iter().rev().copied().collect()).collect();
+                let nv = catalog.get(metas[c]).nv;
+                metas[c] = catalog.for_faces(nv, &flipped).map_err(|e| StructureError::UnsupportedCell {
+                    cell: c,
+                    why: format!("polyhedron: {e}"),
+                })?;
+                cl = CellClass::Valid;
+            }
+            class[c] = cl;
+        }
+        let mut live = BitSet::new(n);
+        let mut class_counts = [0usize; 4];
+        let mut hidden_count = 0;
+        for c in 0..n {
+            class_counts[class[c] as usize] += 1;
+            let h = hidden.is_some_and(|h| h.get(c).copied().unwrap_or(false));
+            hidden_count += h as usize;
+            if is_sweepable(class[c]) && !h {
+                live.set(c);
+            }
+        }
+        let nbrs = sew(&catalog, &metas, &voff, &verts, &live, grid.points.len());
+        let sewn_faces = nbrs.iter().filter(|&&x| x != NONE).count();
+        // Interleave vertex ids and neighbours per cell.
+        let uniform = metas.iter().all(|&m| m == metas[0]);
+        let mut data = Vec::with_capacity(verts.len() + nbrs.len());
+        let mut offsets = Vec::new();
+        let mut noff = 0usize;
+        for c in 0..n {
+            if !uniform {
+                offsets.push(data.len() as u32);
+            }
+            let m = catalog.get(metas[c]);
+            data.extend_from_slice(&verts[voff[c] as usize..voff[c + 1] as usize]);
+            data.extend_from_slice(&nbrs[noff..noff + m.faces.len()]);
+            noff += m.faces.len();
+        }
+        verts.clear();
+        let mut meta_counts = vec![0; catalog.metas.len()];
+        for &m in &metas {
+            meta_counts[m as usize] += 1;
+        }
+        let uniform_meta = metas[0];
+        if uniform {
+            metas = Vec::new();
+        }
+        Ok(CGraph {
+            origin: grid.origin(),
+            positions: grid.rebased_positions(),
+            catalog,
+            meta: metas,
+            uniform_meta,
+            offsets,
+            data,
+            live,
+            class_counts,
+            meta_counts,
+            hidden_count,
+            sewn_faces,
+        })
+    }
+
+    /// Number of cells (slots).
+    pub fn cell_count(&self) -> usize {
+        self.live_len()
+    }
+
+    fn live_len(&self) -> usize {
+        if self.meta.is_empty() {
+            let m = self.catalog.get(self.uniform_meta);
+            self.data.len() / (m.nv + m.faces.len())
+        } else {
+            self.meta.len()
+        }
+    }
+
+    /// Cells that the sweep will visit.
+    pub fn live_cells(&self) -> usize {
+        self.live.count()
+    }
+
+    #[inline(always)]
+    fn meta_of(&self, c: u32) -> u16 {
+        if self.meta.is_empty() { self.uniform_meta } else { self.meta[c as usize] }
+    }
+
+    #[inline(always)]
+    fn block(&self, c: u32) -> (&MetaCell, &[u32]) {
+        let m = self.catalog.get(self.meta_of(c));
+        let len = m.nv + m.faces.len();
+        let start = if self.offsets.is_empty() { c as usize * len } else { self.offsets[c as usize] as usize };
+        (m, &self.data[start..start + len])
+    }
+
+    /// Face neighbours of cell `c` (NONE where there is none).
+    pub fn neighbours(&self, c: u32) -> &[u32] {
+        let (m, b) = self.block(c);
+        &b[m.nv..]
+    }
+
+    /// Bytes held per part of the structure.
+    pub fn bytes(&self) -> Vec<(&'static str, usize)> {
+        vec![
+            ("positions", self.positions.len() * 12),
+            ("cell_meta", self.meta.len() * 2),
+            ("cell_offsets", self.offsets.len() * 4),
+            ("cell_vertices_and_neighbours", self.data.len() * 4),
+            ("live_bits", self.live.bytes()),
+            ("meta_cell_tables", self.catalog.table_bytes()),
+        ]
+    }
+}
+
+/// Structured grids seen as a zoo of hexahedra (for `--structure cgraph` on IJK input).
+fn structured_as_hexes(dims: [usize; 3]) -> (Vec<u16>, Vec<u32>, Vec<u32>) {
+    let [npi, npj, npk] = dims;
+    let n = (npi - 1) * (npj - 1) * (npk - 1);
+    let slab = npi * npj;
+    let mut verts = Vec::with_capacity(n * 8);
+    for k in 0..npk - 1 {
+        for j in 0..npj - 1 {
+            for i in 0..npi - 1 {
+                let v0 = i + j * npi + k * slab;
+                for o in [0, 1, 1 + npi, npi, slab, slab + 1, slab + 1 + npi, slab + npi] {
+                    verts.push((v0 + o) as u32);
+                }
+            }
+        }
+    }
+    (vec![builtin::HEXAHEDRON; n], (0..=n as u32).map(|c| c * 8).collect(), verts)
+}
+
+/// Finds face neighbours: for each face of each live cell, the live cell
+/// that has a face with exactly the same vertex set.
+fn sew(catalog: &Catalog, metas: &[u16], voff: &[u32], verts: &[u32], live: &BitSet, nv: usize) -> Vec<u32> {
+    let n = metas.len();
+    // Transient vertex -> incident live cells map (CSR).
+    let mut start = vec![0u32; nv + 1];
+    for c in 0..n {
+        if live.get(c) {
+            for &v in &verts[voff[c] as usize..voff[c + 1] as usize] {
+                start[v as usize + 1] += 1;
+            }
+        }
+    }
+    for i in 0..nv {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut inc = vec![0u32; start[nv] as usize];
+    for c in 0..n {
+        if live.get(c) {
+            for &v in &verts[voff[c] as usize..voff[c + 1] as usize] {
+                inc[fill[v as usize] as usize] = c as u32;
+                fill[v as usize] += 1;
+            }
+        }
+    }
+    drop(fill);
+    let face_key = |c: usize, f: &[u8], out: &mut [u32; 32]| -> usize {
+        let ids = &verts[voff[c] as usize..];
+        let k = f.len().min(32);
+        for (i, &lv) in f.iter().take(k).enumerate() {
+            out[i] = ids[lv as usize];
+        }
+        out[..k].sort_unstable();
+        k
+    };
+    let per_cell: Vec<Vec<u32>> = (0..n)
+        .into_par_iter()
+        .map(|c| {
+            let m = catalog.get(metas[c]);
+            if !live.get(c) {
+                return vec![NONE; m.faces.len()];
+            }
+            let mut key = [0u32; 32];
+            let mut other = [0u32; 32];
+            m.faces
+                .iter()
+                .map(|f| {
+                    let k = face_key(c, f, &mut key);
+                    let v = key[0] as usize;
+                    for &d in &inc[start[v] as usize..start[v + 1] as usize] {
+                        if d as usize == c {
+                            continue;
+                        }
+                        let md = catalog.get(metas[d as usize]);
+                        for g in &md.faces {
+                            if g.len() == k && face_key(d as usize, g, &mut other) == k && other[..k] == key[..k] {
+                                return d;
+                            }
+                        }
+                    }
+                    NONE
+                })
+                .collect()
+        })
+        .collect();
+    per_cell.into_iter().flatten().collect()
+}
+
+impl CellGraph for CGraph {
+    fn slot_count(&self) -> usize {
+        self.live_len()
+    }
+    fn is_live(&self, slot: u32) -> bool {
+        self.live.get(slot as usize)
+    }
+    fn catalog(&self) -> &Catalog {
+        &self.catalog
+    }
+    fn positions(&self) -> &[[f32; 3]] {
+        &self.positions
+    }
+    #[inline(always)]
+    fn cell(&self, slot: u32, out: &mut [u32; MAX_META_VERTICES]) -> (u16, usize) {
+        let (m, b) = self.block(slot);
+        out[..m.nv].copy_from_slice(&b[..m.nv]);
+        (self.meta_of(slot), m.nv)
+    }
+    #[inline(always)]
+    fn for_each_neighbour(&self, slot: u32, mut f: impl FnMut(u32)) {
+        for &n in self.neighbours(slot) {
+            if n != NONE {
+                f(n);
+            }
+        }
+    }
+    fn source_cell(&self, slot: u32) -> u32 {
+        slot
+    }
+}

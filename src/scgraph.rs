@@ -1,0 +1,130 @@
+//! S-CGraph: a curvilinear IJK hexahedral grid with implicit connectivity.
+//!
+//! Cells are addressed by *slots*: the slot of cell (i, j, k) is the index of
+//! its first vertex `i + j·npi + k·npi·npj`, shifted by one slab
+//! (`npi·npj`). Slots whose i = ni, j = nj, k = nk or k = −1 are the ghost
+//! layer: they exist only in the stamp array, marked never-sweep, so the six
+//! neighbours `slot ± 1, ± npi, ± npi·npj` need no bounds checks.
+
+use crate::grid::{Grid, Topology};
+use crate::metacell::{builtin, Catalog, MAX_META_VERTICES};
+use crate::structure::{classify_cell, is_sweepable, BitSet, StructureError};
+use crate::sweep::CellGraph;
+
+/// The structured cellular graph.
+#[derive(Clone, Debug)]
+pub struct SCGraph {
+    /// Point counts along I, J, K.
+    pub dims: [usize; 3],
+    /// f64 origin of the rebased positions.
+    pub origin: [f64; 3],
+    /// Rebased f32 positions, I fastest.
+    pub positions: Vec<[f32; 3]>,
+    /// Per slot: set for live cells; clear for ghosts and hidden or
+    /// degenerate cells.
+    live: BitSet,
+    /// Counts of cell classes.
+    pub class_counts: [usize; 4],
+    catalog: Catalog,
+    offsets: [u32; 8],
+}
+
+impl SCGraph {
+    /// Builds the S-CGraph of a structured grid. `hidden` marks cells to exclude.
+    pub fn build(grid: &Grid, hidden: Option<&[bool]>) -> Result<Self, StructureError> {
+        let Topology::Structured { dims } = grid.topology else {
+            return Err(StructureError::NotStructured);
+        };
+        if dims.iter().any(|&d| d < 2) {
+            return Err(StructureError::NoCells);
+        }
+        let [npi, npj, npk] = dims;
+        let slots = npi * npj * (npk + 1);
+        if slots >= u32::MAX as usize {
+            return Err(StructureError::TooLarge { count: slots });
+        }
+        let origin = grid.origin();
+        let positions = grid.rebased_positions();
+        let slab = npi * npj;
+        let offsets = [0, 1, 1 + npi, npi, slab, slab + 1, slab + 1 + npi, slab + npi].map(|o| o as u32);
+        let catalog = Catalog::new();
+        let mut live = BitSet::new(slots);
+        let mut class_counts = [0usize; 4];
+        let hex = catalog.get(builtin::HEXAHEDRON);
+        let mut cid = 0usize;
+        for k in 0..npk - 1 {
+            for j in 0..npj - 1 {
+                for i in 0..npi - 1 {
+                    let v0 = (i + j * npi + k * slab) as u32;
+                    let ids = offsets.map(|o| v0 + o);
+                    let class = classify_cell(hex, &ids, &grid.points);
+                    class_counts[class as usize] += 1;
+                    let hidden_cell = hidden.is_some_and(|h| h.get(cid).copied().unwrap_or(false));
+                    if is_sweepable(class) && !hidden_cell {
+                        live.set(v0 as usize + slab);
+                    }
+                    cid += 1;
+                }
+            }
+        }
+        Ok(SCGraph { dims, origin, positions, live, class_counts, catalog, offsets })
+    }
+
+    /// Bytes held by the structure: positions (12 B/vertex) and the live bit set.
+    pub fn bytes(&self) -> Vec<(&'static str, usize)> {
+        vec![("positions", self.positions.len() * 12), ("live_bits", self.live.bytes())]
+    }
+
+    /// Cells that the sweep will visit.
+    pub fn live_cells(&self) -> usize {
+        self.live.count()
+    }
+}
+
+impl CellGraph for SCGraph {
+    fn slot_count(&self) -> usize {
+        self.dims[0] * self.dims[1] * (self.dims[2] + 1)
+    }
+    fn is_live(&self, slot: u32) -> bool {
+        self.live.get(slot as usize)
+    }
+    fn catalog(&self) -> &Catalog {
+        &self.catalog
+    }
+    fn positions(&self) -> &[[f32; 3]] {
+        &self.positions
+    }
+    #[inline(always)]
+    fn cell(&self, slot: u32, out: &mut [u32; MAX_META_VERTICES]) -> (u16, usize) {
+        let v0 = slot - (self.dims[0] * self.dims[1]) as u32;
+        for i in 0..8 {
+            out[i] = v0 + self.offsets[i];
+        }
+        (builtin::HEXAHEDRON, 8)
+    }
+    #[inline(always)]
+    fn for_each_neighbour(&self, slot: u32, mut f: impl FnMut(u32)) {
+        let di = 1u32;
+        let dj = self.dims[0] as u32;
+        let dk = (self.dims[0] * self.dims[1]) as u32;
+        f(slot - di);
+        f(slot + di);
+        f(slot - dj);
+        f(slot + dj);
+        f(slot - dk);
+        f(slot + dk);
+    }
+    fn source_cell(&self, slot: u32) -> u32 {
+        let [npi, npj, _] = self.dims;
+        let v = slot as usize - npi * npj;
+        let (i, j, k) = (v % npi, (v / npi) % npj, v / (npi * npj));
+        (i + (npi - 1) * (j + (npj - 1) * k)) as u32
+    }
+    fn blocks(&self, n: usize) -> Vec<(u32, u32)> {
+        // Whole k-slabs per block.
+        let slab = (self.dims[0] * self.dims[1]) as u64;
+        let slabs = self.slot_count() as u64 / slab;
+        let n = (n.max(1) as u64).min(slabs);
+        (0..n).map(|b| ((slabs * b / n * slab) as u32, (slabs * (b + 1) / n * slab) as u32)).collect()
+    }
+}

@@ -1,0 +1,113 @@
+//! Pieces shared by the sweep structures: build errors, cell quality
+//! classification and a compact live-cell bit set.
+
+use thiserror::Error;
+
+use crate::metacell::MetaCell;
+
+/// Errors building a sweep structure from a grid.
+#[derive(Debug, Error, PartialEq)]
+pub enum StructureError {
+    /// S-CGraph needs a structured grid.
+    #[error("S-CGraph needs a structured (IJK) grid; this one is unstructured (use --structure cgraph)")]
+    NotStructured,
+    /// No cells at all.
+    #[error("the grid has no cells")]
+    NoCells,
+    /// Too many slots for u32 ids.
+    #[error("grid too large: {count} slots exceed u32 ids")]
+    TooLarge {
+        /// Slot count.
+        count: usize,
+    },
+    /// A cell type the catalog cannot take.
+    #[error("cell {cell}: {why}")]
+    UnsupportedCell {
+        /// Cell id.
+        cell: usize,
+        /// Why.
+        why: String,
+    },
+}
+
+/// Quality class of a cell, as reported by `info`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum CellClass {
+    /// Positive volume.
+    Valid = 0,
+    /// Negative volume (vertex order mirrored): sliced, but reported.
+    Inverted = 1,
+    /// (Near) zero volume: skipped.
+    ZeroVolume = 2,
+    /// Two vertices of the cell coincide (same id or same position): skipped.
+    RepeatedVertex = 3,
+}
+
+/// Names of the [`CellClass`] variants, in order.
+pub const CELL_CLASS_NAMES: [&str; 4] = ["valid", "inverted", "zero_volume", "repeated_vertex"];
+
+/// Classifies one cell from its global vertex ids (local order) and the f64 points.
+pub fn classify_cell(meta: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellClass {
+    for a in 0..ids.len() {
+        for b in a + 1..ids.len() {
+            if ids[a] == ids[b] || points[ids[a] as usize] == points[ids[b] as usize] {
+                return CellClass::RepeatedVertex;
+            }
+        }
+    }
+    let p0 = points[ids[0] as usize];
+    let pos = |v: usize| {
+        let p = points[ids[v] as usize];
+        [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]]
+    };
+    let vol = meta.signed_volume(&pos);
+    let mut ext = 0.0f64;
+    for v in 0..ids.len() {
+        let p = pos(v);
+        ext = ext.max(p[0].abs()).max(p[1].abs()).max(p[2].abs());
+    }
+    if !(vol.abs() > 1e-12 * ext * ext * ext) {
+        CellClass::ZeroVolume
+    } else if vol < 0.0 {
+        CellClass::Inverted
+    } else {
+        CellClass::Valid
+    }
+}
+
+/// Whether a class is swept.
+pub fn is_sweepable(c: CellClass) -> bool {
+    matches!(c, CellClass::Valid | CellClass::Inverted)
+}
+
+/// A fixed-size bit set (1 bit per slot).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BitSet {
+    words: Vec<u64>,
+}
+
+impl BitSet {
+    /// `n` cleared bits.
+    pub fn new(n: usize) -> Self {
+        BitSet { words: vec![0; n.div_ceil(64)] }
+    }
+    /// Sets bit `i`.
+    #[inline]
+    pub fn set(&mut self, i: usize) {
+        self.words[i >> 6] |= 1 << (i & 63);
+    }
+    /// Reads bit `i`.
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> bool {
+        self.words.get(i >> 6).is_some_and(|w| w >> (i & 63) & 1 == 1)
+    }
+    /// Number of set bits.
+    pub fn count(&self) -> usize {
+        self.words.iter().map(|w| w.count_ones() as usize).sum()
+    }
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.words.len() * 8
+    }
+}

@@ -1,0 +1,326 @@
+//! The incremental sweep (DESIGN §3) over any [`CellGraph`]: two queues
+//! (active and swept), per-cell step stamps, minima sorted by `(lo, id)` and
+//! cached per axis direction, output into a caller-owned [`LevelMesh`].
+
+use rayon::prelude::*;
+
+use crate::extract::{code_of, emit_cell, intersects, EmitContext, LevelMesh};
+use crate::field::ScalarField;
+use crate::metacell::{Catalog, MAX_META_VERTICES};
+
+/// Per-cell step stamp. 16 bits keep the S-CGraph within 20 bytes per
+/// vertex; the stamps are reset once every 65 534 levels.
+pub type Stamp = u16;
+
+/// Stamp value of slots that are never swept: ghosts, hidden and degenerate cells.
+pub const NEVER: Stamp = Stamp::MAX;
+
+/// A cell graph the sweep can walk. Cells live in *slots*; some slots may be
+/// ghosts (S-CGraph's border layer) or dead cells (hidden, degenerate).
+pub trait CellGraph: Sync {
+    /// Number of slots (length of the stamp array).
+    fn slot_count(&self) -> usize;
+    /// True for slots holding a cell to sweep; false for ghost/hidden/degenerate slots.
+    fn is_live(&self, slot: u32) -> bool;
+    /// Initial stamps: 0 for live cells, [`NEVER`] for the rest.
+    fn initial_stamps(&self) -> Vec<Stamp> {
+        (0..self.slot_count() as u32).map(|s| if self.is_live(s) { 0 } else { NEVER }).collect()
+    }
+    /// The catalog of meta-cells.
+    fn catalog(&self) -> &Catalog;
+    /// Rebased vertex positions.
+    fn positions(&self) -> &[[f32; 3]];
+    /// Meta-cell id and global vertex ids (local order) of the cell in `slot`;
+    /// returns the vertex count written into `out`.
+    fn cell(&self, slot: u32, out: &mut [u32; MAX_META_VERTICES]) -> (u16, usize);
+    /// Calls `f` with every face-neighbour slot of `slot` (ghost slots included).
+    fn for_each_neighbour(&self, slot: u32, f: impl FnMut(u32));
+    /// Id of the cell in `slot` in the input grid's numbering.
+    fn source_cell(&self, slot: u32) -> u32;
+    /// Splits `0..slot_count` into at most `n` contiguous, roughly equal,
+    /// spatially coherent ranges for parallel sweeping.
+    fn blocks(&self, n: usize) -> Vec<(u32, u32)> {
+        let total = self.slot_count() as u64;
+        let n = n.max(1) as u64;
+        (0..n).map(|b| ((total * b / n) as u32, (total * (b + 1) / n) as u32)).filter(|r| r.0 < r.1).collect()
+    }
+}
+
+/// Minimum of φ over the vertices of `slot`, with the vertex φ values in `phi`.
+#[inline(always)]
+fn load_phi<G: CellGraph, F: ScalarField>(
+    g: &G,
+    f: &F,
+    slot: u32,
+    ids: &mut [u32; MAX_META_VERTICES],
+    phi: &mut [f32; MAX_META_VERTICES],
+) -> (u16, usize, f32, f32) {
+    let (m, n) = g.cell(slot, ids);
+    let mut lo = f32::INFINITY;
+    let mut hi = f32::NEG_INFINITY;
+    for i in 0..n {
+        let p = f.phi(ids[i]);
+        phi[i] = p;
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    (m, n, lo, hi)
+}
+
+#[inline(always)]
+fn cell_lo<G: CellGraph, F: ScalarField>(g: &G, f: &F, slot: u32) -> f32 {
+    let mut ids = [0u32; MAX_META_VERTICES];
+    let (_, n) = g.cell(slot, &mut ids);
+    let mut lo = f32::INFINITY;
+    for &v in &ids[..n] {
+        lo = lo.min(f.phi(v));
+    }
+    lo
+}
+
+/// A minimum: a cell with no predecessor, with its `lo`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Minimum {
+    /// min φ over the cell.
+    pub lo: f32,
+    /// Slot.
+    pub slot: u32,
+}
+
+/// Per-level statistics of one sweep step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LevelStats {
+    /// Intersected cells.
+    pub cells: u64,
+    /// Cells popped from the work queue (intersected + swept).
+    pub visited: u64,
+    /// Polygons emitted.
+    pub polygons: u64,
+    /// Triangles of their fan triangulation.
+    pub triangles: u64,
+    /// Total area.
+    pub area: f64,
+}
+
+impl LevelStats {
+    /// Adds another block's figures.
+    pub fn add(&mut self, o: &LevelStats) {
+        self.cells += o.cells;
+        self.visited += o.visited;
+        self.polygons += o.polygons;
+        self.triangles += o.triangles;
+        self.area += o.area;
+    }
+}
+
+/// One spatial block's sweep state: its slot range, stamps, the two queues,
+/// its cached minima and its reusable output buffer.
+#[derive(Debug)]
+pub struct Block {
+    start: u32,
+    stamps: Vec<Stamp>,
+    step: Stamp,
+    work: Vec<u32>,
+    active: Vec<u32>,
+    minima_cache: [Option<Vec<Minimum>>; 6],
+    /// The block's reusable output buffer.
+    pub mesh: LevelMesh,
+}
+
+impl Block {
+    /// Bytes of sweep state (stamps, queues, minima, output buffer).
+    pub fn bytes(&self) -> usize {
+        self.stamps.len() * std::mem::size_of::<Stamp>()
+            + (self.work.capacity() + self.active.capacity()) * 4
+            + self.minima_cache.iter().flatten().map(|m| m.capacity() * 8).sum::<usize>()
+            + self.mesh.capacity_bytes()
+    }
+}
+
+/// Runs sweeps over a [`CellGraph`], split into spatial blocks (one per thread).
+pub struct Sweeper<'g, G: CellGraph> {
+    graph: &'g G,
+    /// Blocks, each swept independently.
+    pub blocks: Vec<Block>,
+}
+
+impl<'g, G: CellGraph> Sweeper<'g, G> {
+    /// A sweeper with `threads` blocks (1 = the plain single-threaded sweep).
+    pub fn new(graph: &'g G, threads: usize) -> Self {
+        let init = graph.initial_stamps();
+        let blocks = graph
+            .blocks(threads)
+            .into_iter()
+            .map(|(a, b)| Block {
+                start: a,
+                stamps: init[a as usize..b as usize].to_vec(),
+                step: 0,
+                work: Vec::new(),
+                active: Vec::new(),
+                minima_cache: Default::default(),
+                mesh: LevelMesh::default(),
+            })
+            .collect();
+        Sweeper { graph, blocks }
+    }
+
+    /// Bytes of sweep state over all blocks.
+    pub fn state_bytes(&self) -> usize {
+        self.blocks.iter().map(Block::bytes).sum()
+    }
+
+    /// Computes (or fetches from the per-axis cache, when `axis_slot` is given)
+    /// the sorted minima of every block. Returns the total count.
+    pub fn prepare_minima<F: ScalarField>(&mut self, field: &F, axis_slot: Option<usize>) -> usize {
+        let g = self.graph;
+        self.blocks
+            .par_iter_mut()
+            .map(|b| {
+                let slot = axis_slot.unwrap_or(0);
+                if axis_slot.is_none() || b.minima_cache[slot].is_none() {
+                    b.minima_cache[slot] = Some(block_minima(g, field, b));
+                }
+                b.minima_cache[slot].as_ref().map_or(0, Vec::len)
+            })
+            .sum()
+    }
+
+    /// Sweeps all `levels` (strictly increasing, local frame). For every block
+    /// and level, `on_level(block, level, &mesh, &stats)` is called with the
+    /// block's reused output buffer; `make_acc` builds one accumulator per
+    /// block, returned in block order. Call [`Sweeper::prepare_minima`] first
+    /// with the same field (and `axis_slot`).
+    pub fn sweep<F, A, M, L>(
+        &mut self,
+        field: &F,
+        axis_slot: Option<usize>,
+        levels: &[f32],
+        ctx: &EmitContext,
+        make_acc: M,
+        on_level: L,
+    ) -> Vec<A>
+    where
+        F: ScalarField,
+        A: Send,
+        M: Fn() -> A + Sync,
+        L: Fn(&mut A, usize, &LevelMesh, &LevelStats) + Sync,
+    {
+        let g = self.graph;
+        let slot = axis_slot.unwrap_or(0);
+        self.blocks
+            .par_iter_mut()
+            .map(|b| {
+                let mut acc = make_acc();
+                let minima = b.minima_cache[slot].take().unwrap_or_else(|| block_minima(g, field, b));
+                sweep_block(g, field, b, &minima, levels, ctx, |k, mesh, st| on_level(&mut acc, k, mesh, st));
+                if axis_slot.is_some() {
+                    b.minima_cache[slot] = Some(minima);
+                }
+                acc
+            })
+            .collect()
+    }
+}
+
+/// Sorted minima of one block: cells with no predecessor among the block's cells.
+fn block_minima<G: CellGraph, F: ScalarField>(g: &G, f: &F, b: &Block) -> Vec<Minimum> {
+    let len = b.stamps.len() as u32;
+    let lo: Vec<f32> = (0..len)
+        .map(|i| if b.stamps[i as usize] == NEVER { f32::INFINITY } else { cell_lo(g, f, b.start + i) })
+        .collect();
+    let mut out = Vec::new();
+    for i in 0..len {
+        if b.stamps[i as usize] == NEVER {
+            continue;
+        }
+        let key = (lo[i as usize], i);
+        let mut has_pred = false;
+        g.for_each_neighbour(b.start + i, |n| {
+            let j = n.wrapping_sub(b.start);
+            if j < len && b.stamps[j as usize] != NEVER {
+                let nk = (lo[j as usize], j);
+                if nk.0 < key.0 || (nk.0 == key.0 && nk.1 < key.1) {
+                    has_pred = true;
+                }
+            }
+        });
+        if !has_pred {
+            out.push(Minimum { lo: key.0, slot: b.start + i });
+        }
+    }
+    out.sort_unstable_by(|a, b| a.lo.total_cmp(&b.lo).then(a.slot.cmp(&b.slot)));
+    out
+}
+
+fn sweep_block<G: CellGraph, F: ScalarField>(
+    g: &G,
+    f: &F,
+    b: &mut Block,
+    minima: &[Minimum],
+    levels: &[f32],
+    ctx: &EmitContext,
+    mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
+) {
+    let catalog = g.catalog();
+    let start = b.start;
+    let len = b.stamps.len() as u32;
+    b.work.clear();
+    b.active.clear();
+    let mut next_min = 0;
+    let mut t_prev = f32::NEG_INFINITY;
+    let mut ids = [0u32; MAX_META_VERTICES];
+    let mut phi = [0f32; MAX_META_VERTICES];
+    for (k, &t) in levels.iter().enumerate() {
+        if b.step >= NEVER - 1 {
+            for s in b.stamps.iter_mut().filter(|s| **s != NEVER) {
+                *s = 0;
+            }
+            b.step = 0;
+        }
+        b.step += 1;
+        let step = b.step;
+        // The work queue starts with A_{k-1}...
+        std::mem::swap(&mut b.work, &mut b.active);
+        b.active.clear();
+        // ...plus the minima with t_{k-1} <= lo < t_k.
+        while next_min < minima.len() && minima[next_min].lo < t {
+            let m = minima[next_min];
+            b.stamps[(m.slot - start) as usize] = step;
+            b.work.push(m.slot);
+            next_min += 1;
+        }
+        b.mesh.clear();
+        let mut i = 0;
+        while i < b.work.len() {
+            let c = b.work[i];
+            i += 1;
+            let (m, n, lo, hi) = load_phi(g, f, c, &mut ids, &mut phi);
+            if intersects(lo, hi, t) {
+                b.active.push(c);
+                let code = code_of(&phi[..n], t);
+                emit_cell(catalog.get(m), &ids[..n], &phi[..n], t, code, c, ctx, &mut b.mesh);
+            }
+            let stamps = &mut b.stamps;
+            let work = &mut b.work;
+            g.for_each_neighbour(c, |nb| {
+                let j = nb.wrapping_sub(start);
+                if j < len && stamps[j as usize] < step {
+                    let lo_n = cell_lo(g, f, nb);
+                    if lo_n >= t_prev && lo_n < t && (lo_n > lo || (lo_n == lo && nb > c)) {
+                        stamps[j as usize] = step;
+                        work.push(nb);
+                    }
+                }
+            });
+        }
+        let stats = LevelStats {
+            cells: b.mesh.cut_cells as u64,
+            visited: b.work.len() as u64,
+            polygons: b.mesh.polygon_count() as u64,
+            triangles: b.mesh.triangle_count() as u64,
+            area: b.mesh.area(),
+        };
+        on_level(k, &b.mesh, &stats);
+        t_prev = t;
+    }
+}
