@@ -1,0 +1,142 @@
+//! Small random grids for property tests.
+#![allow(dead_code)]
+
+use stratasweep::grid::{vtk_type, Cells, Grid, Property, Topology};
+
+/// SplitMix64.
+pub struct Rng(pub u64);
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+        z ^ (z >> 31)
+    }
+    pub fn f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+}
+
+/// A structured grid of `n` cells per axis on integer-ish coordinates with
+/// optional jitter, a quantised random point field `f` (so values sit
+/// exactly on integer levels), plus a `vtkGhostType` hiding `holes` fraction
+/// of the cells (holes and several components).
+pub fn structured(n: [usize; 3], jitter: f64, holes: f64, rng: &mut Rng) -> Grid {
+    let dims = [n[0] + 1, n[1] + 1, n[2] + 1];
+    let mut points = Vec::new();
+    let mut f = Vec::new();
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let mut p = [i as f64, j as f64, k as f64];
+                if jitter > 0.0 {
+                    for a in 0..3 {
+                        p[a] += jitter * (rng.f64() - 0.5);
+                    }
+                }
+                points.push(p);
+                f.push((rng.f64() * 8.0).floor() * 0.5);
+            }
+        }
+    }
+    let ncells = n[0] * n[1] * n[2];
+    let mut ghost = vec![0.0; ncells];
+    let mut any = false;
+    for g in ghost.iter_mut() {
+        if rng.f64() < holes {
+            *g = 32.0;
+            any = true;
+        }
+    }
+    let mut cell_data = Vec::new();
+    if any {
+        cell_data.push(Property::scalar("vtkGhostType", ghost));
+    }
+    Grid {
+        points,
+        topology: Topology::Structured { dims },
+        point_data: vec![Property::scalar("f", f)],
+        cell_data,
+    }
+}
+
+/// Converts a structured grid into a conforming zoo grid: every hexahedron
+/// becomes a hex, 2 wedges, 6 pyramids around a new centre, or 6 tets from
+/// the centre... (only splits that keep faces conforming: hexes, wedge
+/// columns split along the same diagonal in i-j, and pyramid-split hexes).
+pub fn zoo_from_structured(g: &Grid, rng: &mut Rng) -> Grid {
+    let Topology::Structured { dims } = g.topology else { panic!() };
+    let [npi, npj, npk] = dims;
+    let mut points = g.points.clone();
+    let mut f = g.point_data[0].values.clone();
+    let mut cells = Cells::default();
+    let wedge_col: Vec<bool> = (0..(npi - 1) * (npj - 1)).map(|_| rng.f64() < 0.3).collect();
+    for k in 0..npk - 1 {
+        for j in 0..npj - 1 {
+            for i in 0..npi - 1 {
+                let v = |di: usize, dj: usize, dk: usize| ((i + di) + (j + dj) * npi + (k + dk) * npi * npj) as u32;
+                let h = [v(0, 0, 0), v(1, 0, 0), v(1, 1, 0), v(0, 1, 0), v(0, 0, 1), v(1, 0, 1), v(1, 1, 1), v(0, 1, 1)];
+                if wedge_col[i + j * (npi - 1)] {
+                    // VTK wedge: the normal of (0,1,2) points away from (3,4,5).
+                    cells.push(vtk_type::WEDGE, &[h[0], h[2], h[1], h[4], h[6], h[5]]);
+                    cells.push(vtk_type::WEDGE, &[h[0], h[3], h[2], h[4], h[7], h[6]]);
+                } else if rng.f64() < 0.35 {
+                    let c = points.len() as u32;
+                    let mut p = [0.0; 3];
+                    let mut fc = 0.0;
+                    for &x in &h {
+                        for a in 0..3 {
+                            p[a] += points[x as usize][a] / 8.0;
+                        }
+                        fc += f[x as usize] / 8.0;
+                    }
+                    points.push(p);
+                    f.push(fc + 0.25 * (rng.f64() - 0.5));
+                    for face in stratasweep::metacell::HEXAHEDRON_FACES {
+                        // Pyramid base must be oriented with its normal toward the apex:
+                        // reverse the outward face.
+                        let b: Vec<u32> = face.iter().rev().map(|&l| h[l as usize]).collect();
+                        if rng.f64() < 0.3 {
+                            // Split into two tets along the diagonal through the base's
+                            // smallest vertex id... only on boundary faces (always conforming).
+                            let on_boundary = is_boundary_face(&b, dims);
+                            if on_boundary {
+                                let m = (0..4).min_by_key(|&q| b[q]).unwrap();
+                                let q = |o: usize| b[(m + o) % 4];
+                                cells.push(vtk_type::TETRA, &[q(0), q(1), q(2), c]);
+                                cells.push(vtk_type::TETRA, &[q(0), q(2), q(3), c]);
+                                continue;
+                            }
+                        }
+                        cells.push(vtk_type::PYRAMID, &[b[0], b[1], b[2], b[3], c]);
+                    }
+                } else {
+                    cells.push(vtk_type::HEXAHEDRON, &h);
+                }
+            }
+        }
+    }
+    Grid {
+        points,
+        topology: Topology::Unstructured(cells),
+        point_data: vec![Property::scalar("f", f)],
+        cell_data: vec![],
+    }
+}
+
+fn is_boundary_face(b: &[u32], dims: [usize; 3]) -> bool {
+    let [npi, npj, npk] = dims;
+    let ijk = |v: u32| {
+        let v = v as usize;
+        [v % npi, (v / npi) % npj, v / (npi * npj)]
+    };
+    (0..3).any(|a| {
+        let lim = [npi - 1, npj - 1, npk - 1][a];
+        let c: Vec<usize> = b.iter().map(|&v| ijk(v)[a]).collect();
+        c.iter().all(|&x| x == 0) || c.iter().all(|&x| x == lim)
+    })
+}

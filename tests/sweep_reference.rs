@@ -1,0 +1,220 @@
+//! The sweep structures against the brute-force reference on random grids:
+//! holes, several components, values exactly on levels, axis slices exactly
+//! on vertex layers; plus watertightness of isosurfaces.
+
+mod common;
+use common::{structured, zoo_from_structured, Rng};
+use std::collections::HashMap;
+use stratasweep::bruteforce::brute_force;
+use stratasweep::cgraph::CGraph;
+use stratasweep::extract::{EmitContext, LevelMesh};
+use stratasweep::field::{PlaneField, ScalarField, VertexField};
+use stratasweep::grid::Grid;
+use stratasweep::scgraph::SCGraph;
+use stratasweep::sweep::{CellGraph, Sweeper};
+
+/// Per level: sorted (source cell, polygon positions) list.
+type Levels = Vec<Vec<(u32, Vec<[f32; 3]>)>>;
+
+fn collect(mesh: &LevelMesh, g: &impl CellGraph, out: &mut Vec<(u32, Vec<[f32; 3]>)>) {
+    for p in 0..mesh.polygon_count() {
+        let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
+        out.push((g.source_cell(mesh.cells[p]), ids.iter().map(|&i| mesh.positions[i as usize]).collect()));
+    }
+}
+
+fn sorted(mut l: Levels) -> Levels {
+    for lv in &mut l {
+        lv.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.partial_cmp(&b.1).unwrap()));
+    }
+    l
+}
+
+fn run_sweep<G: CellGraph, F: ScalarField>(g: &G, f: &F, axis: Option<usize>, levels: &[f32], threads: usize) -> Levels {
+    let ctx = EmitContext { positions: g.positions(), attribute: None };
+    let mut sw = Sweeper::new(g, threads);
+    sw.prepare_minima(f, axis);
+    let parts = sw.sweep(f, axis, levels, &ctx, || vec![Vec::new(); levels.len()], |acc: &mut Levels, k, mesh, st| {
+        assert_eq!(st.polygons as usize, mesh.polygon_count());
+        collect(mesh, g, &mut acc[k]);
+    });
+    let mut all = vec![Vec::new(); levels.len()];
+    for p in parts {
+        for (k, v) in p.into_iter().enumerate() {
+            all[k].extend(v);
+        }
+    }
+    sorted(all)
+}
+
+fn run_brute<G: CellGraph, F: ScalarField>(g: &G, f: &F, levels: &[f32]) -> Levels {
+    let ctx = EmitContext { positions: g.positions(), attribute: None };
+    let mut all = vec![Vec::new(); levels.len()];
+    let mut mesh = LevelMesh::default();
+    brute_force(g, f, levels, &ctx, &mut mesh, |k, m, _| collect(m, g, &mut all[k]));
+    sorted(all)
+}
+
+fn cells_of(l: &Levels) -> Vec<Vec<u32>> {
+    l.iter()
+        .map(|lv| {
+            let mut c: Vec<u32> = lv.iter().map(|x| x.0).collect();
+            c.dedup();
+            c
+        })
+        .collect()
+}
+
+fn check_equal(a: &Levels, b: &Levels, what: &str) {
+    assert_eq!(cells_of(a), cells_of(b), "{what}: cell sets differ");
+    assert_eq!(a, b, "{what}: polygons differ");
+}
+
+/// Every field to test on a grid: six axis directions with integer levels
+/// (exactly on vertex layers), a general normal, and the property.
+fn check_all_fields<G: CellGraph>(g: &G, origin: [f64; 3], values: &[f32], label: &str) {
+    let pos = g.positions();
+    for axis in 0..3 {
+        for neg in [false, true] {
+            let mut n = [0.0f32; 3];
+            n[axis] = if neg { -1.0 } else { 1.0 };
+            let f = PlaneField { normal: n, positions: pos };
+            // World integer layers -> local values.
+            let o = (origin[axis] * n[axis] as f64) as f32;
+            let levels: Vec<f32> = (-12..=12).map(|x| x as f32 - o).collect();
+            let want = run_brute(g, &f, &levels);
+            assert!(want.iter().map(Vec::len).sum::<usize>() > 0, "{label}: nothing cut");
+            for threads in [1, 3] {
+                let got = run_sweep(g, &f, Some(axis * 2 + neg as usize), &levels, threads);
+                check_equal(&got, &want, &format!("{label} axis {axis} neg {neg} threads {threads}"));
+            }
+            // Second sweep reuses the cached minima.
+            let mut sw = Sweeper::new(g, 1);
+            sw.prepare_minima(&f, Some(axis * 2));
+        }
+    }
+    let f = PlaneField { normal: [0.48, -0.6, 0.64], positions: pos };
+    let levels: Vec<f32> = (0..37).map(|x| -9.0 + x as f32 * 0.5).collect();
+    check_equal(&run_sweep(g, &f, None, &levels, 1), &run_brute(g, &f, &levels), &format!("{label} normal"));
+    let f = VertexField { values };
+    let levels: Vec<f32> = (0..9).map(|x| x as f32 * 0.5).collect();
+    let want = run_brute(g, &f, &levels);
+    for threads in [1, 2] {
+        check_equal(&run_sweep(g, &f, None, &levels, threads), &want, &format!("{label} property threads {threads}"));
+    }
+}
+
+fn f32_values(g: &Grid) -> Vec<f32> {
+    g.point_data[0].values.iter().map(|&v| v as f32).collect()
+}
+
+#[test]
+fn scgraph_and_cgraph_match_brute_force_on_random_structured_grids() {
+    let mut rng = Rng(7);
+    for case in 0..6 {
+        let n = [2 + rng.below(6), 2 + rng.below(6), 2 + rng.below(6)];
+        let jitter = if case % 2 == 0 { 0.0 } else { 0.3 };
+        let g = structured(n, jitter, if case < 2 { 0.0 } else { 0.25 }, &mut rng);
+        let hidden = g.hidden_cells();
+        let vals = f32_values(&g);
+        let s = SCGraph::build(&g, hidden.as_deref()).unwrap();
+        check_all_fields(&s, s.origin, &vals, &format!("scgraph case {case} {n:?}"));
+        let c = CGraph::build(&g, hidden.as_deref()).unwrap();
+        check_all_fields(&c, c.origin, &vals, &format!("cgraph(structured) case {case} {n:?}"));
+    }
+}
+
+#[test]
+fn cgraph_matches_brute_force_on_random_zoo_grids() {
+    let mut rng = Rng(11);
+    for case in 0..5 {
+        let n = [2 + rng.below(5), 2 + rng.below(5), 2 + rng.below(5)];
+        let s = structured(n, if case % 2 == 0 { 0.0 } else { 0.25 }, 0.0, &mut rng);
+        let g = zoo_from_structured(&s, &mut rng);
+        let vals = f32_values(&g);
+        let c = CGraph::build(&g, None).unwrap();
+        assert_eq!(c.class_counts[1..], [0, 0, 0], "generated zoo cells must be valid");
+        check_all_fields(&c, c.origin, &vals, &format!("zoo case {case} {n:?}"));
+    }
+}
+
+/// Checks that every welded edge is used by exactly two polygons, once in
+/// each direction (closed, consistently oriented 2-manifold).
+fn assert_closed_manifold(mesh: &LevelMesh, label: &str) {
+    let mut uses: HashMap<(u32, u32), i32> = HashMap::new();
+    for p in 0..mesh.polygon_count() {
+        let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
+        for i in 0..ids.len() {
+            let (a, b) = (ids[i], ids[(i + 1) % ids.len()]);
+            assert_ne!(a, b, "{label}: polygon repeats a welded vertex");
+            *uses.entry((a.min(b), a.max(b))).or_default() += if a < b { 1 } else { -1 };
+            *uses.entry((a.min(b), a.max(b) | 0)).or_default() += 0;
+        }
+    }
+    let mut count: HashMap<(u32, u32), u32> = HashMap::new();
+    for p in 0..mesh.polygon_count() {
+        let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
+        for i in 0..ids.len() {
+            let (a, b) = (ids[i], ids[(i + 1) % ids.len()]);
+            *count.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    for (e, n) in &count {
+        assert_eq!(*n, 2, "{label}: edge {e:?} used by {n} polygons");
+        assert_eq!(uses[e], 0, "{label}: edge {e:?} used twice in the same direction");
+    }
+}
+
+#[test]
+fn isosurfaces_inside_the_domain_are_closed_manifolds() {
+    let mut rng = Rng(99);
+    let mut ambiguous_hits = 0;
+    for case in 0..8 {
+        let n = [4 + rng.below(5), 4 + rng.below(5), 4 + rng.below(5)];
+        let mut g = structured(n, 0.2, 0.0, &mut rng);
+        // Interior vertices: noisy values (continuous and quantised);
+        // boundary vertices: below every level, so the surfaces are closed.
+        let Some(stratasweep::grid::Topology::Structured { dims }) = Some(g.topology.clone()) else { unreachable!() };
+        for k in 0..dims[2] {
+            for j in 0..dims[1] {
+                for i in 0..dims[0] {
+                    let v = i + dims[0] * (j + dims[1] * k);
+                    let border = i == 0 || j == 0 || k == 0 || i + 1 == dims[0] || j + 1 == dims[1] || k + 1 == dims[2];
+                    g.point_data[0].values[v] = if border {
+                        -1.0
+                    } else if case % 2 == 0 {
+                        rng.f64() * 4.0
+                    } else {
+                        (rng.f64() * 8.0).floor() * 0.5
+                    };
+                }
+            }
+        }
+        let grids: Vec<(String, Grid)> =
+            vec![("hex".to_string(), g.clone()), ("zoo".to_string(), zoo_from_structured(&g, &mut rng))];
+        for (label, grid) in grids {
+            let vals = f32_values(&grid);
+            let c = CGraph::build(&grid, None).unwrap();
+            let f = VertexField { values: &vals };
+            let levels: Vec<f32> = (1..8).map(|x| x as f32 * 0.5 + 0.013 * (case % 2) as f32).collect();
+            let ctx = EmitContext { positions: c.positions(), attribute: None };
+            let mut sw = Sweeper::new(&c, 1);
+            sw.prepare_minima(&f, None);
+            sw.sweep(&f, None, &levels, &ctx, || (), |_, k, mesh, _| {
+                assert_closed_manifold(mesh, &format!("{label} case {case} level {k}"));
+            });
+            // Count ambiguous configurations met, so the test proves it exercised them.
+            let mut ids = [0u32; 12];
+            for cell in 0..c.slot_count() as u32 {
+                let (m, nv) = c.cell(cell, &mut ids);
+                let meta = c.catalog().get(m);
+                for &t in &levels {
+                    let phi: Vec<f32> = ids[..nv].iter().map(|&v| vals[v as usize]).collect();
+                    let code = stratasweep::extract::code_of(&phi, t);
+                    ambiguous_hits += meta.config_is_ambiguous(code) as usize;
+                }
+            }
+        }
+    }
+    assert!(ambiguous_hits > 100, "only {ambiguous_hits} ambiguous configurations were exercised");
+}
