@@ -130,10 +130,12 @@ impl CGraph {
             return Err(StructureError::NoCells);
         }
         // Orient polyhedra outward: flip their meta-cell if the volume is negative.
-        let mut class = vec![CellClass::Valid; n];
+        let mut class: Vec<CellClass> = (0..n)
+            .into_par_iter()
+            .map(|c| classify_cell(catalog.get(metas[c]), &verts[voff[c] as usize..voff[c + 1] as usize], &grid.points))
+            .collect();
         for c in 0..n {
-            let ids = &verts[voff[c] as usize..voff[c + 1] as usize];
-            let mut cl = classify_cell(catalog.get(metas[c]), ids, &grid.points);
+            let mut cl = class[c];
             if cl == CellClass::Inverted && catalog.get(metas[c]).name.starts_with("polyhedron") {
                 let flipped: Vec<Vec<u8>> =
                     catalog.get(metas[c]).faces.iter().map(|f| f.iter().rev().copied().collect()).collect();

@@ -28,6 +28,25 @@ impl ScalarField for PlaneField<'_> {
     }
 }
 
+/// φ(x) = ±x[axis]: planes orthogonal to a coordinate axis, in local
+/// coordinates. Gives the same values as the equivalent [`PlaneField`].
+#[derive(Clone, Copy, Debug)]
+pub struct AxisField<'a> {
+    /// 0, 1 or 2.
+    pub axis: usize,
+    /// +1 or −1.
+    pub sign: f32,
+    /// Rebased vertex positions.
+    pub positions: &'a [[f32; 3]],
+}
+
+impl ScalarField for AxisField<'_> {
+    #[inline(always)]
+    fn phi(&self, v: u32) -> f32 {
+        self.sign * self.positions[v as usize][self.axis]
+    }
+}
+
 /// φ = a per-vertex property (isosurfaces).
 #[derive(Clone, Copy, Debug)]
 pub struct VertexField<'a> {

@@ -1,3 +1,725 @@
+//! The `stratasweep` command line: info, slice, generate, bench.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::{json, Value};
+
+use stratasweep::field::{levels_by_range, FieldSpec};
+use stratasweep::grid::{vtk_type, Grid, Topology};
+use stratasweep::pipeline::{slice, LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice};
+use stratasweep::structure::CELL_CLASS_NAMES;
+use stratasweep::{generate, io};
+
+/// Cells per axis of the built-in demo grid (`--demo`).
+const DEMO_DIMS: [usize; 3] = [64, 64, 64];
+
+#[derive(Parser)]
+#[command(name = "stratasweep", version, about = "Incremental slicing and contouring of geological grids (Caumon et al. 2005)")]
+struct Cli {
+    /// No progress bars or chatter.
+    #[arg(long, short, global = true)]
+    quiet: bool,
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Print vertices, cells by type, the meta-cell catalog and memory per structure.
+    Info(InfoArgs),
+    /// Slice or contour a grid with the incremental sweep.
+    Slice(SliceArgs),
+    /// Write a synthetic grid.
+    #[command(subcommand)]
+    Generate(GenCmd),
+    /// Benchmark the sweep against the brute-force reference.
+    Bench(BenchArgs),
+}
+
+#[derive(Args)]
+struct GridArg {
+    /// Grid file (.vtk legacy, .vtu, .vts).
+    grid: Option<PathBuf>,
+    /// Use the built-in demo grid (a warped 64³ curvilinear grid carrying the Marschner–Lobb signal `f`).
+    #[arg(long, conflicts_with = "grid")]
+    demo: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq)]
+enum StructureArg {
+    Auto,
+    Cgraph,
+    Scgraph,
+    Bruteforce,
+}
+
+impl From<StructureArg> for StructureChoice {
+    fn from(s: StructureArg) -> Self {
+        match s {
+            StructureArg::Auto => StructureChoice::Auto,
+            StructureArg::Cgraph => StructureChoice::CGraph,
+            StructureArg::Scgraph => StructureChoice::SCGraph,
+            StructureArg::Bruteforce => StructureChoice::BruteForce,
+        }
+    }
+}
+
+#[derive(Args)]
+struct InfoArgs {
+    #[command(flatten)]
+    input: GridArg,
+    /// Structure whose memory is reported.
+    #[arg(long, value_enum, default_value = "auto")]
+    structure: StructureArg,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+#[group(id = "what", required = true, multiple = false)]
+struct FieldArgs {
+    /// Planes orthogonal to an axis: x, y, z, -x, -y, -z.
+    #[arg(long, group = "what", allow_hyphen_values = true)]
+    axis: Option<String>,
+    /// Planes with normal a,b,c (normalised; levels are signed distances).
+    #[arg(long, group = "what", allow_hyphen_values = true)]
+    normal: Option<String>,
+    /// Isosurfaces of this vertex property (a cell property is averaged to the vertices, volume-weighted).
+    #[arg(long, group = "what")]
+    property: Option<String>,
+}
+
+#[derive(Args)]
+#[group(id = "levels", required = true, multiple = false)]
+struct LevelArgs {
+    /// K levels at t_k = lo + (k + 0.5)(hi − lo)/K over the field's range.
+    #[arg(long, group = "levels")]
+    count: Option<usize>,
+    /// Levels FROM:TO:STEP in world units (inclusive).
+    #[arg(long, group = "levels", allow_hyphen_values = true)]
+    values: Option<String>,
+}
+
+#[derive(Args)]
+struct SliceArgs {
+    #[command(flatten)]
+    input: GridArg,
+    #[command(flatten)]
+    field: FieldArgs,
+    #[command(flatten)]
+    levels: LevelArgs,
+    /// Structure to sweep with.
+    #[arg(long, value_enum, default_value = "auto")]
+    structure: StructureArg,
+    /// Spatial blocks swept in parallel (output is identical to 1 thread).
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Property interpolated onto the polygons (default: the contoured property, else the first point property).
+    #[arg(long)]
+    attribute: Option<String>,
+    /// Output mesh: .ply (binary) or .vtp (VTK XML PolyData).
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Statistics JSON.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+enum GenCmd {
+    /// A smoothly warped, non-axis-aligned curvilinear grid with the Marschner–Lobb signal `f` (.vts).
+    Warped {
+        /// Cells per axis NI,NJ,NK.
+        #[arg(long)]
+        dims: String,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output .vts.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// A conforming mixed tet/pyramid/wedge/hex grid with a noisy point property `f` (.vtu).
+    Zoo {
+        /// Approximate cell count.
+        #[arg(long)]
+        cells: usize,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output .vtu.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    #[command(flatten)]
+    input: GridArg,
+    /// Axis to slice along.
+    #[arg(long, default_value = "z", allow_hyphen_values = true)]
+    axis: String,
+    /// Number of levels.
+    #[arg(long, default_value_t = 200)]
+    count: usize,
+    /// Structure for the sweep (brute force always runs on the same cells).
+    #[arg(long, value_enum, default_value = "auto")]
+    structure: StructureArg,
+    /// Spatial blocks in parallel.
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Timed repetitions (best is reported).
+    #[arg(long, default_value_t = 3)]
+    repeat: usize,
+    /// Skip the brute-force run (slow on big grids).
+    #[arg(long)]
+    no_brute_force: bool,
+    /// The paper's law: time per level against cut cells over generated warped grids of these sizes (cells per axis).
+    #[arg(long, value_delimiter = ',')]
+    law: Option<Vec<usize>>,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
 fn main() {
-    println!("Hello, world!");
+    let cli = Cli::parse();
+    if let Err(e) = run(cli) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    let quiet = cli.quiet;
+    match cli.cmd {
+        Cmd::Info(a) => cmd_info(a),
+        Cmd::Slice(a) => cmd_slice(a, quiet),
+        Cmd::Generate(g) => cmd_generate(g, quiet),
+        Cmd::Bench(a) => cmd_bench(a, quiet),
+    }
+}
+
+fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
+    let t = Instant::now();
+    let (grid, name) = if input.demo {
+        (generate::warped(DEMO_DIMS, 1), format!("demo (warped {}x{}x{})", DEMO_DIMS[0], DEMO_DIMS[1], DEMO_DIMS[2]))
+    } else {
+        let Some(path) = &input.grid else { bail!("give a grid file, or --demo for the built-in grid") };
+        let sp = spinner(quiet, format!("reading {}", path.display()));
+        let g = io::vtk_read::read_vtk(path).with_context(|| format!("cannot load {}", path.display()))?;
+        sp.finish_and_clear();
+        (g, path.display().to_string())
+    };
+    grid.validate().with_context(|| format!("invalid grid {name}"))?;
+    Ok((grid, name, t.elapsed().as_secs_f64()))
+}
+
+fn spinner(quiet: bool, msg: String) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new_spinner();
+    pb.set_message(msg);
+    pb.enable_steady_tick(std::time::Duration::from_millis(120));
+    pb
+}
+
+fn bar(quiet: bool, len: u64, msg: &str) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new(len);
+    pb.set_style(ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}").unwrap());
+    pb.set_message(msg.to_string());
+    pb
+}
+
+fn type_name(t: u8) -> &'static str {
+    match t {
+        vtk_type::TETRA => "tetrahedron",
+        vtk_type::VOXEL => "voxel",
+        vtk_type::HEXAHEDRON => "hexahedron",
+        vtk_type::WEDGE => "wedge",
+        vtk_type::PYRAMID => "pyramid",
+        vtk_type::PENTAGONAL_PRISM => "pentagonal_prism",
+        vtk_type::HEXAGONAL_PRISM => "hexagonal_prism",
+        vtk_type::POLYHEDRON => "polyhedron",
+        _ => "other",
+    }
+}
+
+fn memory_json(s: &Structure, grid: &Grid) -> (Value, usize) {
+    let mut m = serde_json::Map::new();
+    let mut total = 0;
+    for (k, v) in s.bytes() {
+        m.insert(k.to_string(), json!(v));
+        total += v;
+    }
+    // One f32 property per vertex, as the sweep holds it.
+    let prop = grid.points.len() * 4;
+    m.insert("property_f32".into(), json!(prop));
+    total += prop;
+    // Step stamps (u16 per slot), allocated per sweep.
+    let stamps = s.slot_count() * 2;
+    m.insert("stamps".into(), json!(stamps));
+    total += stamps;
+    m.insert("total".into(), json!(total));
+    (Value::Object(m), total)
+}
+
+fn cmd_info(a: InfoArgs) -> Result<()> {
+    let (grid, name, load_s) = load(&a.input, true)?;
+    let t = Instant::now();
+    let s = Structure::build(&grid, a.structure.into()).with_context(|| format!("cannot build a structure for {name}"))?;
+    let build_s = t.elapsed().as_secs_f64();
+    let mut types = serde_json::Map::new();
+    match &grid.topology {
+        Topology::Structured { .. } => {
+            types.insert("hexahedron".into(), json!(grid.cell_count()));
+        }
+        Topology::Unstructured(c) => {
+            let mut counts = std::collections::BTreeMap::new();
+            for &t in &c.types {
+                *counts.entry(type_name(t)).or_insert(0usize) += 1;
+            }
+            for (k, v) in counts {
+                types.insert(k.into(), json!(v));
+            }
+        }
+    }
+    let (classes, catalog, hidden) = match &s {
+        Structure::SCGraph(g) => (g.class_counts, vec![g_catalog_json(stratasweep::sweep::CellGraph::catalog(g), None)], 0usize),
+        Structure::CGraph(g) => (
+            g.class_counts,
+            vec![g_catalog_json(&g.catalog, Some(&g.meta_counts))],
+            g.hidden_count,
+        ),
+    };
+    let hidden = match &s {
+        Structure::SCGraph(_) => grid.hidden_cells().map_or(0, |h| h.iter().filter(|&&x| x).count()),
+        _ => hidden,
+    };
+    let (mem, total) = memory_json(&s, &grid);
+    let nv = grid.points.len();
+    let nc = grid.cell_count();
+    let (lo, hi) = grid.bounds();
+    let out = json!({
+        "file": name,
+        "structure": s.name(),
+        "vertices": nv,
+        "cells": nc,
+        "live_cells": s.live_cells(),
+        "hidden_cells": hidden,
+        "cell_types": types,
+        "cell_classes": CELL_CLASS_NAMES.iter().zip(classes).map(|(k, v)| (k.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
+        "meta_cells": catalog[0],
+        "bounds": {"min": lo, "max": hi},
+        "point_properties": grid.point_data.iter().map(|p| &p.name).collect::<Vec<_>>(),
+        "cell_properties": grid.cell_data.iter().map(|p| &p.name).collect::<Vec<_>>(),
+        "memory_bytes": mem,
+        "bytes_per_vertex": total as f64 / nv as f64,
+        "bytes_per_cell": total as f64 / nc as f64,
+        "timings_s": {"load": load_s, "build": build_s},
+    });
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+        return Ok(());
+    }
+    println!("{name}");
+    println!("  vertices      {nv}");
+    println!("  cells         {nc} ({} live, {hidden} hidden)", s.live_cells());
+    for (k, v) in out["cell_types"].as_object().unwrap() {
+        println!("    {k:<18} {v}");
+    }
+    println!("  cell classes  {}", out["cell_classes"]);
+    println!("  bounds        {lo:?} .. {hi:?}");
+    println!("  properties    point {} / cell {}", out["point_properties"], out["cell_properties"]);
+    println!("  meta-cells");
+    for m in out["meta_cells"].as_array().unwrap() {
+        println!(
+            "    {:<22} nv {:>2}  faces {:>2}  codes {:>5}  ambiguous {:>5}  table {} B  cells {}",
+            m["name"].as_str().unwrap(),
+            m["vertices"],
+            m["faces"],
+            m["codes"],
+            m["ambiguous_codes"],
+            m["table_bytes"],
+            m["cells"]
+        );
+    }
+    println!("  structure     {} ({:.1} B/vertex, {:.1} B/cell)", s.name(), total as f64 / nv as f64, total as f64 / nc as f64);
+    for (k, v) in out["memory_bytes"].as_object().unwrap() {
+        println!("    {k:<30} {v}");
+    }
+    Ok(())
+}
+
+fn g_catalog_json(c: &stratasweep::metacell::Catalog, counts: Option<&Vec<usize>>) -> Value {
+    Value::Array(
+        c.metas
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| counts.is_none_or(|cs| cs.get(*i).copied().unwrap_or(0) > 0) || counts.is_none() && *i == 3)
+            .filter(|(i, _)| counts.is_some() || *i == 3)
+            .map(|(i, m)| {
+                json!({
+                    "name": m.name,
+                    "vertices": m.nv,
+                    "faces": m.faces.len(),
+                    "edges": m.edges.len(),
+                    "codes": m.code_count(),
+                    "ambiguous_codes": (0..m.code_count()).filter(|&c| m.config_is_ambiguous(c)).count(),
+                    "loops": m.config_size.len(),
+                    "table_bytes": m.table_bytes(),
+                    "cells": counts.map_or(Value::Null, |cs| json!(cs[i])),
+                })
+            })
+            .collect(),
+    )
+}
+
+fn parse_triplet(s: &str, what: &str) -> Result<[f64; 3]> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{what} '{s}': expected three comma-separated numbers"))?;
+    if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+        bail!("{what} '{s}': expected three finite comma-separated numbers");
+    }
+    Ok([v[0], v[1], v[2]])
+}
+
+fn parse_axis(s: &str) -> Result<FieldSpec> {
+    let (neg, a) = match s.strip_prefix('-') {
+        Some(r) => (true, r),
+        None => (false, s.strip_prefix('+').unwrap_or(s)),
+    };
+    let axis = match a {
+        "x" | "X" => 0,
+        "y" | "Y" => 1,
+        "z" | "Z" => 2,
+        _ => bail!("--axis '{s}': expected x, y, z, -x, -y or -z"),
+    };
+    Ok(FieldSpec::Axis { axis, negative: neg })
+}
+
+fn field_spec(f: &FieldArgs) -> Result<FieldSpec> {
+    if let Some(a) = &f.axis {
+        return parse_axis(a);
+    }
+    if let Some(n) = &f.normal {
+        let n = parse_triplet(n, "--normal")?;
+        if n.iter().all(|&c| c == 0.0) {
+            bail!("--normal must not be zero");
+        }
+        return Ok(FieldSpec::Normal(n));
+    }
+    Ok(FieldSpec::Property(f.property.clone().expect("clap group")))
+}
+
+fn level_spec(l: &LevelArgs) -> Result<LevelSpec> {
+    if let Some(k) = l.count {
+        if k == 0 {
+            bail!("--count must be at least 1");
+        }
+        return Ok(LevelSpec::Count(k));
+    }
+    let s = l.values.as_deref().expect("clap group");
+    let p: Vec<f64> = s
+        .split(':')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--values '{s}': expected FROM:TO:STEP"))?;
+    if p.len() != 3 || !(p[2] > 0.0) || p[1] < p[0] {
+        bail!("--values '{s}': expected FROM:TO:STEP with FROM <= TO and STEP > 0");
+    }
+    let v = levels_by_range(p[0], p[1], p[2]);
+    if v.len() > 10_000_000 {
+        bail!("--values '{s}' gives {} levels; that is too many", v.len());
+    }
+    Ok(LevelSpec::Values(v))
+}
+
+fn stats_json(r: &SliceResult, s: &Structure, grid: &Grid, load: f64, build: f64, file: &str, field: &FieldSpec) -> Value {
+    let slices: Vec<Value> = r
+        .stats
+        .iter()
+        .enumerate()
+        .map(|(k, st)| {
+            json!({"index": k, "value": r.level_values[k], "cells": st.cells, "visited": st.visited,
+                   "polygons": st.polygons, "triangles": st.triangles, "area": st.area})
+        })
+        .collect();
+    let sum = |f: &dyn Fn(&stratasweep::sweep::LevelStats) -> f64| r.stats.iter().map(f).sum::<f64>();
+    let (mut mem, _) = memory_json(s, grid);
+    let total = mem["total"].as_u64().unwrap_or(0) + r.sweep_state_bytes as u64;
+    mem["sweep_state"] = json!(r.sweep_state_bytes);
+    mem["total"] = json!(total);
+    json!({
+        "file": file,
+        "structure": s.name(),
+        "field": format!("{field:?}"),
+        "attribute": r.attribute_name,
+        "vertices": grid.points.len(),
+        "cells": grid.cell_count(),
+        "minima": r.minima,
+        "slices": slices,
+        "totals": {
+            "cells": sum(&|s| s.cells as f64), "visited": sum(&|s| s.visited as f64),
+            "polygons": sum(&|s| s.polygons as f64), "triangles": sum(&|s| s.triangles as f64),
+            "area": sum(&|s| s.area),
+        },
+        "memory_bytes": mem,
+        "timings_s": {"load": load, "build": build, "minima": r.timings.minima, "sweep": r.timings.sweep},
+    })
+}
+
+fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
+    let field = field_spec(&a.field)?;
+    let levels = level_spec(&a.levels)?;
+    if let Some(o) = &a.output {
+        match o.extension().and_then(|e| e.to_str()) {
+            Some("ply") | Some("vtp") => {}
+            _ => bail!("-o {}: the output must end in .ply or .vtp", o.display()),
+        }
+    }
+    if a.threads == 0 {
+        bail!("--threads must be at least 1");
+    }
+    let (grid, name, load_s) = load(&a.input, quiet)?;
+    let t = Instant::now();
+    let s = Structure::build(&grid, a.structure.into()).with_context(|| format!("cannot build a structure for {name}"))?;
+    let build_s = t.elapsed().as_secs_f64();
+    let nlev = match &levels {
+        LevelSpec::Count(k) => *k,
+        LevelSpec::Values(v) => v.len(),
+    };
+    let blocks = if a.structure == StructureArg::Bruteforce { 1 } else { a.threads };
+    let pb = bar(quiet, (nlev * blocks) as u64, "slicing");
+    let req = SliceRequest {
+        field: field.clone(),
+        levels,
+        attribute: a.attribute.clone(),
+        threads: a.threads,
+        brute_force: a.structure == StructureArg::Bruteforce,
+        collect_mesh: a.output.is_some(),
+    };
+    let inc = |n: usize| pb.inc(n as u64);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
+    let r = pool.install(|| slice(&grid, &s, &req, &inc)).with_context(|| format!("cannot slice {name}"))?;
+    pb.finish_and_clear();
+    let stats = stats_json(&r, &s, &grid, load_s, build_s, &name, &field);
+    if let Some(out) = &a.output {
+        let mesh = r.mesh.as_ref().expect("collected");
+        let sp = spinner(quiet, format!("writing {}", out.display()));
+        let mut mesh = mesh.clone();
+        mesh.origin = s.origin();
+        match out.extension().and_then(|e| e.to_str()) {
+            Some("ply") => io::writers::write_ply(out, &mesh)?,
+            _ => io::writers::write_vtp(out, &mesh)?,
+        }
+        sp.finish_and_clear();
+    }
+    if let Some(p) = &a.stats {
+        std::fs::write(p, serde_json::to_string_pretty(&stats)?).with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    if !quiet {
+        let t = &stats["totals"];
+        eprintln!(
+            "{name}: {} levels, {} cut cells, {} polygons, {} minima; build {:.3}s, minima {:.3}s, sweep {:.3}s ({:.1} M cut cells/s)",
+            nlev,
+            t["cells"],
+            t["polygons"],
+            r.minima,
+            build_s,
+            r.timings.minima,
+            r.timings.sweep,
+            t["cells"].as_f64().unwrap_or(0.0) / r.timings.sweep.max(1e-9) / 1e6
+        );
+        if let Some(o) = &a.output {
+            eprintln!("wrote {}", o.display());
+        }
+    }
+    Ok(())
+}
+
+fn parse_dims(s: &str) -> Result<[usize; 3]> {
+    let v: Vec<usize> = s
+        .split(',')
+        .map(|x| x.trim().parse::<usize>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--dims '{s}': expected NI,NJ,NK"))?;
+    if v.len() != 3 || v.iter().any(|&d| d == 0) {
+        bail!("--dims '{s}': expected three positive integers NI,NJ,NK");
+    }
+    if v.iter().map(|&d| (d + 1) as u128).product::<u128>() >= u32::MAX as u128 / 2 {
+        bail!("--dims '{s}': too many points");
+    }
+    Ok([v[0], v[1], v[2]])
+}
+
+fn write_grid(path: &Path, grid: &Grid, want_ext: &str, quiet: bool) -> Result<()> {
+    if path.extension().and_then(|e| e.to_str()) != Some(want_ext) {
+        bail!("-o {}: this grid is written as .{want_ext}", path.display());
+    }
+    let sp = spinner(quiet, format!("writing {}", path.display()));
+    io::writers::write_vtk_xml_grid(path, grid)?;
+    sp.finish_and_clear();
+    if !quiet {
+        eprintln!("wrote {} ({} points, {} cells)", path.display(), grid.points.len(), grid.cell_count());
+    }
+    Ok(())
+}
+
+fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
+    match g {
+        GenCmd::Warped { dims, seed, output } => {
+            let d = parse_dims(&dims)?;
+            let grid = generate::warped(d, seed);
+            write_grid(&output, &grid, "vts", quiet)
+        }
+        GenCmd::Zoo { cells, seed, output } => {
+            if cells == 0 || cells > 200_000_000 {
+                bail!("--cells must be between 1 and 200000000");
+            }
+            let grid = generate::zoo(cells, seed);
+            write_grid(&output, &grid, "vtu", quiet)
+        }
+    }
+}
+
+/// One timed run: (best seconds, result of the last run).
+fn timed(repeat: usize, mut f: impl FnMut() -> Result<SliceResult>) -> Result<(f64, SliceResult)> {
+    let mut best = f64::INFINITY;
+    let mut last = None;
+    for _ in 0..repeat.max(1) {
+        let r = f()?;
+        best = best.min(r.timings.sweep);
+        last = Some(r);
+    }
+    Ok((best, last.unwrap()))
+}
+
+fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
+    if let Some(sizes) = &a.law {
+        return bench_law(sizes, &a, quiet);
+    }
+    let field = parse_axis(&a.axis)?;
+    let (grid, name, load_s) = load(&a.input, quiet)?;
+    let t = Instant::now();
+    let s = Structure::build(&grid, a.structure.into())?;
+    let build_s = t.elapsed().as_secs_f64();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads.max(1)).build()?;
+    let mut req = SliceRequest {
+        field: field.clone(),
+        levels: LevelSpec::Count(a.count),
+        attribute: None,
+        threads: a.threads.max(1),
+        brute_force: false,
+        collect_mesh: false,
+    };
+    let noop = |_: usize| {};
+    let (sweep_s, sr) = timed(a.repeat, || Ok(pool.install(|| slice(&grid, &s, &req, &noop))?))?;
+    let cut: u64 = sr.stats.iter().map(|s| s.cells).sum();
+    let brute = if a.no_brute_force {
+        None
+    } else {
+        req.brute_force = true;
+        let (bs, br) = timed(1, || Ok(slice(&grid, &s, &req, &noop)?))?;
+        let bcut: u64 = br.stats.iter().map(|s| s.cells).sum();
+        if bcut != cut {
+            bail!("brute force cut {bcut} cells but the sweep cut {cut}: this is a bug");
+        }
+        Some(bs)
+    };
+    let (mem, total) = memory_json(&s, &grid);
+    let out = json!({
+        "file": name, "structure": s.name(), "axis": a.axis, "count": a.count, "threads": a.threads,
+        "vertices": grid.points.len(), "cells": grid.cell_count(), "cut_cells": cut, "minima": sr.minima,
+        "load_s": load_s, "build_s": build_s, "minima_s": sr.timings.minima,
+        "sweep_s": sweep_s,
+        "sweep_cut_cells_per_s": cut as f64 / sweep_s,
+        "sweep_ns_per_cut_cell": sweep_s * 1e9 / cut as f64,
+        "brute_force_s": brute,
+        "brute_force_cut_cells_per_s": brute.map(|b| cut as f64 / b),
+        "speedup_vs_brute_force": brute.map(|b| b / sweep_s),
+        "memory_bytes": mem,
+        "bytes_per_vertex": total as f64 / grid.points.len() as f64,
+    });
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!("{name}: {} vertices, {} cells, structure {}", grid.points.len(), grid.cell_count(), s.name());
+        println!("  levels {} along {}, {} cut cells, {} minima", a.count, a.axis, cut, sr.minima);
+        println!("  build {:.3} s, minima {:.4} s", build_s, sr.timings.minima);
+        println!(
+            "  sweep       {:.4} s  {:>8.2} M cut cells/s  {:>7.1} ns/cut cell (best of {})",
+            sweep_s,
+            cut as f64 / sweep_s / 1e6,
+            sweep_s * 1e9 / cut as f64,
+            a.repeat
+        );
+        if let Some(b) = brute {
+            println!("  brute force {:.4} s  {:>8.2} M cut cells/s  sweep is {:.1}x faster", b, cut as f64 / b / 1e6, b / sweep_s);
+        }
+        println!("  memory {:.2} B/vertex ({} B)", total as f64 / grid.points.len() as f64, total);
+    }
+    Ok(())
+}
+
+/// Time per level against cut cells over grid sizes, with a least-squares fit.
+fn bench_law(sizes: &[usize], a: &BenchArgs, quiet: bool) -> Result<()> {
+    let field = parse_axis(&a.axis)?;
+    let mut rows = Vec::new();
+    let mut pts: Vec<(f64, f64)> = Vec::new();
+    for &n in sizes {
+        if n == 0 || n > 1024 {
+            bail!("--law sizes must be in 1..=1024");
+        }
+        let grid = generate::warped([n, n, n], 1);
+        let s = Structure::build(&grid, StructureChoice::Auto)?;
+        let req = SliceRequest {
+            field: field.clone(),
+            levels: LevelSpec::Count(a.count),
+            attribute: None,
+            threads: 1,
+            brute_force: false,
+            collect_mesh: false,
+        };
+        let noop = |_: usize| {};
+        let (best, r) = timed(a.repeat, || Ok(slice(&grid, &s, &req, &noop)?))?;
+        let cut: u64 = r.stats.iter().map(|s| s.cells).sum();
+        let per_level = best / a.count as f64;
+        let cut_per_level = cut as f64 / a.count as f64;
+        pts.push((cut_per_level, per_level));
+        if !quiet && !a.json {
+            println!("  {n:>4}^3  {:>10.0} cut cells/level  {:>9.3} ms/level  {:>6.1} ns/cut cell", cut_per_level, per_level * 1e3, per_level * 1e9 / cut_per_level);
+        }
+        rows.push(json!({"n": n, "cells": grid.cell_count(), "cut_cells_per_level": cut_per_level, "seconds_per_level": per_level}));
+    }
+    // Least squares t = a + b·cut.
+    let m = pts.len() as f64;
+    let (sx, sy) = pts.iter().fold((0.0, 0.0), |s, p| (s.0 + p.0, s.1 + p.1));
+    let (mx, my) = (sx / m, sy / m);
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let syy: f64 = pts.iter().map(|p| (p.1 - my).powi(2)).sum();
+    let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    let intercept = my - slope * mx;
+    let r2 = if sxx > 0.0 && syy > 0.0 { sxy * sxy / (sxx * syy) } else { 1.0 };
+    let out = json!({"rows": rows, "fit": {"seconds_per_level": "a + b * cut_cells", "a": intercept, "b_ns_per_cut_cell": slope * 1e9, "r2": r2}});
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!("  fit: time/level = {:.3} us + {:.2} ns x cut cells  (R^2 = {:.5})", intercept * 1e6, slope * 1e9, r2);
+    }
+    Ok(())
 }

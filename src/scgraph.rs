@@ -8,7 +8,9 @@
 
 use crate::grid::{Grid, Topology};
 use crate::metacell::{builtin, Catalog, MAX_META_VERTICES};
-use crate::structure::{classify_cell, is_sweepable, BitSet, StructureError};
+use rayon::prelude::*;
+
+use crate::structure::{classify_cell, is_sweepable, BitSet, CellClass, StructureError};
 use crate::sweep::CellGraph;
 
 /// The structured cellular graph.
@@ -51,20 +53,21 @@ impl SCGraph {
         let mut live = BitSet::new(slots);
         let mut class_counts = [0usize; 4];
         let hex = catalog.get(builtin::HEXAHEDRON);
-        let mut cid = 0usize;
-        for k in 0..npk - 1 {
-            for j in 0..npj - 1 {
-                for i in 0..npi - 1 {
-                    let v0 = (i + j * npi + k * slab) as u32;
-                    let ids = offsets.map(|o| v0 + o);
-                    let class = classify_cell(hex, &ids, &grid.points);
-                    class_counts[class as usize] += 1;
-                    let hidden_cell = hidden.is_some_and(|h| h.get(cid).copied().unwrap_or(false));
-                    if is_sweepable(class) && !hidden_cell {
-                        live.set(v0 as usize + slab);
-                    }
-                    cid += 1;
-                }
+        let (nci, ncj, nck) = (npi - 1, npj - 1, npk - 1);
+        let classes: Vec<CellClass> = (0..nci * ncj * nck)
+            .into_par_iter()
+            .map(|cid| {
+                let (i, j, k) = (cid % nci, (cid / nci) % ncj, cid / (nci * ncj));
+                let v0 = (i + j * npi + k * slab) as u32;
+                classify_cell(hex, &offsets.map(|o| v0 + o), &grid.points)
+            })
+            .collect();
+        for (cid, &class) in classes.iter().enumerate() {
+            class_counts[class as usize] += 1;
+            let hidden_cell = hidden.is_some_and(|h| h.get(cid).copied().unwrap_or(false));
+            if is_sweepable(class) && !hidden_cell {
+                let (i, j, k) = (cid % nci, (cid / nci) % ncj, cid / (nci * ncj));
+                live.set(i + j * npi + k * slab + slab);
             }
         }
         Ok(SCGraph { dims, origin, positions, live, class_counts, catalog, offsets })

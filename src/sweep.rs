@@ -305,9 +305,12 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
             g.for_each_neighbour(c, |nb| {
                 let j = nb.wrapping_sub(start);
                 if j < len && stamps[j as usize] < step {
+                    // Stamp every neighbour examined, pushed or not: whether it
+                    // belongs to this step depends only on its own lo, so each
+                    // cell's lo is evaluated at most once per step.
+                    stamps[j as usize] = step;
                     let lo_n = cell_lo(g, f, nb);
-                    if lo_n >= t_prev && lo_n < t && (lo_n > lo || (lo_n == lo && nb > c)) {
-                        stamps[j as usize] = step;
+                    if lo_n >= t_prev && lo_n < t {
                         work.push(nb);
                     }
                 }

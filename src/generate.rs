@@ -1,0 +1,362 @@
+//! Deterministic synthetic grids for tests and benchmarks.
+//!
+//! Pure functions, no I/O: every grid is a function of its size and a `u64`
+//! seed only (a self-contained SplitMix64 generator, no `rand` dependency),
+//! so a seed reproduces a grid bit for bit on every platform.
+//!
+//! * [`warped`]: a curvilinear IJK grid, smoothly warped, rotated off the
+//!   axes and moved to UTM-like world coordinates (far from the origin, so
+//!   f32 precision handling is exercised), carrying the Marschner–Lobb test
+//!   signal as point property `f`.
+//! * [`zoo`]: a conforming mixed grid of tetrahedra, pyramids, wedges and
+//!   hexahedra filling the box `[-1, 1]³` exactly, carrying a noisy smooth
+//!   point property `f`.
+//!
+//! All cells use VTK's vertex orderings with positive orientation (as
+//! checked by VTK 9.7's `vtkCellValidator` / `vtkCellSizeFilter`):
+//! hexahedron (12) bottom `0-1-2-3` counter-clockwise seen from the top
+//! `4-5-6-7`; wedge (13) triangle `0,1,2` whose right-hand normal points
+//! toward `3,4,5`; pyramid (14) base `0-1-2-3` whose right-hand normal
+//! points toward the apex `4`; tetrahedron (10) with
+//! `det(v1-v0, v2-v0, v3-v0) > 0`.
+
+use crate::grid::{Cells, Grid, Property, Topology, vtk_type};
+use std::f64::consts::PI;
+
+/// World translation applied to [`warped`] grids (UTM-like easting,
+/// northing, depth), so that coordinates are far from the origin.
+pub const UTM_OFFSET: [f64; 3] = [4.6e5, 5.9e6, -1.7e3];
+
+/// Marschner–Lobb modulation frequency `f_M`.
+pub const ML_FREQUENCY: f64 = 6.0;
+
+/// Marschner–Lobb amplitude `α`.
+pub const ML_ALPHA: f64 = 0.25;
+
+/// The Marschner–Lobb test signal at `p` in `[-1, 1]³`:
+/// `ρ = (1 − sin(πz/2) + α(1 + ρr(√(x²+y²)))) / (2(1+α))` with
+/// `ρr(r) = cos(2π f_M cos(πr/2))`, `f_M` = [`ML_FREQUENCY`], `α` = [`ML_ALPHA`].
+/// The value lies in `[0, 1]`.
+pub fn marschner_lobb(p: [f64; 3]) -> f64 {
+    let [x, y, z] = p;
+    let r = (x * x + y * y).sqrt();
+    let rho_r = (2.0 * PI * ML_FREQUENCY * (PI * r / 2.0).cos()).cos();
+    (1.0 - (PI * z / 2.0).sin() + ML_ALPHA * (1.0 + rho_r)) / (2.0 * (1.0 + ML_ALPHA))
+}
+
+/// SplitMix64 finaliser: a strong 64-bit mix.
+fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Uniform in `[0, 1)` from 64 random bits.
+fn unit_of(bits: u64) -> f64 {
+    (bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// Stateless hash of `(seed, tag, key)` to `[0, 1)`: decisions that must not
+/// depend on iteration order (per column, per hex, per shared face).
+fn hash_unit(seed: u64, tag: u64, key: u64) -> f64 {
+    unit_of(mix64(
+        mix64(seed ^ tag.wrapping_mul(0xA24B_AED4_963E_E407)) ^ key,
+    ))
+}
+
+/// SplitMix64 stream.
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn new(seed: u64, stream: u64) -> Self {
+        SplitMix64(mix64(
+            seed ^ mix64(stream.wrapping_add(0x9E37_79B9_7F4A_7C15)),
+        ))
+    }
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        mix64(self.0)
+    }
+    /// Uniform in `[a, b)`.
+    fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * unit_of(self.next_u64())
+    }
+    /// `-1.0` or `1.0`.
+    fn sign(&mut self) -> f64 {
+        if self.next_u64() & 1 == 0 { -1.0 } else { 1.0 }
+    }
+}
+
+/// Rotation matrix (row-major) of `angle` radians about the unit `axis`.
+fn rotation(axis: [f64; 3], angle: f64) -> [[f64; 3]; 3] {
+    let [x, y, z] = axis;
+    let (s, c) = angle.sin_cos();
+    let t = 1.0 - c;
+    [
+        [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+        [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+        [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
+    ]
+}
+
+/// A smoothly warped, rotated curvilinear grid of `dims` cells per axis
+/// (`(ni+1)(nj+1)(nk+1)` points, I fastest, [`Topology::Structured`] with
+/// point dims `dims + 1`).
+///
+/// The reference lattice spans `[-1, 1]³`; each point `u` is displaced by a
+/// seed-dependent sum of sinusoids (amplitude ≤ 0.08, i.e. 4% of the
+/// extent, with every entry of the displacement gradient bounded so the
+/// mapping's Jacobian stays within a Gershgorin disc around the identity:
+/// every cell keeps a positive Jacobian at all corners), then rotated by a
+/// seed-dependent 10–30° about a tilted axis, then translated by
+/// [`UTM_OFFSET`]. Point property `f` is [`marschner_lobb`] evaluated at the
+/// *unwarped* reference coordinates `u`.
+///
+/// # Panics
+/// If any of `dims` is zero.
+pub fn warped(dims: [usize; 3], seed: u64) -> Grid {
+    assert!(
+        dims.iter().all(|&d| d > 0),
+        "warped: dims must be positive, got {dims:?}"
+    );
+    let mut rng = SplitMix64::new(seed, 1);
+    // Displacement d_a(u) = A sin(ω u_b + φ) cos(ω u_c + ψ) + B sin(ω u_a + χ),
+    // (a, b, c) a cyclic permutation. |∂d_a/∂u_j| ≤ Aω, Aω, Bω per row, so
+    // the row sums of the gradient are ≤ (2A + B)π ≈ 0.41 < 1.
+    const A: f64 = 0.05;
+    const B: f64 = 0.03;
+    let phases: Vec<[f64; 3]> = (0..3)
+        .map(|_| {
+            [
+                rng.range(0.0, 2.0 * PI),
+                rng.range(0.0, 2.0 * PI),
+                rng.range(0.0, 2.0 * PI),
+            ]
+        })
+        .collect();
+    // Tilted axis: every component of magnitude in [0.45, 1] before
+    // normalisation, so it is at least ~32° away from each coordinate axis.
+    let raw = [0, 1, 2].map(|_| rng.sign() * rng.range(0.45, 1.0));
+    let norm = (raw[0] * raw[0] + raw[1] * raw[1] + raw[2] * raw[2]).sqrt();
+    let axis = raw.map(|v| v / norm);
+    let angle = rng.range(10.0, 30.0).to_radians() * rng.sign();
+    let rot = rotation(axis, angle);
+
+    let [ni, nj, nk] = dims;
+    let n_points = (ni + 1) * (nj + 1) * (nk + 1);
+    let mut points = Vec::with_capacity(n_points);
+    let mut f = Vec::with_capacity(n_points);
+    for k in 0..=nk {
+        let uz = -1.0 + 2.0 * k as f64 / nk as f64;
+        for j in 0..=nj {
+            let uy = -1.0 + 2.0 * j as f64 / nj as f64;
+            for i in 0..=ni {
+                let ux = -1.0 + 2.0 * i as f64 / ni as f64;
+                let u = [ux, uy, uz];
+                f.push(marschner_lobb(u));
+                let mut x = u;
+                for a in 0..3 {
+                    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+                    let ph = phases[a];
+                    x[a] += A * (PI * u[b] + ph[0]).sin() * (PI * u[c] + ph[1]).cos()
+                        + B * (PI * u[a] + ph[2]).sin();
+                }
+                let w = [0, 1, 2].map(|r| {
+                    rot[r][0] * x[0] + rot[r][1] * x[1] + rot[r][2] * x[2] + UTM_OFFSET[r]
+                });
+                points.push(w);
+            }
+        }
+    }
+    Grid {
+        points,
+        topology: Topology::Structured {
+            dims: [ni + 1, nj + 1, nk + 1],
+        },
+        point_data: vec![Property::scalar("f", f)],
+        cell_data: Vec::new(),
+    }
+}
+
+/// Outward faces of a VTK hexahedron (local ids), with the lattice offset of
+/// the hex across each face.
+const HEX_FACES: [([usize; 4], [isize; 3]); 6] = [
+    ([0, 3, 2, 1], [0, 0, -1]),
+    ([4, 5, 6, 7], [0, 0, 1]),
+    ([0, 1, 5, 4], [0, -1, 0]),
+    ([1, 2, 6, 5], [1, 0, 0]),
+    ([2, 3, 7, 6], [0, 1, 0]),
+    ([3, 0, 4, 7], [-1, 0, 0]),
+];
+
+/// Expected cells per lattice hex with the probabilities used by [`zoo`]
+/// (measured; used only to size the lattice).
+const ZOO_CELLS_PER_HEX: f64 = 2.6;
+/// Probability that a hex column is split into wedges.
+const ZOO_P_WEDGE_COLUMN: f64 = 0.2;
+/// Probability that a (non-wedge) hex is split into 6 pyramids.
+const ZOO_P_PYRAMIDS: f64 = 0.3;
+/// Probability that an eligible pyramid base is split into 2 tetrahedra.
+const ZOO_P_TETS: f64 = 0.5;
+/// Lattice jitter, as a fraction of the spacing, per coordinate.
+const ZOO_JITTER: f64 = 0.15;
+
+/// Key of a quad face independent of its orientation: its sorted ids packed.
+fn quad_key(ids: [u32; 4]) -> u64 {
+    let mut s = ids;
+    s.sort_unstable();
+    // Ids are < 2^32; fold them into one u64 through the mixer.
+    mix64(
+        mix64(mix64((s[0] as u64) << 32 | s[1] as u64) ^ s[2] as u64)
+            ^ (s[3] as u64).rotate_left(17),
+    )
+}
+
+/// A conforming mixed grid of about `cells` cells (tetrahedra, pyramids,
+/// wedges, hexahedra) filling the box `[-1, 1]³` exactly.
+///
+/// Recipe: a jittered `n³` hex lattice (`n ≥ 2` chosen so the final count is
+/// close to `cells`; interior lattice points move by up to 15% of the spacing
+/// per coordinate, boundary points only within their boundary plane, so the
+/// domain stays the box). Each hex column `(i, j)` becomes, with probability
+/// 0.2, a wedge column: every hex of it splits into 2 wedges along the same
+/// vertical diagonal plane. Other hexes split, with probability 0.3, into 6
+/// pyramids around a new centre vertex (the mean of its corners); a pyramid
+/// whose base is shared with another pyramid-split hex or lies on the
+/// boundary splits into 2 tetrahedra with probability 0.5, decided per face
+/// from its sorted vertex ids (so both sides agree) along the diagonal
+/// through the face's smallest vertex id (so both sides use the same
+/// diagonal). Every face shared by two cells therefore has the same vertex
+/// set on both sides. Point property `f` is a smooth sin/cos field plus
+/// `0.3 ×` uniform `[0, 1)` noise (so isosurfaces hit ambiguous faces).
+/// Points are the `(n+1)³` lattice points (I fastest) followed by the
+/// pyramid centres.
+pub fn zoo(cells: usize, seed: u64) -> Grid {
+    let n = ((cells as f64 / ZOO_CELLS_PER_HEX).cbrt().round() as usize).max(2);
+    let np = n + 1;
+    let h = 2.0 / n as f64;
+    let lattice = |i: usize, j: usize, k: usize| (i + np * (j + np * k)) as u32;
+    let hex_index = |i: usize, j: usize, k: usize| i + n * (j + n * k);
+
+    let mut rng = SplitMix64::new(seed, 2);
+    let mut points = Vec::with_capacity(np * np * np);
+    for k in 0..np {
+        for j in 0..np {
+            for i in 0..np {
+                let idx = [i, j, k];
+                let p = [0, 1, 2].map(|a| {
+                    let base = -1.0 + 2.0 * idx[a] as f64 / n as f64;
+                    let jitter = rng.range(-ZOO_JITTER, ZOO_JITTER) * h;
+                    if idx[a] == 0 || idx[a] == n {
+                        base
+                    } else {
+                        base + jitter
+                    }
+                });
+                points.push(p);
+            }
+        }
+    }
+
+    // Per-column and per-hex decisions (stateless hashes).
+    let wedge_column: Vec<Option<bool>> = (0..n * n)
+        .map(|c| {
+            (hash_unit(seed, 11, c as u64) < ZOO_P_WEDGE_COLUMN)
+                .then(|| hash_unit(seed, 12, c as u64) < 0.5)
+        })
+        .collect();
+    let pyramid_split: Vec<bool> = (0..n * n * n)
+        .map(|h| {
+            wedge_column[h % (n * n)].is_none() && hash_unit(seed, 13, h as u64) < ZOO_P_PYRAMIDS
+        })
+        .collect();
+
+    let mut out = Cells::default();
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let c = [
+                    lattice(i, j, k),
+                    lattice(i + 1, j, k),
+                    lattice(i + 1, j + 1, k),
+                    lattice(i, j + 1, k),
+                    lattice(i, j, k + 1),
+                    lattice(i + 1, j, k + 1),
+                    lattice(i + 1, j + 1, k + 1),
+                    lattice(i, j + 1, k + 1),
+                ];
+                let hx = hex_index(i, j, k);
+                if let Some(diag02) = wedge_column[i + n * j] {
+                    if diag02 {
+                        out.push(vtk_type::WEDGE, &[c[0], c[1], c[2], c[4], c[5], c[6]]);
+                        out.push(vtk_type::WEDGE, &[c[0], c[2], c[3], c[4], c[6], c[7]]);
+                    } else {
+                        out.push(vtk_type::WEDGE, &[c[0], c[1], c[3], c[4], c[5], c[7]]);
+                        out.push(vtk_type::WEDGE, &[c[1], c[2], c[3], c[5], c[6], c[7]]);
+                    }
+                } else if pyramid_split[hx] {
+                    let apex = points.len() as u32;
+                    let centre = c.iter().fold([0.0; 3], |acc, &v| {
+                        let p = points[v as usize];
+                        [
+                            acc[0] + p[0] / 8.0,
+                            acc[1] + p[1] / 8.0,
+                            acc[2] + p[2] / 8.0,
+                        ]
+                    });
+                    points.push(centre);
+                    for (face, off) in HEX_FACES {
+                        // Base = the outward face reversed: normal toward the apex.
+                        let base = [c[face[0]], c[face[3]], c[face[2]], c[face[1]]];
+                        let ni = i as isize + off[0];
+                        let nj = j as isize + off[1];
+                        let nk = k as isize + off[2];
+                        let inside = [ni, nj, nk].iter().all(|&v| v >= 0 && v < n as isize);
+                        let eligible = !inside
+                            || pyramid_split[hex_index(ni as usize, nj as usize, nk as usize)];
+                        if eligible && hash_unit(seed, 14, quad_key(base)) < ZOO_P_TETS {
+                            let [a, b, cc, d] = base;
+                            let smallest = *base.iter().min().expect("4 ids");
+                            if smallest == a || smallest == cc {
+                                out.push(vtk_type::TETRA, &[a, b, cc, apex]);
+                                out.push(vtk_type::TETRA, &[a, cc, d, apex]);
+                            } else {
+                                out.push(vtk_type::TETRA, &[a, b, d, apex]);
+                                out.push(vtk_type::TETRA, &[b, cc, d, apex]);
+                            }
+                        } else {
+                            out.push(
+                                vtk_type::PYRAMID,
+                                &[base[0], base[1], base[2], base[3], apex],
+                            );
+                        }
+                    }
+                } else {
+                    out.push(vtk_type::HEXAHEDRON, &c);
+                }
+            }
+        }
+    }
+
+    let mut frng = SplitMix64::new(seed, 3);
+    let ph = [
+        frng.range(0.0, 2.0 * PI),
+        frng.range(0.0, 2.0 * PI),
+        frng.range(0.0, 2.0 * PI),
+    ];
+    let f = points
+        .iter()
+        .map(|&[x, y, z]| {
+            let smooth = 0.5
+                + 0.25 * (2.3 * x + ph[0]).sin() * (1.9 * y + ph[1]).cos()
+                + 0.2 * (2.9 * z + 1.1 * x + ph[2]).sin();
+            smooth + 0.3 * unit_of(frng.next_u64())
+        })
+        .collect();
+    Grid {
+        points,
+        topology: Topology::Unstructured(out),
+        point_data: vec![Property::scalar("f", f)],
+        cell_data: Vec::new(),
+    }
+}

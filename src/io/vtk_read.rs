@@ -1,1 +1,0 @@
-//! VTK readers (legacy and XML).

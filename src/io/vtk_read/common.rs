@@ -1,0 +1,471 @@
+//! Pieces shared by the legacy and XML readers: scalar types, binary and ASCII
+//! number decoding, and assembly of [`Cells`] from VTK's flat arrays.
+
+use super::VtkReadError;
+use crate::grid::{Cells, Grid, Topology, vtk_type};
+
+/// A VTK scalar type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Scalar {
+    /// Packed bits (legacy `bit`).
+    Bit,
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    I64,
+    U64,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    /// Bytes per value (0 for packed bits).
+    pub(crate) fn size(self) -> usize {
+        match self {
+            Scalar::Bit => 0,
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::I64 | Scalar::U64 | Scalar::F64 => 8,
+        }
+    }
+
+    /// Legacy type names, as written by `vtkDataWriter` (case-insensitive).
+    /// `vtkIdType` is written as a 4-byte int in legacy binary files.
+    pub(crate) fn from_legacy(name: &[u8]) -> Option<Scalar> {
+        let n = name.to_ascii_lowercase();
+        Some(match n.as_slice() {
+            b"bit" => Scalar::Bit,
+            b"char" | b"signed_char" | b"vtktypeint8" => Scalar::I8,
+            b"unsigned_char" | b"vtktypeuint8" => Scalar::U8,
+            b"short" | b"vtktypeint16" => Scalar::I16,
+            b"unsigned_short" | b"vtktypeuint16" => Scalar::U16,
+            b"int" | b"vtkidtype" | b"vtktypeint32" => Scalar::I32,
+            b"unsigned_int" | b"vtktypeuint32" => Scalar::U32,
+            b"long" | b"long_long" | b"__int64" | b"vtktypeint64" => Scalar::I64,
+            b"unsigned_long" | b"unsigned_long_long" | b"unsigned___int64" | b"vtktypeuint64" => Scalar::U64,
+            b"float" | b"vtktypefloat32" => Scalar::F32,
+            b"double" | b"vtktypefloat64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+
+    /// XML `type` attribute values.
+    pub(crate) fn from_xml(name: &str) -> Option<Scalar> {
+        Some(match name {
+            "Int8" | "Char" => Scalar::I8,
+            "UInt8" | "UChar" => Scalar::U8,
+            "Int16" => Scalar::I16,
+            "UInt16" => Scalar::U16,
+            "Int32" => Scalar::I32,
+            "UInt32" => Scalar::U32,
+            "Int64" => Scalar::I64,
+            "UInt64" => Scalar::U64,
+            "Float32" => Scalar::F32,
+            "Float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+}
+
+macro_rules! decode_chunks {
+    ($bytes:expr, $t:ty, $big:expr, $conv:expr) => {{
+        const N: usize = std::mem::size_of::<$t>();
+        $bytes
+            .chunks_exact(N)
+            .map(|c| {
+                let mut a = [0u8; N];
+                a.copy_from_slice(c);
+                let v = if $big { <$t>::from_be_bytes(a) } else { <$t>::from_le_bytes(a) };
+                $conv(v)
+            })
+            .collect()
+    }};
+}
+
+/// Unpacks `n` bits, most significant bit first (legacy `bit` arrays).
+fn unpack_bits(bytes: &[u8], n: usize) -> impl Iterator<Item = u8> + '_ {
+    (0..n).map(move |i| bytes.get(i / 8).map_or(0, |b| (b >> (7 - (i % 8))) & 1))
+}
+
+/// Decodes binary values to f64 (`bytes.len()` must be a multiple of the
+/// size; trailing bytes are ignored). For [`Scalar::Bit`], `bits` values.
+pub(crate) fn decode_f64(bytes: &[u8], ty: Scalar, big: bool, bits: usize) -> Vec<f64> {
+    match ty {
+        Scalar::Bit => unpack_bits(bytes, bits).map(f64::from).collect(),
+        Scalar::I8 => bytes.iter().map(|&b| f64::from(b as i8)).collect(),
+        Scalar::U8 => bytes.iter().map(|&b| f64::from(b)).collect(),
+        Scalar::I16 => decode_chunks!(bytes, i16, big, f64::from),
+        Scalar::U16 => decode_chunks!(bytes, u16, big, f64::from),
+        Scalar::I32 => decode_chunks!(bytes, i32, big, f64::from),
+        Scalar::U32 => decode_chunks!(bytes, u32, big, f64::from),
+        Scalar::I64 => decode_chunks!(bytes, i64, big, |v: i64| v as f64),
+        Scalar::U64 => decode_chunks!(bytes, u64, big, |v: u64| v as f64),
+        Scalar::F32 => decode_chunks!(bytes, f32, big, f64::from),
+        Scalar::F64 => decode_chunks!(bytes, f64, big, |v: f64| v),
+    }
+}
+
+/// Decodes binary integer values to i64. Floating-point types are refused;
+/// `UInt64` values above `i64::MAX` are clamped to `i64::MAX` (they are
+/// rejected later as out-of-range ids).
+pub(crate) fn decode_i64(bytes: &[u8], ty: Scalar, big: bool, bits: usize) -> Result<Vec<i64>, String> {
+    Ok(match ty {
+        Scalar::Bit => unpack_bits(bytes, bits).map(i64::from).collect(),
+        Scalar::I8 => bytes.iter().map(|&b| i64::from(b as i8)).collect(),
+        Scalar::U8 => bytes.iter().map(|&b| i64::from(b)).collect(),
+        Scalar::I16 => decode_chunks!(bytes, i16, big, i64::from),
+        Scalar::U16 => decode_chunks!(bytes, u16, big, i64::from),
+        Scalar::I32 => decode_chunks!(bytes, i32, big, i64::from),
+        Scalar::U32 => decode_chunks!(bytes, u32, big, i64::from),
+        Scalar::I64 => decode_chunks!(bytes, i64, big, |v: i64| v),
+        Scalar::U64 => decode_chunks!(bytes, u64, big, |v: u64| i64::try_from(v).unwrap_or(i64::MAX)),
+        Scalar::F32 | Scalar::F64 => return Err(format!("{ty:?} values where integers are required")),
+    })
+}
+
+/// ASCII whitespace as understood by C's `isspace`.
+#[inline]
+pub(crate) fn is_ws(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c)
+}
+
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18,
+    1e19, 1e20, 1e21, 1e22,
+];
+
+/// Parses a decimal floating-point token. Plain decimals with at most 15-16
+/// significant digits and small exponents take an exact fast path (one
+/// correctly rounded multiplication or division); everything else, including
+/// `nan` and `inf`, goes through the standard library parser.
+pub(crate) fn parse_f64(s: &[u8]) -> Option<f64> {
+    let slow = || std::str::from_utf8(s).ok()?.parse::<f64>().ok();
+    let mut i = 0;
+    let neg = match s.first()? {
+        b'-' => {
+            i = 1;
+            true
+        }
+        b'+' => {
+            i = 1;
+            false
+        }
+        _ => false,
+    };
+    let mut mant: u64 = 0;
+    let mut digits = 0u32; // significant digits accumulated in mant
+    let mut exp10: i32 = 0;
+    let mut any = false;
+    let mut overflow = false;
+    while let Some(&c) = s.get(i) {
+        if !c.is_ascii_digit() {
+            break;
+        }
+        any = true;
+        if digits < 19 {
+            mant = mant * 10 + u64::from(c - b'0');
+            if mant != 0 {
+                digits += 1;
+            }
+        } else {
+            overflow = true;
+        }
+        i += 1;
+    }
+    if s.get(i) == Some(&b'.') {
+        i += 1;
+        while let Some(&c) = s.get(i) {
+            if !c.is_ascii_digit() {
+                break;
+            }
+            any = true;
+            if digits < 19 {
+                mant = mant * 10 + u64::from(c - b'0');
+                if mant != 0 {
+                    digits += 1;
+                }
+                exp10 -= 1;
+            } else {
+                overflow = true;
+            }
+            i += 1;
+        }
+    }
+    if !any {
+        return slow();
+    }
+    if let Some(&(b'e' | b'E')) = s.get(i) {
+        i += 1;
+        let eneg = match s.get(i) {
+            Some(b'-') => {
+                i += 1;
+                true
+            }
+            Some(b'+') => {
+                i += 1;
+                false
+            }
+            _ => false,
+        };
+        let start = i;
+        let mut e: i32 = 0;
+        while let Some(&c) = s.get(i) {
+            if !c.is_ascii_digit() || i - start >= 6 {
+                break;
+            }
+            e = e * 10 + i32::from(c - b'0');
+            i += 1;
+        }
+        if i == start {
+            return slow();
+        }
+        exp10 += if eneg { -e } else { e };
+    }
+    if i != s.len() || overflow || mant > (1u64 << 53) {
+        return slow();
+    }
+    let m = mant as f64;
+    let v = if exp10 == 0 {
+        m
+    } else if (1..=22).contains(&exp10) {
+        m * POW10[exp10 as usize]
+    } else if (-22..=-1).contains(&exp10) {
+        m / POW10[(-exp10) as usize]
+    } else if mant == 0 {
+        0.0
+    } else {
+        return slow();
+    };
+    Some(if neg { -v } else { v })
+}
+
+/// Parses an integer token; integral floating-point tokens (`4.0`, `1e3`)
+/// are accepted too.
+pub(crate) fn parse_i64(s: &[u8]) -> Option<i64> {
+    let (neg, digits) = match s.first()? {
+        b'-' => (true, &s[1..]),
+        b'+' => (false, &s[1..]),
+        _ => (false, s),
+    };
+    if !digits.is_empty() && digits.iter().all(u8::is_ascii_digit) {
+        let mut v: i64 = 0;
+        for &c in digits {
+            v = v.checked_mul(10)?.checked_add(i64::from(c - b'0'))?;
+        }
+        return Some(if neg { -v } else { v });
+    }
+    let f = parse_f64(s)?;
+    if f.is_finite() && f.fract() == 0.0 && f >= -9.2e18 && f <= 9.2e18 { Some(f as i64) } else { None }
+}
+
+/// Decodes `%XX` escapes that VTK writes in legacy array names.
+pub(crate) fn decode_name(raw: &[u8]) -> String {
+    let mut out = Vec::with_capacity(raw.len());
+    let mut i = 0;
+    while i < raw.len() {
+        if raw[i] == b'%' {
+            let hex = raw
+                .get(i + 1..i + 3)
+                .and_then(|h| std::str::from_utf8(h).ok())
+                .and_then(|h| u8::from_str_radix(h, 16).ok());
+            if let Some(b) = hex {
+                out.push(b);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(raw[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// Where the faces of polyhedra come from.
+pub(crate) enum PolyFaces<'a> {
+    /// The connectivity entry of a polyhedron is its legacy face stream
+    /// (`nf, n0, ids.., n1, ids..`), as VTK's legacy writer stores it.
+    InConnectivity,
+    /// A separate face stream per cell (`None` for cells without one).
+    Streams {
+        /// All face streams, concatenated.
+        stream: &'a [i64],
+        /// Per cell, the range of its face stream in `stream`.
+        ranges: &'a [Option<(usize, usize)>],
+    },
+}
+
+fn point_id(v: i64) -> Result<u32, String> {
+    match u32::try_from(v) {
+        Ok(id) if id < u32::MAX => Ok(id),
+        _ if v < 0 => Err(format!("negative point id {v}")),
+        _ => Err(format!("point id {v} exceeds the u32 id range")),
+    }
+}
+
+/// Appends a legacy face stream to `out` (converted to u32) and its point ids
+/// to `pts`; checks that the stream is exactly consumed.
+fn push_face_stream(s: &[i64], out: &mut Vec<u32>, pts: &mut Vec<u32>) -> Result<(), String> {
+    let Some((&nf, mut rest)) = s.split_first() else {
+        return Err("polyhedron with an empty face stream".into());
+    };
+    let nfu = u32::try_from(nf).map_err(|_| format!("polyhedron face count {nf} out of range"))?;
+    out.push(nfu);
+    for f in 0..nfu {
+        let Some((&k, r)) = rest.split_first() else {
+            return Err(format!("polyhedron face stream ends before face {f} of {nf}"));
+        };
+        let ku = usize::try_from(k).map_err(|_| format!("polyhedron face {f} has vertex count {k}"))?;
+        let Some(ids) = r.get(..ku) else {
+            return Err(format!(
+                "polyhedron face {f}: expected {ku} vertex ids, found {} values left in the face stream",
+                r.len()
+            ));
+        };
+        out.push(ku as u32);
+        for &v in ids {
+            let id = point_id(v)?;
+            out.push(id);
+            pts.push(id);
+        }
+        rest = &r[ku..];
+    }
+    if !rest.is_empty() {
+        return Err(format!("polyhedron face stream: expected {nf} faces, found {} trailing values", rest.len()));
+    }
+    Ok(())
+}
+
+/// Assembles [`Cells`] from VTK's flat arrays. `offsets` has `types.len() + 1`
+/// entries indexing `conn`. Polyhedra get their face stream and the sorted
+/// unique ids of their faces as connectivity.
+pub(crate) fn build_cells(
+    types: &[i64],
+    offsets: &[usize],
+    conn: &[i64],
+    faces: PolyFaces<'_>,
+    file: &str,
+) -> Result<Cells, VtkReadError> {
+    let n = types.len();
+    let cell_err = |cell: usize, msg: String| VtkReadError::Cell { file: file.to_string(), cell, msg };
+    let any_poly = types.contains(&i64::from(vtk_type::POLYHEDRON));
+    let mut cells = Cells {
+        types: Vec::with_capacity(n),
+        offsets: Vec::with_capacity(n + 1),
+        connectivity: Vec::with_capacity(conn.len()),
+        face_offsets: Vec::new(),
+        face_stream: Vec::new(),
+    };
+    cells.offsets.push(0);
+    if any_poly {
+        cells.face_offsets.reserve(n + 1);
+        cells.face_offsets.push(0);
+    }
+    let mut pts = Vec::new();
+    for (c, &t) in types.iter().enumerate() {
+        let t8 = u8::try_from(t).map_err(|_| cell_err(c, format!("cell type {t} is not a VTK cell type id")))?;
+        let (a, b) = (offsets.get(c).copied().unwrap_or(0), offsets.get(c + 1).copied().unwrap_or(0));
+        let ids = conn.get(a..b).ok_or_else(|| cell_err(c, format!("connectivity range {a}..{b} out of bounds")))?;
+        if t8 == vtk_type::POLYHEDRON {
+            let stream = match &faces {
+                PolyFaces::InConnectivity => ids,
+                PolyFaces::Streams { stream, ranges } => {
+                    let Some((fa, fb)) = ranges.get(c).copied().flatten() else {
+                        return Err(cell_err(c, "polyhedron without faces".into()));
+                    };
+                    stream
+                        .get(fa..fb)
+                        .ok_or_else(|| cell_err(c, format!("face range {fa}..{fb} out of bounds")))?
+                }
+            };
+            pts.clear();
+            push_face_stream(stream, &mut cells.face_stream, &mut pts).map_err(|m| cell_err(c, m))?;
+            pts.sort_unstable();
+            pts.dedup();
+            cells.connectivity.extend_from_slice(&pts);
+        } else {
+            for &v in ids {
+                cells.connectivity.push(point_id(v).map_err(|m| cell_err(c, m))?);
+            }
+        }
+        let end = u32::try_from(cells.connectivity.len())
+            .map_err(|_| cell_err(c, "connectivity exceeds u32 offsets".into()))?;
+        cells.offsets.push(end);
+        cells.types.push(t8);
+        if any_poly {
+            let fend = u32::try_from(cells.face_stream.len())
+                .map_err(|_| cell_err(c, "face stream exceeds u32 offsets".into()))?;
+            cells.face_offsets.push(fend);
+        }
+    }
+    Ok(cells)
+}
+
+/// Groups a flat coordinate vector into points (`flat.len()` must be a multiple of 3).
+pub(crate) fn to_points(flat: &[f64]) -> Vec<[f64; 3]> {
+    flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+}
+
+/// Number of cells of a structured grid with point dims `d`, or `None` on overflow.
+pub(crate) fn structured_cells(d: [usize; 3]) -> Option<usize> {
+    d[0].saturating_sub(1).checked_mul(d[1].saturating_sub(1))?.checked_mul(d[2].saturating_sub(1))
+}
+
+/// Final checks: structured dims are checked for overflow here (so that
+/// [`Grid::validate`] cannot overflow), then the grid is validated.
+pub(crate) fn finish(grid: Grid, file: &str) -> Result<Grid, VtkReadError> {
+    if let Topology::Structured { dims } = &grid.topology {
+        let expected = dims[0].checked_mul(dims[1]).and_then(|v| v.checked_mul(dims[2]));
+        if expected != Some(grid.points.len()) || structured_cells(*dims).is_none() {
+            return Err(VtkReadError::Unsupported {
+                file: file.to_string(),
+                what: format!(
+                    "structured dims {dims:?} do not match the {} points read",
+                    grid.points.len()
+                ),
+            });
+        }
+    }
+    grid.validate().map_err(|source| VtkReadError::Invalid { file: file.to_string(), source })?;
+    Ok(grid)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fast_float_matches_std() {
+        for s in [
+            "0", "-0", "1", "0.1", "-2.5e-3", "3.90799e-16", "1e22", "1e23", "123456789012345678901", "0.000123",
+            "1.7976931348623157e308", "5e-324", "2.2782070e-01", "9007199254740993", ".5", "5.", "+7",
+        ] {
+            let want: f64 = s.parse().unwrap();
+            assert_eq!(parse_f64(s.as_bytes()).map(f64::to_bits), Some(want.to_bits()), "{s}");
+        }
+        assert!(parse_f64(b"nan").unwrap().is_nan());
+        assert_eq!(parse_f64(b"-inf"), Some(f64::NEG_INFINITY));
+        assert_eq!(parse_f64(b"1e"), None);
+        assert_eq!(parse_f64(b"abc"), None);
+        assert_eq!(parse_f64(b"-"), None);
+    }
+
+    #[test]
+    fn ints() {
+        assert_eq!(parse_i64(b"-42"), Some(-42));
+        assert_eq!(parse_i64(b"4.0"), Some(4));
+        assert_eq!(parse_i64(b"4.5"), None);
+        assert_eq!(parse_i64(b"99999999999999999999"), None);
+        assert_eq!(parse_i64(b"-"), None);
+    }
+
+    #[test]
+    fn names() {
+        assert_eq!(decode_name(b"my%20array"), "my array");
+        assert_eq!(decode_name(b"50%"), "50%");
+        assert_eq!(decode_name(b"%2"), "%2");
+    }
+}

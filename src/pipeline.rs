@@ -1,0 +1,397 @@
+//! Orchestration without I/O: pick a structure for a grid, bind a field,
+//! place the levels, run the sweep (or the brute force) and gather
+//! statistics and, on request, the welded output mesh in canonical order.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use thiserror::Error;
+
+use crate::bruteforce::brute_force;
+use crate::cgraph::CGraph;
+use crate::extract::{EmitContext, LevelMesh};
+use crate::field::{levels_by_count, AxisField, local_levels, FieldSpec, LevelError, PlaneField, ScalarField, VertexField};
+use crate::grid::{Grid, GridError, Topology};
+use crate::mesh::PolyMesh;
+use crate::scgraph::SCGraph;
+use crate::structure::StructureError;
+use crate::sweep::{CellGraph, LevelStats, Sweeper};
+
+/// Which structure to build (`--structure`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StructureChoice {
+    /// S-CGraph for structured input, CGraph otherwise.
+    Auto,
+    /// The zoo-grid cellular graph.
+    CGraph,
+    /// The structured cellular graph.
+    SCGraph,
+    /// The brute-force reference (on the auto structure's cells).
+    BruteForce,
+}
+
+/// A built sweep structure.
+pub enum Structure {
+    /// S-CGraph.
+    SCGraph(SCGraph),
+    /// CGraph.
+    CGraph(CGraph),
+}
+
+/// Errors of the pipeline.
+#[derive(Debug, Error)]
+pub enum PipelineError {
+    /// Invalid grid.
+    #[error(transparent)]
+    Grid(#[from] GridError),
+    /// Structure build failed.
+    #[error(transparent)]
+    Structure(#[from] StructureError),
+    /// Bad levels.
+    #[error(transparent)]
+    Levels(#[from] LevelError),
+    /// A named property that does not exist.
+    #[error("no property named '{name}' (point properties: {points:?}; cell properties: {cells:?})")]
+    NoSuchProperty {
+        /// Requested name.
+        name: String,
+        /// Available point properties.
+        points: Vec<String>,
+        /// Available cell properties.
+        cells: Vec<String>,
+    },
+    /// The field is constant over the grid: no level can cut it.
+    #[error("the field is constant ({0}) over the live cells: nothing to slice")]
+    ConstantField(f64),
+    /// No live cell remains.
+    #[error("no live cells to slice (all hidden or degenerate)")]
+    NoLiveCells,
+}
+
+impl Structure {
+    /// Builds the chosen structure (brute force uses the auto structure).
+    pub fn build(grid: &Grid, choice: StructureChoice) -> Result<Self, PipelineError> {
+        grid.validate()?;
+        let hidden = grid.hidden_cells();
+        let structured = matches!(grid.topology, Topology::Structured { .. });
+        let s = match choice {
+            StructureChoice::SCGraph => Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?),
+            StructureChoice::CGraph => Structure::CGraph(CGraph::build(grid, hidden.as_deref())?),
+            StructureChoice::Auto | StructureChoice::BruteForce if structured => {
+                Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
+            }
+            _ => Structure::CGraph(CGraph::build(grid, hidden.as_deref())?),
+        };
+        Ok(s)
+    }
+
+    /// Short name (`scgraph` / `cgraph`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Structure::SCGraph(_) => "scgraph",
+            Structure::CGraph(_) => "cgraph",
+        }
+    }
+
+    /// Rebasing origin.
+    pub fn origin(&self) -> [f64; 3] {
+        match self {
+            Structure::SCGraph(s) => s.origin,
+            Structure::CGraph(c) => c.origin,
+        }
+    }
+
+    /// Bytes per structure part.
+    pub fn bytes(&self) -> Vec<(&'static str, usize)> {
+        match self {
+            Structure::SCGraph(s) => s.bytes(),
+            Structure::CGraph(c) => c.bytes(),
+        }
+    }
+
+    /// Live (sweepable) cells.
+    pub fn live_cells(&self) -> usize {
+        match self {
+            Structure::SCGraph(s) => s.live_cells(),
+            Structure::CGraph(c) => c.live_cells(),
+        }
+    }
+
+    /// Slot count (stamp array length).
+    pub fn slot_count(&self) -> usize {
+        match self {
+            Structure::SCGraph(s) => s.slot_count(),
+            Structure::CGraph(c) => c.slot_count(),
+        }
+    }
+}
+
+/// How levels are placed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LevelSpec {
+    /// `t_k = lo + (k + 0.5)(hi − lo)/K` over the live cells' φ range.
+    Count(usize),
+    /// Explicit world values (increasing).
+    Values(Vec<f64>),
+}
+
+/// A slicing request.
+#[derive(Clone, Debug)]
+pub struct SliceRequest {
+    /// What to slice by.
+    pub field: FieldSpec,
+    /// Where the levels go.
+    pub levels: LevelSpec,
+    /// Property interpolated onto the polygons (default: the isosurface
+    /// property, else the first point property, else the level value).
+    pub attribute: Option<String>,
+    /// Spatial blocks swept in parallel.
+    pub threads: usize,
+    /// Use the brute-force reference instead of the sweep.
+    pub brute_force: bool,
+    /// Gather the output mesh (for writing files).
+    pub collect_mesh: bool,
+}
+
+/// Timings of one slicing run, seconds.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Timings {
+    /// Binding the field and placing levels.
+    pub setup: f64,
+    /// Finding (or fetching cached) minima.
+    pub minima: f64,
+    /// The sweep itself.
+    pub sweep: f64,
+}
+
+/// Result of a slicing run.
+#[derive(Clone, Debug)]
+pub struct SliceResult {
+    /// World level values.
+    pub level_values: Vec<f64>,
+    /// Per-level statistics (summed over blocks).
+    pub stats: Vec<LevelStats>,
+    /// The output mesh, when requested.
+    pub mesh: Option<PolyMesh>,
+    /// Number of minima.
+    pub minima: usize,
+    /// Bytes of sweep state (stamps, queues, minima, buffers).
+    pub sweep_state_bytes: usize,
+    /// Timings.
+    pub timings: Timings,
+    /// Name of the interpolated attribute.
+    pub attribute_name: String,
+}
+
+/// Resolves a point property by name, averaging a cell property to the
+/// vertices (volume-weighted) when only a cell property has that name.
+pub fn vertex_property(grid: &Grid, s: &Structure, name: &str) -> Result<Vec<f32>, PipelineError> {
+    if let Some(p) = grid.point_property(name) {
+        return Ok((0..p.len()).map(|i| p.scalar_at(i) as f32).collect());
+    }
+    if let Some(p) = grid.cell_property(name) {
+        let vals: Vec<f64> = (0..p.len()).map(|i| p.scalar_at(i)).collect();
+        return Ok(match s {
+            Structure::SCGraph(g) => crate::properties::cell_to_vertex(g, &vals, grid.points.len()),
+            Structure::CGraph(g) => crate::properties::cell_to_vertex(g, &vals, grid.points.len()),
+        });
+    }
+    Err(PipelineError::NoSuchProperty {
+        name: name.to_string(),
+        points: grid.point_data.iter().map(|p| p.name.clone()).collect(),
+        cells: grid.cell_data.iter().map(|p| p.name.clone()).collect(),
+    })
+}
+
+/// Runs one slicing request on a built structure.
+pub fn slice(
+    grid: &Grid,
+    s: &Structure,
+    req: &SliceRequest,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<SliceResult, PipelineError> {
+    let t0 = Instant::now();
+    let attr_name = req.attribute.clone().or_else(|| match &req.field {
+        FieldSpec::Property(p) => Some(p.clone()),
+        _ => grid.point_data.first().map(|p| p.name.clone()),
+    });
+    let attribute = match &attr_name {
+        Some(n) => Some(vertex_property(grid, s, n)?),
+        None => None,
+    };
+    let field_values = match &req.field {
+        FieldSpec::Property(n) => Some(vertex_property(grid, s, n)?),
+        _ => None,
+    };
+    let setup = t0.elapsed().as_secs_f64();
+    macro_rules! run {
+        ($g:expr) => {{
+            let g = $g;
+            match (&req.field, &field_values) {
+                (FieldSpec::Property(_), Some(v)) => {
+                    run_on(grid, g, &VertexField { values: v }, None, 0.0, req, attribute.as_deref(), progress)
+                }
+                (FieldSpec::Axis { axis, negative }, _) => {
+                    let f = AxisField { axis: *axis, sign: if *negative { -1.0 } else { 1.0 }, positions: g.positions() };
+                    let off = req.field.world_offset(grid.origin());
+                    run_on(grid, g, &f, req.field.axis_slot(), off, req, attribute.as_deref(), progress)
+                }
+                _ => {
+                    let n = req.field.normal().expect("planar field");
+                    let f = PlaneField { normal: n.map(|c| c as f32), positions: g.positions() };
+                    let off = req.field.world_offset(grid.origin());
+                    run_on(grid, g, &f, req.field.axis_slot(), off, req, attribute.as_deref(), progress)
+                }
+            }
+        }};
+    }
+    let mut r = match s {
+        Structure::SCGraph(g) => run!(g),
+        Structure::CGraph(g) => run!(g),
+    }?;
+    r.timings.setup = setup;
+    r.attribute_name = attr_name.unwrap_or_else(|| "level_value".into());
+    if let Some(m) = &mut r.mesh {
+        m.property_name = r.attribute_name.clone();
+    }
+    Ok(r)
+}
+
+/// φ range over the vertices of live cells.
+fn live_range<G: CellGraph, F: ScalarField>(g: &G, f: &F) -> Option<(f32, f32)> {
+    let mut ids = [0u32; crate::metacell::MAX_META_VERTICES];
+    let mut lo = f32::INFINITY;
+    let mut hi = f32::NEG_INFINITY;
+    for s in 0..g.slot_count() as u32 {
+        if g.is_live(s) {
+            let (_, n) = g.cell(s, &mut ids);
+            for &v in &ids[..n] {
+                let p = f.phi(v);
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
+/// Per block: per level, polygons as (source cell, corners (edge key, position, value)).
+type Pieces = Vec<Vec<(u32, Vec<(u64, [f32; 3], f32)>)>>;
+
+#[allow(clippy::too_many_arguments)]
+fn run_on<G: CellGraph, F: ScalarField>(
+    _grid: &Grid,
+    g: &G,
+    f: &F,
+    axis_slot: Option<usize>,
+    world_offset: f64,
+    req: &SliceRequest,
+    attribute: Option<&[f32]>,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<SliceResult, PipelineError> {
+    let (lo, hi) = live_range(g, f).ok_or(PipelineError::NoLiveCells)?;
+    let world = match &req.levels {
+        LevelSpec::Count(k) => {
+            if lo == hi {
+                return Err(PipelineError::ConstantField(lo as f64 + world_offset));
+            }
+            levels_by_count(lo as f64 + world_offset, hi as f64 + world_offset, *k)
+        }
+        LevelSpec::Values(v) => v.clone(),
+    };
+    let levels = local_levels(&world, world_offset)?;
+    let ctx = EmitContext { positions: g.positions(), attribute };
+    let k = levels.len();
+    let mut timings = Timings::default();
+    let collect = req.collect_mesh;
+    let gather = |pieces: &mut Pieces, level: usize, mesh: &LevelMesh| {
+        if !collect {
+            return;
+        }
+        for p in 0..mesh.polygon_count() {
+            let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
+            let corners = ids
+                .iter()
+                .map(|&i| (mesh.edge_keys[i as usize], mesh.positions[i as usize], mesh.values[i as usize]))
+                .collect();
+            pieces[level].push((g.source_cell(mesh.cells[p]), corners));
+        }
+    };
+    let (stats_blocks, minima, state_bytes): (Vec<(Vec<LevelStats>, Pieces)>, usize, usize) = if req.brute_force {
+        let t = Instant::now();
+        let mut acc = (vec![LevelStats::default(); k], vec![Vec::new(); k]);
+        let mut mesh = LevelMesh::default();
+        brute_force(g, f, &levels, &ctx, &mut mesh, |lv, m, st| {
+            acc.0[lv] = *st;
+            gather(&mut acc.1, lv, m);
+            progress(1);
+        });
+        timings.sweep = t.elapsed().as_secs_f64();
+        (vec![acc], 0, mesh.capacity_bytes())
+    } else {
+        let mut sw = Sweeper::new(g, req.threads.max(1));
+        let t = Instant::now();
+        let minima = sw.prepare_minima(f, axis_slot);
+        timings.minima = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let out = sw.sweep(
+            f,
+            axis_slot,
+            &levels,
+            &ctx,
+            || (vec![LevelStats::default(); k], vec![Vec::new(); k]),
+            |acc: &mut (Vec<LevelStats>, Pieces), lv, m, st| {
+                acc.0[lv] = *st;
+                gather(&mut acc.1, lv, m);
+                progress(1);
+            },
+        );
+        timings.sweep = t.elapsed().as_secs_f64();
+        (out, minima, sw.state_bytes())
+    };
+    let mut stats = vec![LevelStats::default(); k];
+    for (b, _) in &stats_blocks {
+        for (lv, st) in b.iter().enumerate() {
+            stats[lv].add(st);
+        }
+    }
+    let mesh = collect.then(|| canonical_mesh(stats_blocks.into_iter().map(|b| b.1).collect(), &world));
+    Ok(SliceResult {
+        level_values: world,
+        stats,
+        mesh,
+        minima,
+        sweep_state_bytes: state_bytes,
+        timings,
+        attribute_name: String::new(),
+    })
+}
+
+/// Merges per-block pieces into one mesh: per level, polygons sorted by
+/// source cell (stable), vertices welded by grid edge in first-use order.
+/// The result does not depend on the number of blocks.
+fn canonical_mesh(blocks: Vec<Pieces>, world: &[f64]) -> PolyMesh {
+    let mut m = PolyMesh { poly_offsets: vec![0], level_values: world.to_vec(), ..Default::default() };
+    let k = world.len();
+    let mut weld: HashMap<u64, u32> = HashMap::new();
+    for lv in 0..k {
+        let mut polys: Vec<&(u32, Vec<(u64, [f32; 3], f32)>)> = blocks.iter().flat_map(|b| b[lv].iter()).collect();
+        polys.sort_by_key(|p| p.0);
+        weld.clear();
+        for (cell, corners) in polys {
+            for &(key, pos, val) in corners {
+                let next = m.positions.len() as u32;
+                let vi = *weld.entry(key).or_insert_with(|| next);
+                if vi == next {
+                    m.positions.push(pos);
+                    m.values.push(val);
+                }
+                m.poly_indices.push(vi);
+            }
+            m.poly_offsets.push(m.poly_indices.len() as u32);
+            m.poly_level.push(lv as u32);
+            m.poly_cell.push(*cell);
+        }
+    }
+    m
+}
