@@ -10,13 +10,16 @@
 
 use rayon::prelude::*;
 
-use crate::grid::{vtk_type, Cells, Grid, Topology};
+use crate::grid::{is_lower_dimensional, vtk_type, Cells, Grid, Topology};
 use crate::metacell::{builtin, Catalog, MetaCell, MAX_META_VERTICES, VOXEL_TO_HEX};
 use crate::structure::{classify_cell, is_sweepable, BitSet, CellClass, StructureError};
 use crate::sweep::CellGraph;
 
 /// "No neighbour" marker.
 pub const NONE: u32 = u32::MAX;
+
+/// Meta id of skipped 0D/1D/2D cells (no vertices, no faces stored).
+const NON_VOLUMETRIC: u16 = u16::MAX;
 
 /// The cellular graph of a zoo grid.
 #[derive(Clone, Debug)]
@@ -35,8 +38,8 @@ pub struct CGraph {
     /// Vertex ids then neighbour ids, per cell.
     data: Vec<u32>,
     live: BitSet,
-    /// Counts of cell classes (valid, inverted, zero volume, repeated vertex).
-    pub class_counts: [usize; 4],
+    /// Counts of cell classes (see [`crate::structure::CELL_CLASS_NAMES`]).
+    pub class_counts: [usize; 5],
     /// Cells per meta-cell id.
     pub meta_counts: Vec<usize>,
     /// Hidden cells excluded.
@@ -46,7 +49,7 @@ pub struct CGraph {
 }
 
 /// Resolves each cell to a meta-cell id and its local-order vertex ids.
-fn resolve_cells(cells: &Cells, catalog: &mut Catalog) -> Result<(Vec<u16>, Vec<u32>, Vec<u32>), StructureError> {
+fn resolve_cells(cells: &Cells, points: &[[f64; 3]], catalog: &mut Catalog) -> Result<(Vec<u16>, Vec<u32>, Vec<u32>), StructureError> {
     let n = cells.len();
     let mut metas = Vec::with_capacity(n);
     let mut offsets = Vec::with_capacity(n + 1);
@@ -55,8 +58,14 @@ fn resolve_cells(cells: &Cells, catalog: &mut Catalog) -> Result<(Vec<u16>, Vec<
     for c in 0..n {
         let t = cells.types[c];
         let ids = cells.cell(c);
+        if is_lower_dimensional(t) {
+            metas.push(NON_VOLUMETRIC);
+            offsets.push(verts.len() as u32);
+            continue;
+        }
         let m = if t == vtk_type::POLYHEDRON {
-            let (local, faces) = polyhedron_local_faces(cells.faces_of(c)).map_err(|why| StructureError::UnsupportedCell { cell: c, why })?;
+            let (local, faces) = polyhedron_local_faces(cells.faces_of(c), points)
+                .map_err(|why| StructureError::UnsupportedCell { cell: c, why })?;
             let m = catalog.for_faces(local.len(), &faces).map_err(|e| StructureError::UnsupportedCell {
                 cell: c,
                 why: format!("polyhedron: {e}"),
@@ -85,8 +94,9 @@ fn resolve_cells(cells: &Cells, catalog: &mut Catalog) -> Result<(Vec<u16>, Vec<
 }
 
 /// Local vertex list (first-appearance order) and local face loops of a
-/// polyhedron face stream. Orientation is fixed later, geometrically.
-fn polyhedron_local_faces(stream: &[u32]) -> Result<(Vec<u32>, Vec<Vec<u8>>), String> {
+/// polyhedron face stream, each face turned outward: its Newell normal must
+/// point away from the cell's vertex centroid (valid for convex cells).
+fn polyhedron_local_faces(stream: &[u32], points: &[[f64; 3]]) -> Result<(Vec<u32>, Vec<Vec<u8>>), String> {
     let mut local: Vec<u32> = Vec::new();
     let mut faces = Vec::new();
     let nf = *stream.first().ok_or("empty face stream")? as usize;
@@ -113,6 +123,29 @@ fn polyhedron_local_faces(stream: &[u32]) -> Result<(Vec<u32>, Vec<Vec<u8>>), St
         faces.push(face);
         p += 1 + n;
     }
+    let pt = |l: u8| points[local[l as usize] as usize];
+    let mut c = [0.0; 3];
+    for &g in &local {
+        for a in 0..3 {
+            c[a] += points[g as usize][a] / local.len() as f64;
+        }
+    }
+    for face in &mut faces {
+        let mut n = [0.0; 3];
+        let mut fc = [0.0; 3];
+        for i in 0..face.len() {
+            let (a, b) = (pt(face[i]), pt(face[(i + 1) % face.len()]));
+            n[0] += (a[1] - b[1]) * (a[2] + b[2]);
+            n[1] += (a[2] - b[2]) * (a[0] + b[0]);
+            n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+            for k in 0..3 {
+                fc[k] += a[k] / face.len() as f64;
+            }
+        }
+        if n[0] * (fc[0] - c[0]) + n[1] * (fc[1] - c[1]) + n[2] * (fc[2] - c[2]) < 0.0 {
+            face.reverse();
+        }
+    }
     Ok((local, faces))
 }
 
@@ -122,17 +155,20 @@ impl CGraph {
     pub fn build(grid: &Grid, hidden: Option<&[bool]>) -> Result<Self, StructureError> {
         let mut catalog = Catalog::new();
         let (mut metas, voff, mut verts) = match &grid.topology {
-            Topology::Unstructured(cells) => resolve_cells(cells, &mut catalog)?,
+            Topology::Unstructured(cells) => resolve_cells(cells, &grid.points, &mut catalog)?,
             Topology::Structured { dims } => structured_as_hexes(*dims),
         };
         let n = metas.len();
-        if n == 0 {
+        if metas.iter().all(|&m| m == NON_VOLUMETRIC) {
             return Err(StructureError::NoCells);
         }
         // Orient polyhedra outward: flip their meta-cell if the volume is negative.
         let mut class: Vec<CellClass> = (0..n)
             .into_par_iter()
-            .map(|c| classify_cell(catalog.get(metas[c]), &verts[voff[c] as usize..voff[c + 1] as usize], &grid.points))
+            .map(|c| match metas[c] {
+                NON_VOLUMETRIC => CellClass::NonVolumetric,
+                m => classify_cell(catalog.get(m), &verts[voff[c] as usize..voff[c + 1] as usize], &grid.points),
+            })
             .collect();
         for c in 0..n {
             let mut cl = class[c];
@@ -149,7 +185,7 @@ impl CGraph {
             class[c] = cl;
         }
         let mut live = BitSet::new(n);
-        let mut class_counts = [0usize; 4];
+        let mut class_counts = [0usize; 5];
         let mut hidden_count = 0;
         for c in 0..n {
             class_counts[class[c] as usize] += 1;
@@ -170,6 +206,9 @@ impl CGraph {
             if !uniform {
                 offsets.push(data.len() as u32);
             }
+            if metas[c] == NON_VOLUMETRIC {
+                continue;
+            }
             let m = catalog.get(metas[c]);
             data.extend_from_slice(&verts[voff[c] as usize..voff[c + 1] as usize]);
             data.extend_from_slice(&nbrs[noff..noff + m.faces.len()]);
@@ -177,7 +216,7 @@ impl CGraph {
         }
         verts.clear();
         let mut meta_counts = vec![0; catalog.metas.len()];
-        for &m in &metas {
+        for &m in metas.iter().filter(|&&m| m != NON_VOLUMETRIC) {
             meta_counts[m as usize] += 1;
         }
         let uniform_meta = metas[0];
@@ -309,6 +348,9 @@ fn sew(catalog: &Catalog, metas: &[u16], voff: &[u32], verts: &[u32], live: &Bit
     let per_cell: Vec<Vec<u32>> = (0..n)
         .into_par_iter()
         .map(|c| {
+            if metas[c] == NON_VOLUMETRIC {
+                return Vec::new();
+            }
             let m = catalog.get(metas[c]);
             if !live.get(c) {
                 return vec![NONE; m.faces.len()];

@@ -277,6 +277,13 @@ pub fn vertex_count_of(vtk_type: u8) -> Option<usize> {
     })
 }
 
+/// True for VTK's linear 0D/1D/2D cell types (vertex, poly-vertex, line,
+/// poly-line, triangle, triangle strip, polygon, pixel, quad). They have no
+/// volume: grids may carry them (boundary patches), and the sweep skips them.
+pub fn is_lower_dimensional(vtk_type: u8) -> bool {
+    (1..=9).contains(&vtk_type)
+}
+
 impl Grid {
     /// Number of cells.
     pub fn cell_count(&self) -> usize {
@@ -401,7 +408,7 @@ fn validate_cells(cells: &Cells, np: usize) -> Result<(), GridError> {
             if ids.len() != n {
                 return Err(GridError::WrongVertexCount { cell: c, vtk_type: t, expected: n, found: ids.len() });
             }
-        } else {
+        } else if !is_lower_dimensional(t) {
             return Err(GridError::UnknownCellType { cell: c, vtk_type: t });
         }
     }

@@ -251,6 +251,15 @@ fn type_name(t: u8) -> &'static str {
         vtk_type::PENTAGONAL_PRISM => "pentagonal_prism",
         vtk_type::HEXAGONAL_PRISM => "hexagonal_prism",
         vtk_type::POLYHEDRON => "polyhedron",
+        1 => "vertex",
+        2 => "poly_vertex",
+        3 => "line",
+        4 => "poly_line",
+        5 => "triangle",
+        6 => "triangle_strip",
+        7 => "polygon",
+        8 => "pixel",
+        9 => "quad",
         _ => "other",
     }
 }

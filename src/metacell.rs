@@ -270,8 +270,11 @@ pub struct Catalog {
 pub const TETRA_FACES: [&[u8]; 4] = [&[0, 1, 3], &[1, 2, 3], &[2, 0, 3], &[0, 2, 1]];
 /// Outward faces of VTK's pyramid.
 pub const PYRAMID_FACES: [&[u8]; 5] = [&[0, 3, 2, 1], &[0, 1, 4], &[1, 2, 4], &[2, 3, 4], &[3, 0, 4]];
-/// Outward faces of VTK's wedge.
-pub const WEDGE_FACES: [&[u8]; 5] = [&[0, 1, 2], &[3, 5, 4], &[0, 3, 4, 1], &[1, 4, 5, 2], &[2, 5, 3, 0]];
+/// Outward faces of VTK's wedge. VTK's valid wedges have the normal of
+/// (0, 1, 2) pointing *toward* (3, 4, 5), as checked with VTK 9.7's
+/// vtkCellValidator (its documentation says the opposite), like the base of
+/// the hexahedron and the prisms.
+pub const WEDGE_FACES: [&[u8]; 5] = [&[0, 2, 1], &[3, 4, 5], &[0, 1, 4, 3], &[1, 2, 5, 4], &[2, 0, 3, 5]];
 /// Outward faces of VTK's hexahedron.
 pub const HEXAHEDRON_FACES: [&[u8]; 6] =
     [&[0, 4, 7, 3], &[1, 2, 6, 5], &[0, 1, 5, 4], &[3, 7, 6, 2], &[0, 3, 2, 1], &[4, 5, 6, 7]];

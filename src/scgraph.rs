@@ -25,8 +25,10 @@ pub struct SCGraph {
     /// Per slot: set for live cells; clear for ghosts and hidden or
     /// degenerate cells.
     live: BitSet,
-    /// Counts of cell classes.
-    pub class_counts: [usize; 4],
+    /// Counts of cell classes (see [`crate::structure::CELL_CLASS_NAMES`]).
+    pub class_counts: [usize; 5],
+    /// The IJK frame is left-handed; cells are read with K reversed.
+    pub left_handed: bool,
     catalog: Catalog,
     offsets: [u32; 8],
 }
@@ -48,20 +50,31 @@ impl SCGraph {
         let origin = grid.origin();
         let positions = grid.rebased_positions();
         let slab = npi * npj;
-        let offsets = [0, 1, 1 + npi, npi, slab, slab + 1, slab + 1 + npi, slab + npi].map(|o| o as u32);
+        let mut offsets = [0, 1, 1 + npi, npi, slab, slab + 1, slab + 1 + npi, slab + npi].map(|o| o as u32);
         let catalog = Catalog::new();
         let mut live = BitSet::new(slots);
-        let mut class_counts = [0usize; 4];
+        let mut class_counts = [0usize; 5];
         let hex = catalog.get(builtin::HEXAHEDRON);
         let (nci, ncj, nck) = (npi - 1, npj - 1, npk - 1);
-        let classes: Vec<CellClass> = (0..nci * ncj * nck)
-            .into_par_iter()
-            .map(|cid| {
-                let (i, j, k) = (cid % nci, (cid / nci) % ncj, cid / (nci * ncj));
-                let v0 = (i + j * npi + k * slab) as u32;
-                classify_cell(hex, &offsets.map(|o| v0 + o), &grid.points)
-            })
-            .collect();
+        let classify_all = |offsets: [u32; 8]| -> Vec<CellClass> {
+            (0..nci * ncj * nck)
+                .into_par_iter()
+                .map(|cid| {
+                    let (i, j, k) = (cid % nci, (cid / nci) % ncj, cid / (nci * ncj));
+                    let v0 = (i + j * npi + k * slab) as u32;
+                    classify_cell(hex, &offsets.map(|o| v0 + o), &grid.points)
+                })
+                .collect()
+        };
+        let mut classes = classify_all(offsets);
+        // A left-handed IJK grid gives mirrored hexahedra: read the cells
+        // with K reversed (top face first) so they come out positive.
+        let inverted = classes.iter().filter(|&&c| c == CellClass::Inverted).count();
+        let left_handed = inverted * 2 > classes.len();
+        if left_handed {
+            offsets = [4, 5, 6, 7, 0, 1, 2, 3].map(|i| offsets[i]);
+            classes = classify_all(offsets);
+        }
         for (cid, &class) in classes.iter().enumerate() {
             class_counts[class as usize] += 1;
             let hidden_cell = hidden.is_some_and(|h| h.get(cid).copied().unwrap_or(false));
@@ -70,7 +83,7 @@ impl SCGraph {
                 live.set(i + j * npi + k * slab + slab);
             }
         }
-        Ok(SCGraph { dims, origin, positions, live, class_counts, catalog, offsets })
+        Ok(SCGraph { dims, origin, positions, live, class_counts, left_handed, catalog, offsets })
     }
 
     /// Bytes held by the structure: positions (12 B/vertex) and the live bit set.

@@ -42,10 +42,12 @@ pub enum CellClass {
     ZeroVolume = 2,
     /// Two vertices of the cell coincide (same id or same position): skipped.
     RepeatedVertex = 3,
+    /// A 0D/1D/2D cell (point, line, triangle, quad, ...): skipped.
+    NonVolumetric = 4,
 }
 
 /// Names of the [`CellClass`] variants, in order.
-pub const CELL_CLASS_NAMES: [&str; 4] = ["valid", "inverted", "zero_volume", "repeated_vertex"];
+pub const CELL_CLASS_NAMES: [&str; 5] = ["valid", "inverted", "zero_volume", "repeated_vertex", "non_volumetric"];
 
 /// Classifies one cell from its global vertex ids (local order) and the f64 points.
 pub fn classify_cell(meta: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellClass {

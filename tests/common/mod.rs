@@ -81,9 +81,9 @@ pub fn zoo_from_structured(g: &Grid, rng: &mut Rng) -> Grid {
                 let v = |di: usize, dj: usize, dk: usize| ((i + di) + (j + dj) * npi + (k + dk) * npi * npj) as u32;
                 let h = [v(0, 0, 0), v(1, 0, 0), v(1, 1, 0), v(0, 1, 0), v(0, 0, 1), v(1, 0, 1), v(1, 1, 1), v(0, 1, 1)];
                 if wedge_col[i + j * (npi - 1)] {
-                    // VTK wedge: the normal of (0,1,2) points away from (3,4,5).
-                    cells.push(vtk_type::WEDGE, &[h[0], h[2], h[1], h[4], h[6], h[5]]);
-                    cells.push(vtk_type::WEDGE, &[h[0], h[3], h[2], h[4], h[7], h[6]]);
+                    // VTK wedge: the normal of (0,1,2) points toward (3,4,5).
+                    cells.push(vtk_type::WEDGE, &[h[0], h[1], h[2], h[4], h[5], h[6]]);
+                    cells.push(vtk_type::WEDGE, &[h[0], h[2], h[3], h[4], h[6], h[7]]);
                 } else if rng.f64() < 0.35 {
                     let c = points.len() as u32;
                     let mut p = [0.0; 3];

@@ -46,7 +46,9 @@ impl Scalar {
             b"int" | b"vtkidtype" | b"vtktypeint32" => Scalar::I32,
             b"unsigned_int" | b"vtktypeuint32" => Scalar::U32,
             b"long" | b"long_long" | b"__int64" | b"vtktypeint64" => Scalar::I64,
-            b"unsigned_long" | b"unsigned_long_long" | b"unsigned___int64" | b"vtktypeuint64" => Scalar::U64,
+            b"unsigned_long" | b"unsigned_long_long" | b"unsigned___int64" | b"vtktypeuint64" => {
+                Scalar::U64
+            }
             b"float" | b"vtktypefloat32" => Scalar::F32,
             b"double" | b"vtktypefloat64" => Scalar::F64,
             _ => return None,
@@ -79,7 +81,11 @@ macro_rules! decode_chunks {
             .map(|c| {
                 let mut a = [0u8; N];
                 a.copy_from_slice(c);
-                let v = if $big { <$t>::from_be_bytes(a) } else { <$t>::from_le_bytes(a) };
+                let v = if $big {
+                    <$t>::from_be_bytes(a)
+                } else {
+                    <$t>::from_le_bytes(a)
+                };
                 $conv(v)
             })
             .collect()
@@ -112,7 +118,12 @@ pub(crate) fn decode_f64(bytes: &[u8], ty: Scalar, big: bool, bits: usize) -> Ve
 /// Decodes binary integer values to i64. Floating-point types are refused;
 /// `UInt64` values above `i64::MAX` are clamped to `i64::MAX` (they are
 /// rejected later as out-of-range ids).
-pub(crate) fn decode_i64(bytes: &[u8], ty: Scalar, big: bool, bits: usize) -> Result<Vec<i64>, String> {
+pub(crate) fn decode_i64(
+    bytes: &[u8],
+    ty: Scalar,
+    big: bool,
+    bits: usize,
+) -> Result<Vec<i64>, String> {
     Ok(match ty {
         Scalar::Bit => unpack_bits(bytes, bits).map(i64::from).collect(),
         Scalar::I8 => bytes.iter().map(|&b| i64::from(b as i8)).collect(),
@@ -122,8 +133,11 @@ pub(crate) fn decode_i64(bytes: &[u8], ty: Scalar, big: bool, bits: usize) -> Re
         Scalar::I32 => decode_chunks!(bytes, i32, big, i64::from),
         Scalar::U32 => decode_chunks!(bytes, u32, big, i64::from),
         Scalar::I64 => decode_chunks!(bytes, i64, big, |v: i64| v),
-        Scalar::U64 => decode_chunks!(bytes, u64, big, |v: u64| i64::try_from(v).unwrap_or(i64::MAX)),
-        Scalar::F32 | Scalar::F64 => return Err(format!("{ty:?} values where integers are required")),
+        Scalar::U64 => decode_chunks!(bytes, u64, big, |v: u64| i64::try_from(v)
+            .unwrap_or(i64::MAX)),
+        Scalar::F32 | Scalar::F64 => {
+            return Err(format!("{ty:?} values where integers are required"));
+        }
     })
 }
 
@@ -134,8 +148,8 @@ pub(crate) fn is_ws(b: u8) -> bool {
 }
 
 const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18,
-    1e19, 1e20, 1e21, 1e22,
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
 /// Parses a decimal floating-point token. Plain decimals with at most 15-16
@@ -259,7 +273,11 @@ pub(crate) fn parse_i64(s: &[u8]) -> Option<i64> {
         return Some(if neg { -v } else { v });
     }
     let f = parse_f64(s)?;
-    if f.is_finite() && f.fract() == 0.0 && f >= -9.2e18 && f <= 9.2e18 { Some(f as i64) } else { None }
+    if f.is_finite() && f.fract() == 0.0 && (-9.2e18..=9.2e18).contains(&f) {
+        Some(f as i64)
+    } else {
+        None
+    }
 }
 
 /// Decodes `%XX` escapes that VTK writes in legacy array names.
@@ -316,9 +334,12 @@ fn push_face_stream(s: &[i64], out: &mut Vec<u32>, pts: &mut Vec<u32>) -> Result
     out.push(nfu);
     for f in 0..nfu {
         let Some((&k, r)) = rest.split_first() else {
-            return Err(format!("polyhedron face stream ends before face {f} of {nf}"));
+            return Err(format!(
+                "polyhedron face stream ends before face {f} of {nf}"
+            ));
         };
-        let ku = usize::try_from(k).map_err(|_| format!("polyhedron face {f} has vertex count {k}"))?;
+        let ku =
+            usize::try_from(k).map_err(|_| format!("polyhedron face {f} has vertex count {k}"))?;
         let Some(ids) = r.get(..ku) else {
             return Err(format!(
                 "polyhedron face {f}: expected {ku} vertex ids, found {} values left in the face stream",
@@ -334,7 +355,10 @@ fn push_face_stream(s: &[i64], out: &mut Vec<u32>, pts: &mut Vec<u32>) -> Result
         rest = &r[ku..];
     }
     if !rest.is_empty() {
-        return Err(format!("polyhedron face stream: expected {nf} faces, found {} trailing values", rest.len()));
+        return Err(format!(
+            "polyhedron face stream: expected {nf} faces, found {} trailing values",
+            rest.len()
+        ));
     }
     Ok(())
 }
@@ -350,7 +374,11 @@ pub(crate) fn build_cells(
     file: &str,
 ) -> Result<Cells, VtkReadError> {
     let n = types.len();
-    let cell_err = |cell: usize, msg: String| VtkReadError::Cell { file: file.to_string(), cell, msg };
+    let cell_err = |cell: usize, msg: String| VtkReadError::Cell {
+        file: file.to_string(),
+        cell,
+        msg,
+    };
     let any_poly = types.contains(&i64::from(vtk_type::POLYHEDRON));
     let mut cells = Cells {
         types: Vec::with_capacity(n),
@@ -366,9 +394,15 @@ pub(crate) fn build_cells(
     }
     let mut pts = Vec::new();
     for (c, &t) in types.iter().enumerate() {
-        let t8 = u8::try_from(t).map_err(|_| cell_err(c, format!("cell type {t} is not a VTK cell type id")))?;
-        let (a, b) = (offsets.get(c).copied().unwrap_or(0), offsets.get(c + 1).copied().unwrap_or(0));
-        let ids = conn.get(a..b).ok_or_else(|| cell_err(c, format!("connectivity range {a}..{b} out of bounds")))?;
+        let t8 = u8::try_from(t)
+            .map_err(|_| cell_err(c, format!("cell type {t} is not a VTK cell type id")))?;
+        let (a, b) = (
+            offsets.get(c).copied().unwrap_or(0),
+            offsets.get(c + 1).copied().unwrap_or(0),
+        );
+        let ids = conn
+            .get(a..b)
+            .ok_or_else(|| cell_err(c, format!("connectivity range {a}..{b} out of bounds")))?;
         if t8 == vtk_type::POLYHEDRON {
             let stream = match &faces {
                 PolyFaces::InConnectivity => ids,
@@ -376,19 +410,22 @@ pub(crate) fn build_cells(
                     let Some((fa, fb)) = ranges.get(c).copied().flatten() else {
                         return Err(cell_err(c, "polyhedron without faces".into()));
                     };
-                    stream
-                        .get(fa..fb)
-                        .ok_or_else(|| cell_err(c, format!("face range {fa}..{fb} out of bounds")))?
+                    stream.get(fa..fb).ok_or_else(|| {
+                        cell_err(c, format!("face range {fa}..{fb} out of bounds"))
+                    })?
                 }
             };
             pts.clear();
-            push_face_stream(stream, &mut cells.face_stream, &mut pts).map_err(|m| cell_err(c, m))?;
+            push_face_stream(stream, &mut cells.face_stream, &mut pts)
+                .map_err(|m| cell_err(c, m))?;
             pts.sort_unstable();
             pts.dedup();
             cells.connectivity.extend_from_slice(&pts);
         } else {
             for &v in ids {
-                cells.connectivity.push(point_id(v).map_err(|m| cell_err(c, m))?);
+                cells
+                    .connectivity
+                    .push(point_id(v).map_err(|m| cell_err(c, m))?);
             }
         }
         let end = u32::try_from(cells.connectivity.len())
@@ -411,14 +448,18 @@ pub(crate) fn to_points(flat: &[f64]) -> Vec<[f64; 3]> {
 
 /// Number of cells of a structured grid with point dims `d`, or `None` on overflow.
 pub(crate) fn structured_cells(d: [usize; 3]) -> Option<usize> {
-    d[0].saturating_sub(1).checked_mul(d[1].saturating_sub(1))?.checked_mul(d[2].saturating_sub(1))
+    d[0].saturating_sub(1)
+        .checked_mul(d[1].saturating_sub(1))?
+        .checked_mul(d[2].saturating_sub(1))
 }
 
 /// Final checks: structured dims are checked for overflow here (so that
 /// [`Grid::validate`] cannot overflow), then the grid is validated.
 pub(crate) fn finish(grid: Grid, file: &str) -> Result<Grid, VtkReadError> {
     if let Topology::Structured { dims } = &grid.topology {
-        let expected = dims[0].checked_mul(dims[1]).and_then(|v| v.checked_mul(dims[2]));
+        let expected = dims[0]
+            .checked_mul(dims[1])
+            .and_then(|v| v.checked_mul(dims[2]));
         if expected != Some(grid.points.len()) || structured_cells(*dims).is_none() {
             return Err(VtkReadError::Unsupported {
                 file: file.to_string(),
@@ -429,7 +470,10 @@ pub(crate) fn finish(grid: Grid, file: &str) -> Result<Grid, VtkReadError> {
             });
         }
     }
-    grid.validate().map_err(|source| VtkReadError::Invalid { file: file.to_string(), source })?;
+    grid.validate().map_err(|source| VtkReadError::Invalid {
+        file: file.to_string(),
+        source,
+    })?;
     Ok(grid)
 }
 
@@ -440,11 +484,30 @@ mod tests {
     #[test]
     fn fast_float_matches_std() {
         for s in [
-            "0", "-0", "1", "0.1", "-2.5e-3", "3.90799e-16", "1e22", "1e23", "123456789012345678901", "0.000123",
-            "1.7976931348623157e308", "5e-324", "2.2782070e-01", "9007199254740993", ".5", "5.", "+7",
+            "0",
+            "-0",
+            "1",
+            "0.1",
+            "-2.5e-3",
+            "3.90799e-16",
+            "1e22",
+            "1e23",
+            "123456789012345678901",
+            "0.000123",
+            "1.7976931348623157e308",
+            "5e-324",
+            "2.2782070e-01",
+            "9007199254740993",
+            ".5",
+            "5.",
+            "+7",
         ] {
             let want: f64 = s.parse().unwrap();
-            assert_eq!(parse_f64(s.as_bytes()).map(f64::to_bits), Some(want.to_bits()), "{s}");
+            assert_eq!(
+                parse_f64(s.as_bytes()).map(f64::to_bits),
+                Some(want.to_bits()),
+                "{s}"
+            );
         }
         assert!(parse_f64(b"nan").unwrap().is_nan());
         assert_eq!(parse_f64(b"-inf"), Some(f64::NEG_INFINITY));

@@ -3,8 +3,8 @@
 
 use super::VtkReadError;
 use super::common::{
-    PolyFaces, Scalar, build_cells, decode_f64, decode_i64, decode_name, is_ws, parse_f64, parse_i64,
-    structured_cells, to_points,
+    PolyFaces, Scalar, build_cells, decode_f64, decode_i64, decode_name, is_ws, parse_f64,
+    parse_i64, structured_cells, to_points,
 };
 use crate::grid::{Grid, Property, Topology};
 
@@ -33,13 +33,20 @@ impl<'a> Lexer<'a> {
 
     /// Next token without consuming it.
     fn peek(&self) -> Option<&'a [u8]> {
-        let mut l = Lexer { b: self.b, pos: self.pos };
+        let mut l = Lexer {
+            b: self.b,
+            pos: self.pos,
+        };
         l.token().map(|t| t.1)
     }
 
     /// Next token if it is on the current line.
     fn token_on_line(&mut self) -> Option<&'a [u8]> {
-        while self.b.get(self.pos).is_some_and(|&c| c != b'\n' && is_ws(c)) {
+        while self
+            .b
+            .get(self.pos)
+            .is_some_and(|&c| c != b'\n' && is_ws(c))
+        {
             self.pos += 1;
         }
         if self.b.get(self.pos).is_none_or(|&c| c == b'\n') {
@@ -50,7 +57,11 @@ impl<'a> Lexer<'a> {
 
     /// Moves past the next newline (or to the end).
     fn next_line(&mut self) {
-        match self.b.get(self.pos..).and_then(|r| r.iter().position(|&c| c == b'\n')) {
+        match self
+            .b
+            .get(self.pos..)
+            .and_then(|r| r.iter().position(|&c| c == b'\n'))
+        {
             Some(i) => self.pos += i + 1,
             None => self.pos = self.b.len(),
         }
@@ -80,7 +91,10 @@ impl<'a> Lexer<'a> {
 
     /// 1-based line number of byte position `pos`.
     fn line_at(&self, pos: usize) -> usize {
-        1 + self.b[..pos.min(self.b.len())].iter().filter(|&&c| c == b'\n').count()
+        1 + self.b[..pos.min(self.b.len())]
+            .iter()
+            .filter(|&&c| c == b'\n')
+            .count()
     }
 }
 
@@ -94,7 +108,8 @@ fn lossy(t: &[u8]) -> String {
 fn looks_like_keyword(t: &[u8]) -> bool {
     t.len() >= 2
         && t[0].is_ascii_uppercase()
-        && t.iter().all(|&c| c.is_ascii_uppercase() || c.is_ascii_digit() || c == b'_')
+        && t.iter()
+            .all(|&c| c.is_ascii_uppercase() || c.is_ascii_digit() || c == b'_')
 }
 
 fn keyword_is(t: &[u8], k: &str) -> bool {
@@ -123,10 +138,20 @@ struct Parser<'a> {
 
 impl<'a> Parser<'a> {
     fn err(&self, pos: usize, msg: impl Into<String>) -> VtkReadError {
-        VtkReadError::Legacy { file: self.file.to_string(), line: self.lx.line_at(pos), msg: msg.into() }
+        VtkReadError::Legacy {
+            file: self.file.to_string(),
+            line: self.lx.line_at(pos),
+            msg: msg.into(),
+        }
     }
 
-    fn count_err(&self, pos: usize, what: impl Into<String>, expected: usize, found: usize) -> VtkReadError {
+    fn count_err(
+        &self,
+        pos: usize,
+        what: impl Into<String>,
+        expected: usize,
+        found: usize,
+    ) -> VtkReadError {
         VtkReadError::LegacyCount {
             file: self.file.to_string(),
             line: self.lx.line_at(pos),
@@ -137,12 +162,17 @@ impl<'a> Parser<'a> {
     }
 
     fn unsupported(&self, pos: usize, what: impl std::fmt::Display) -> VtkReadError {
-        VtkReadError::Unsupported { file: self.file.to_string(), what: format!("{what} (line {})", self.lx.line_at(pos)) }
+        VtkReadError::Unsupported {
+            file: self.file.to_string(),
+            what: format!("{what} (line {})", self.lx.line_at(pos)),
+        }
     }
 
     /// A required header token.
     fn word(&mut self, what: &str, kw_pos: usize) -> Result<(usize, &'a [u8]), VtkReadError> {
-        self.lx.token().ok_or_else(|| self.err(kw_pos, format!("unexpected end of file: missing {what}")))
+        self.lx
+            .token()
+            .ok_or_else(|| self.err(kw_pos, format!("unexpected end of file: missing {what}")))
     }
 
     /// A required non-negative count in a header.
@@ -155,7 +185,8 @@ impl<'a> Parser<'a> {
 
     fn scalar(&mut self, kw_pos: usize) -> Result<Scalar, VtkReadError> {
         let (p, t) = self.word("data type", kw_pos)?;
-        Scalar::from_legacy(t).ok_or_else(|| self.unsupported(p, format!("data type '{}'", lossy(t))))
+        Scalar::from_legacy(t)
+            .ok_or_else(|| self.unsupported(p, format!("data type '{}'", lossy(t))))
     }
 
     /// In binary files the data starts after the newline ending the header line.
@@ -172,7 +203,13 @@ impl<'a> Parser<'a> {
 
     /// Reads `n` values as f64. `what` names the section for errors; `hdr` is
     /// the position of its keyword.
-    fn read_f64(&mut self, n: usize, ty: Scalar, what: &str, hdr: usize) -> Result<Vec<f64>, VtkReadError> {
+    fn read_f64(
+        &mut self,
+        n: usize,
+        ty: Scalar,
+        what: &str,
+        hdr: usize,
+    ) -> Result<Vec<f64>, VtkReadError> {
         if self.binary {
             let bytes = self.binary_bytes(n, ty, what, hdr)?;
             return Ok(decode_f64(bytes, ty, true, n));
@@ -184,7 +221,9 @@ impl<'a> Parser<'a> {
             };
             match parse_f64(t) {
                 Some(x) => v.push(x),
-                None if looks_like_keyword(t) => return Err(self.count_err(hdr, format!("{what}: values"), n, i)),
+                None if looks_like_keyword(t) => {
+                    return Err(self.count_err(hdr, format!("{what}: values"), n, i));
+                }
                 None => return Err(self.err(p, format!("{what}: invalid number '{}'", lossy(t)))),
             }
         }
@@ -192,10 +231,17 @@ impl<'a> Parser<'a> {
     }
 
     /// Reads `n` values as i64 (integer data: cells, types, offsets).
-    fn read_i64(&mut self, n: usize, ty: Scalar, what: &str, hdr: usize) -> Result<Vec<i64>, VtkReadError> {
+    fn read_i64(
+        &mut self,
+        n: usize,
+        ty: Scalar,
+        what: &str,
+        hdr: usize,
+    ) -> Result<Vec<i64>, VtkReadError> {
         if self.binary {
             let bytes = self.binary_bytes(n, ty, what, hdr)?;
-            return decode_i64(bytes, ty, true, n).map_err(|m| self.err(hdr, format!("{what}: {m}")));
+            return decode_i64(bytes, ty, true, n)
+                .map_err(|m| self.err(hdr, format!("{what}: {m}")));
         }
         let mut v = Vec::with_capacity(self.cap(n));
         for i in 0..n {
@@ -204,18 +250,34 @@ impl<'a> Parser<'a> {
             };
             match parse_i64(t) {
                 Some(x) => v.push(x),
-                None if looks_like_keyword(t) => return Err(self.count_err(hdr, format!("{what}: values"), n, i)),
+                None if looks_like_keyword(t) => {
+                    return Err(self.count_err(hdr, format!("{what}: values"), n, i));
+                }
                 None => return Err(self.err(p, format!("{what}: invalid integer '{}'", lossy(t)))),
             }
         }
         Ok(v)
     }
 
-    fn binary_bytes(&mut self, n: usize, ty: Scalar, what: &str, hdr: usize) -> Result<&'a [u8], VtkReadError> {
-        let nbytes = if ty == Scalar::Bit { n.div_ceil(8) } else { n.saturating_mul(ty.size()) };
+    fn binary_bytes(
+        &mut self,
+        n: usize,
+        ty: Scalar,
+        what: &str,
+        hdr: usize,
+    ) -> Result<&'a [u8], VtkReadError> {
+        let nbytes = if ty == Scalar::Bit {
+            n.div_ceil(8)
+        } else {
+            n.saturating_mul(ty.size())
+        };
         let rem = self.lx.remaining();
         self.lx.take(nbytes).ok_or_else(|| {
-            let found = if ty == Scalar::Bit { rem.saturating_mul(8) } else { rem / ty.size().max(1) };
+            let found = if ty == Scalar::Bit {
+                rem.saturating_mul(8)
+            } else {
+                rem / ty.size().max(1)
+            };
             self.count_err(hdr, format!("{what}: binary values"), n, found.min(n))
         })
     }
@@ -268,14 +330,17 @@ impl<'a> Parser<'a> {
             let ntup = self.count("number of tuples", p)?;
             let (tp, tname) = self.word("data type", p)?;
             let what = format!("FIELD array '{name}'");
-            let total = comps.checked_mul(ntup).ok_or_else(|| self.err(p, format!("{what}: size overflows")))?;
+            let total = comps
+                .checked_mul(ntup)
+                .ok_or_else(|| self.err(p, format!("{what}: size overflows")))?;
             if tname.eq_ignore_ascii_case(b"string") || tname.eq_ignore_ascii_case(b"utf8_string") {
                 self.skip_strings(total, p)?;
                 self.skip_optional_metadata();
                 continue;
             }
-            let ty = Scalar::from_legacy(tname)
-                .ok_or_else(|| self.unsupported(tp, format!("{what}: data type '{}'", lossy(tname))))?;
+            let ty = Scalar::from_legacy(tname).ok_or_else(|| {
+                self.unsupported(tp, format!("{what}: data type '{}'", lossy(tname)))
+            })?;
             if let Some(t) = tuples
                 && t != ntup
             {
@@ -283,7 +348,11 @@ impl<'a> Parser<'a> {
             }
             self.end_header();
             let values = self.read_f64(total, ty, &what, p)?;
-            out.push(Property { name, components: comps.max(1), values });
+            out.push(Property {
+                name,
+                components: comps.max(1),
+                values,
+            });
             self.skip_optional_metadata();
         }
         Ok(out)
@@ -304,45 +373,82 @@ impl<'a> Parser<'a> {
                 comps = parse_i64(t)
                     .and_then(|v| usize::try_from(v).ok())
                     .filter(|&c| (1..=1024).contains(&c))
-                    .ok_or_else(|| self.err(kw, format!("SCALARS '{name}': invalid component count '{}'", lossy(t))))?;
+                    .ok_or_else(|| {
+                        self.err(
+                            kw,
+                            format!("SCALARS '{name}': invalid component count '{}'", lossy(t)),
+                        )
+                    })?;
             }
         }
         self.lx.next_line();
-        if !lut && self.lx.peek().is_some_and(|t| keyword_is(t, "LOOKUP_TABLE")) {
+        if !lut
+            && self
+                .lx
+                .peek()
+                .is_some_and(|t| keyword_is(t, "LOOKUP_TABLE"))
+        {
             self.lx.token();
             self.lx.token_on_line();
             self.lx.next_line();
         }
-        let total = n.checked_mul(comps).ok_or_else(|| self.err(kw, "SCALARS size overflows"))?;
+        let total = n
+            .checked_mul(comps)
+            .ok_or_else(|| self.err(kw, "SCALARS size overflows"))?;
         let values = self.read_f64(total, ty, &format!("SCALARS '{name}'"), kw)?;
-        Ok(Property { name, components: comps, values })
+        Ok(Property {
+            name,
+            components: comps,
+            values,
+        })
     }
 
     /// `KEYWORD name type` with a fixed number of components.
-    fn fixed(&mut self, kw: usize, kwname: &str, n: usize, comps: usize) -> Result<Property, VtkReadError> {
+    fn fixed(
+        &mut self,
+        kw: usize,
+        kwname: &str,
+        n: usize,
+        comps: usize,
+    ) -> Result<Property, VtkReadError> {
         let (_, name) = self.word("array name", kw)?;
         let name = decode_name(name);
         let ty = self.scalar(kw)?;
         self.end_header();
-        let total = n.checked_mul(comps).ok_or_else(|| self.err(kw, format!("{kwname} size overflows")))?;
+        let total = n
+            .checked_mul(comps)
+            .ok_or_else(|| self.err(kw, format!("{kwname} size overflows")))?;
         let values = self.read_f64(total, ty, &format!("{kwname} '{name}'"), kw)?;
-        Ok(Property { name, components: comps, values })
+        Ok(Property {
+            name,
+            components: comps,
+            values,
+        })
     }
 
     fn parse(&mut self) -> Result<Grid, VtkReadError> {
         // Header: magic line, title line, ASCII|BINARY.
         let magic = self.lx.rest_of_line();
         if magic.len() < 5 || !magic[..5].eq_ignore_ascii_case(b"# vtk") {
-            return Err(self.err(0, "not a legacy VTK file: first line must be '# vtk DataFile Version x.y'"));
+            return Err(self.err(
+                0,
+                "not a legacy VTK file: first line must be '# vtk DataFile Version x.y'",
+            ));
         }
         self.lx.next_line(); // title
-        let (fp, fmt) = self.lx.token().ok_or_else(|| self.err(self.lx.pos, "missing ASCII/BINARY line"))?;
+        let (fp, fmt) = self
+            .lx
+            .token()
+            .ok_or_else(|| self.err(self.lx.pos, "missing ASCII/BINARY line"))?;
         self.binary = if keyword_is(fmt, "ASCII") {
             false
         } else if keyword_is(fmt, "BINARY") {
             true
         } else {
-            return Err(self.err(fp, format!("expected ASCII or BINARY, found '{}'", lossy(fmt))));
+            return Err(self.err(
+                fp,
+                format!("expected ASCII or BINARY, found '{}'", lossy(fmt)),
+            ));
         };
 
         let mut dataset = None;
@@ -384,13 +490,19 @@ impl<'a> Parser<'a> {
                     let n = self.count("point count", kw)?;
                     let ty = self.scalar(kw)?;
                     self.end_header();
-                    let total = n.checked_mul(3).ok_or_else(|| self.err(kw, "point count overflows"))?;
+                    let total = n
+                        .checked_mul(3)
+                        .ok_or_else(|| self.err(kw, "point count overflows"))?;
                     let v = self.read_f64(total, ty, "POINTS", kw)?;
                     self.skip_optional_metadata();
                     points = Some((kw, v));
                 }
                 b"DIMENSIONS" => {
-                    let d = [self.count("dimension", kw)?, self.count("dimension", kw)?, self.count("dimension", kw)?];
+                    let d = [
+                        self.count("dimension", kw)?,
+                        self.count("dimension", kw)?,
+                        self.count("dimension", kw)?,
+                    ];
                     dims = Some((kw, d));
                 }
                 b"CELLS" => {
@@ -416,21 +528,34 @@ impl<'a> Parser<'a> {
                     } else if let Some((_, d)) = dims {
                         structured_cells(d)
                     } else {
-                        types.as_ref().map(|t| t.1.len()).or(cells.as_ref().map(|c| c.1.len().saturating_sub(1)))
+                        types
+                            .as_ref()
+                            .map(|t| t.1.len())
+                            .or(cells.as_ref().map(|c| c.1.len().saturating_sub(1)))
                     };
                     if let Some(k) = known
                         && k != n
                     {
-                        let what = if is_point { "POINT_DATA count vs points" } else { "CELL_DATA count vs cells" };
+                        let what = if is_point {
+                            "POINT_DATA count vs points"
+                        } else {
+                            "CELL_DATA count vs cells"
+                        };
                         return Err(self.count_err(kw, what, k, n));
                     }
-                    section = if is_point { Section::Point(n) } else { Section::Cell(n) };
+                    section = if is_point {
+                        Section::Point(n)
+                    } else {
+                        Section::Cell(n)
+                    };
                 }
                 _ => {
                     let n = match section {
                         Section::Point(n) | Section::Cell(n) => n,
                         Section::None => {
-                            return Err(self.err(kw, format!("unrecognized keyword '{}'", lossy(t))));
+                            return Err(
+                                self.err(kw, format!("unrecognized keyword '{}'", lossy(t)))
+                            );
                         }
                     };
                     let kname = String::from_utf8_lossy(&key).into_owned();
@@ -439,26 +564,36 @@ impl<'a> Parser<'a> {
                         b"VECTORS" | b"NORMALS" => Some(self.fixed(kw, &kname, n, 3)?),
                         b"TENSORS" => Some(self.fixed(kw, &kname, n, 9)?),
                         b"TENSORS6" => Some(self.fixed(kw, &kname, n, 6)?),
-                        b"GLOBAL_IDS" | b"PEDIGREE_IDS" | b"EDGE_FLAGS" => Some(self.fixed(kw, &kname, n, 1)?),
+                        b"GLOBAL_IDS" | b"PEDIGREE_IDS" | b"EDGE_FLAGS" => {
+                            Some(self.fixed(kw, &kname, n, 1)?)
+                        }
                         b"TEXTURE_COORDINATES" => {
                             let (_, name) = self.word("array name", kw)?;
                             let name = decode_name(name);
                             let dim = self.count("texture dimension", kw)?;
                             if !(1..=3).contains(&dim) {
-                                return Err(self.err(kw, format!("texture dimension {dim} not in 1..=3")));
+                                return Err(
+                                    self.err(kw, format!("texture dimension {dim} not in 1..=3"))
+                                );
                             }
                             let ty = self.scalar(kw)?;
                             self.end_header();
                             let total = n.saturating_mul(dim);
                             let values = self.read_f64(total, ty, "TEXTURE_COORDINATES", kw)?;
-                            Some(Property { name, components: dim, values })
+                            Some(Property {
+                                name,
+                                components: dim,
+                                values,
+                            })
                         }
                         b"COLOR_SCALARS" => {
                             let (_, name) = self.word("array name", kw)?;
                             let name = decode_name(name);
                             let m = self.count("color component count", kw)?;
                             if !(1..=4).contains(&m) {
-                                return Err(self.err(kw, format!("color component count {m} not in 1..=4")));
+                                return Err(
+                                    self.err(kw, format!("color component count {m} not in 1..=4"))
+                                );
                             }
                             self.end_header();
                             let total = n.saturating_mul(m);
@@ -468,7 +603,11 @@ impl<'a> Parser<'a> {
                             } else {
                                 self.read_f64(total, Scalar::F32, "COLOR_SCALARS", kw)?
                             };
-                            Some(Property { name, components: m, values })
+                            Some(Property {
+                                name,
+                                components: m,
+                                values,
+                            })
                         }
                         b"LOOKUP_TABLE" => {
                             self.word("lookup table name", kw)?;
@@ -479,7 +618,11 @@ impl<'a> Parser<'a> {
                             self.read_f64(total, ty, "LOOKUP_TABLE", kw)?;
                             None
                         }
-                        _ => return Err(self.err(kw, format!("unrecognized keyword '{}'", lossy(t)))),
+                        _ => {
+                            return Err(
+                                self.err(kw, format!("unrecognized keyword '{}'", lossy(t)))
+                            );
+                        }
                     };
                     if let Some(p) = prop {
                         match section {
@@ -503,7 +646,12 @@ impl<'a> Parser<'a> {
                 };
                 let need = d[0].checked_mul(d[1]).and_then(|v| v.checked_mul(d[2]));
                 if need != Some(pts.len()) {
-                    return Err(self.count_err(dp, "DIMENSIONS: points", need.unwrap_or(usize::MAX), pts.len()));
+                    return Err(self.count_err(
+                        dp,
+                        "DIMENSIONS: points",
+                        need.unwrap_or(usize::MAX),
+                        pts.len(),
+                    ));
                 }
                 Topology::Structured { dims: d }
             }
@@ -514,15 +662,31 @@ impl<'a> Parser<'a> {
                 if tys.len() != ncells {
                     return Err(self.count_err(tp, "CELL_TYPES count vs CELLS", ncells, tys.len()));
                 }
-                Topology::Unstructured(build_cells(&tys, &offsets, &conn, PolyFaces::InConnectivity, self.file)?)
+                Topology::Unstructured(build_cells(
+                    &tys,
+                    &offsets,
+                    &conn,
+                    PolyFaces::InConnectivity,
+                    self.file,
+                )?)
             }
         };
-        Ok(Grid { points: pts, topology, point_data, cell_data })
+        Ok(Grid {
+            points: pts,
+            topology,
+            point_data,
+            cell_data,
+        })
     }
 
     /// Old form: `CELLS n size` then per cell `k id0 .. id(k-1)`.
     /// Returns offsets (len n+1) and connectivity.
-    fn cells_old(&mut self, kw: usize, n: usize, size: usize) -> Result<(Vec<usize>, Vec<i64>), VtkReadError> {
+    fn cells_old(
+        &mut self,
+        kw: usize,
+        n: usize,
+        size: usize,
+    ) -> Result<(Vec<usize>, Vec<i64>), VtkReadError> {
         self.end_header();
         let raw = self.read_i64(size, Scalar::I32, "CELLS", kw)?;
         let mut offsets = Vec::with_capacity(n.min(raw.len()) + 1);
@@ -533,10 +697,16 @@ impl<'a> Parser<'a> {
             let Some(&k) = raw.get(i) else {
                 return Err(self.count_err(kw, "CELLS: cells in the given size", n, c));
             };
-            let ku = usize::try_from(k).map_err(|_| self.err(kw, format!("CELLS: cell {c} has vertex count {k}")))?;
+            let ku = usize::try_from(k)
+                .map_err(|_| self.err(kw, format!("CELLS: cell {c} has vertex count {k}")))?;
             let ids = raw.get(i + 1..).and_then(|r| r.get(..ku)).ok_or_else(|| {
                 let need = i.saturating_add(1).saturating_add(ku);
-                self.count_err(kw, format!("CELLS: size (values needed through cell {c})"), need, size)
+                self.count_err(
+                    kw,
+                    format!("CELLS: size (values needed through cell {c})"),
+                    need,
+                    size,
+                )
             })?;
             conn.extend_from_slice(ids);
             offsets.push(conn.len());
@@ -549,7 +719,12 @@ impl<'a> Parser<'a> {
     }
 
     /// VTK 5.1 form: `CELLS nOffsets nConn`, `OFFSETS type`, `CONNECTIVITY type`.
-    fn cells_51(&mut self, kw: usize, noff: usize, nconn: usize) -> Result<(Vec<usize>, Vec<i64>), VtkReadError> {
+    fn cells_51(
+        &mut self,
+        kw: usize,
+        noff: usize,
+        nconn: usize,
+    ) -> Result<(Vec<usize>, Vec<i64>), VtkReadError> {
         let (op, _) = self.word("OFFSETS", kw)?;
         let ty = self.scalar(op)?;
         self.end_header();
@@ -574,7 +749,12 @@ impl<'a> Parser<'a> {
             prev = ou;
         }
         if prev != conn.len() {
-            return Err(self.count_err(op, "OFFSETS: last offset vs CONNECTIVITY size", conn.len(), prev));
+            return Err(self.count_err(
+                op,
+                "OFFSETS: last offset vs CONNECTIVITY size",
+                conn.len(),
+                prev,
+            ));
         }
         Ok((offsets, conn))
     }
@@ -582,5 +762,10 @@ impl<'a> Parser<'a> {
 
 /// Parses a legacy file into an unvalidated grid.
 pub(crate) fn parse(bytes: &[u8], file: &str) -> Result<Grid, VtkReadError> {
-    Parser { lx: Lexer { b: bytes, pos: 0 }, file, binary: false }.parse()
+    Parser {
+        lx: Lexer { b: bytes, pos: 0 },
+        file,
+        binary: false,
+    }
+    .parse()
 }

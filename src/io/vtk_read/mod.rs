@@ -2,25 +2,27 @@
 //! `STRUCTURED_GRID`) and XML `.vtu` / `.vts` files, read into a [`Grid`].
 //!
 //! **vtkio vs hand-written.** Every reader in this module is hand-written; the
-//! `vtkio` crate (0.6.3) is not used here. It was tried first on the real
-//! grids in the shared data directory and failed on most of them: it rejects
-//! all three GEOS `.vtu` files (raw appended data with `UInt64` headers, base64
-//! inline data whose header is padded separately — the normal VTK layout — with
-//! the LZMA compressor, and polyhedra given by `faces`/`faceoffsets`), it
-//! rejects three of the seven legacy files (`CELL_TYPES` with a double space,
-//! `SCALARS` without a component count, the polyhedron face stream in
-//! `CELLS`), it silently drops legacy `FIELD` arrays, and it prints parse errors
-//! to stdout. It has no support for VTK 5.1 legacy `OFFSETS`/`CONNECTIVITY` or
-//! for the VTK 9.4 polyhedron arrays either. Patching around that would have
-//! meant parsing most things twice, so the formats are read directly:
-//! `legacy` is a byte-level tokenizer with a fast float parser (no per-token
-//! allocation), and `xml` is a small XML scanner that stops at
-//! `<AppendedData>` (the raw bytes after it are not XML) plus VTK's
-//! header/block decoding, with `flate2` (zlib), `xz2` (LZMA/xz) and `lz4_flex`
-//! (LZ4) as decompressors and a base64 decoder that copes with VTK's separately
-//! padded header and data chunks. Every count read from a file is checked
-//! against the bytes actually present before anything is allocated, so bad
-//! input gives a [`VtkReadError`] naming the file, never a panic.
+//! `vtkio` crate (0.6.3, still listed in Cargo.toml) is not used here. It was
+//! tried first on the real grids in the shared data directory and failed on
+//! six of the eleven files: all three GEOS `.vtu` files are rejected (raw
+//! appended binary data (box_hybrid_mesh) fails in its XML deserializer; base64
+//! inline data whose header and data are padded separately — VTK's normal
+//! layout — fails in its base64 decoder; `faces`/`faceoffsets` polyhedron
+//! arrays are refused), and three legacy files are rejected because its
+//! `CellType` enum has no pentagonal (15) or hexagonal (16) prism. Of the files
+//! it did read, it silently dropped the legacy `FIELD` point and cell arrays
+//! (AngularSector.vtk), and on failure its parser prints to stdout. It also
+//! has no VTK 5.1 legacy `OFFSETS`/`CONNECTIVITY` and no VTK 9.4 polyhedron
+//! arrays. Working around all of that would have meant parsing most files
+//! twice, so both formats are read directly: `legacy` is a byte-level
+//! tokenizer with an exact fast float parser (no per-token allocation), and
+//! `xml` is a small XML scanner that stops at `<AppendedData>` (the raw bytes
+//! after it are not XML) plus VTK's block-header decoding, with `flate2`
+//! (zlib), `xz2` (LZMA/xz) and `lz4_flex` (LZ4) as decompressors and its own
+//! base64 decoder that accepts padding between VTK's header and data chunks.
+//! Every count read from a file is checked against the bytes actually present
+//! before anything is allocated, so bad input gives a [`VtkReadError`] naming
+//! the file, never a panic or a huge allocation.
 //!
 //! After parsing, the grid goes through [`Grid::validate`]; its errors are
 //! wrapped in [`VtkReadError::Invalid`] with the file name. Cell data arrays,
@@ -149,7 +151,10 @@ pub fn read_vtk(path: &Path) -> Result<Grid, VtkReadError> {
         "vtu" | "vts" => parse_vtk_xml,
         _ => return Err(VtkReadError::UnsupportedExtension { file, ext }),
     };
-    let bytes = std::fs::read(path).map_err(|source| VtkReadError::Io { file: file.clone(), source })?;
+    let bytes = std::fs::read(path).map_err(|source| VtkReadError::Io {
+        file: file.clone(),
+        source,
+    })?;
     parse(&bytes, &file)
 }
 

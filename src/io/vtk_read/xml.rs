@@ -3,7 +3,9 @@
 //! `UInt64` block headers, either byte order, and zlib / LZMA / LZ4 compression.
 
 use super::VtkReadError;
-use super::common::{PolyFaces, Scalar, build_cells, decode_f64, decode_i64, is_ws, parse_f64, parse_i64, to_points};
+use super::common::{
+    PolyFaces, Scalar, build_cells, decode_f64, decode_i64, is_ws, parse_f64, parse_i64, to_points,
+};
 use crate::grid::{Cells, Grid, Property, Topology};
 use std::borrow::Cow;
 use std::io::Read;
@@ -22,7 +24,10 @@ struct Elem<'a> {
 
 impl Elem<'_> {
     fn attr(&self, key: &str) -> Option<&str> {
-        self.attrs.iter().find(|(k, _)| *k == key).map(|(_, v)| v.as_str())
+        self.attrs
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, v)| v.as_str())
     }
 }
 
@@ -46,7 +51,9 @@ fn find(b: &[u8], from: usize, pat: &[u8]) -> Option<usize> {
     if pat.len() == 1 {
         return hay.iter().position(|&c| c == pat[0]).map(|p| p + from);
     }
-    hay.windows(pat.len()).position(|w| w == pat).map(|p| p + from)
+    hay.windows(pat.len())
+        .position(|w| w == pat)
+        .map(|p| p + from)
 }
 
 fn decode_entities(raw: &[u8]) -> String {
@@ -97,7 +104,11 @@ fn decode_entities(raw: &[u8]) -> String {
 /// Scans the XML markup up to (and including) the `<AppendedData>` start
 /// tag; the bytes after it are raw data, not XML.
 fn scan<'a>(b: &'a [u8], file: &str) -> Result<Doc<'a>, VtkReadError> {
-    let err = |element: &str, msg: String| VtkReadError::Xml { file: file.to_string(), element: element.to_string(), msg };
+    let err = |element: &str, msg: String| VtkReadError::Xml {
+        file: file.to_string(),
+        element: element.to_string(),
+        msg,
+    };
     let mut elems: Vec<Elem<'a>> = Vec::new();
     let mut stack: Vec<usize> = Vec::new();
     let mut roots = Vec::new();
@@ -116,14 +127,17 @@ fn scan<'a>(b: &'a [u8], file: &str) -> Result<Doc<'a>, VtkReadError> {
         }
         let rest = &b[i..];
         let skip_to = |pat: &[u8], what: &str| {
-            find(b, i + 1, pat).map(|p| p + pat.len()).ok_or_else(|| err("document", format!("unterminated {what}")))
+            find(b, i + 1, pat)
+                .map(|p| p + pat.len())
+                .ok_or_else(|| err("document", format!("unterminated {what}")))
         };
         if rest.starts_with(b"<?") {
             i = skip_to(b"?>", "processing instruction")?;
         } else if rest.starts_with(b"<!--") {
             i = skip_to(b"-->", "comment")?;
         } else if rest.starts_with(b"<![CDATA[") {
-            let e = find(b, i + 9, b"]]>").ok_or_else(|| err("document", "unterminated CDATA section".into()))?;
+            let e = find(b, i + 9, b"]]>")
+                .ok_or_else(|| err("document", "unterminated CDATA section".into()))?;
             if let Some(&top) = stack.last() {
                 elems[top].text.push((i + 9, e));
             }
@@ -131,10 +145,14 @@ fn scan<'a>(b: &'a [u8], file: &str) -> Result<Doc<'a>, VtkReadError> {
         } else if rest.starts_with(b"<!") {
             i = skip_to(b">", "declaration")?;
         } else if rest.starts_with(b"</") {
-            let e = find(b, i, b">").ok_or_else(|| err("document", "unterminated end tag".into()))?;
+            let e =
+                find(b, i, b">").ok_or_else(|| err("document", "unterminated end tag".into()))?;
             let name = String::from_utf8_lossy(b[i + 2..e].trim_ascii());
             let Some(top) = stack.pop() else {
-                return Err(err(&format!("</{name}>"), "end tag without a start tag".into()));
+                return Err(err(
+                    &format!("</{name}>"),
+                    "end tag without a start tag".into(),
+                ));
             };
             if elems[top].name != name {
                 return Err(err(
@@ -186,25 +204,43 @@ fn scan<'a>(b: &'a [u8], file: &str) -> Result<Doc<'a>, VtkReadError> {
     if appended.is_none()
         && let Some(&top) = stack.last()
     {
-        return Err(err(&format!("<{}>", elems[top].name), "not closed (truncated file?)".into()));
+        return Err(err(
+            &format!("<{}>", elems[top].name),
+            "not closed (truncated file?)".into(),
+        ));
     }
-    let root = *roots.first().ok_or_else(|| err("document", "no root element".into()))?;
-    Ok(Doc { b, elems, root, appended })
+    let root = *roots
+        .first()
+        .ok_or_else(|| err("document", "no root element".into()))?;
+    Ok(Doc {
+        b,
+        elems,
+        root,
+        appended,
+    })
 }
 
 /// Parses a start tag whose name begins at `j`. Returns the element, whether
 /// it is self-closing and the position after `>`.
-fn start_tag<'a>(b: &'a [u8], mut j: usize, file: &str) -> Result<(Elem<'a>, bool, usize), VtkReadError> {
+fn start_tag<'a>(
+    b: &'a [u8],
+    mut j: usize,
+    file: &str,
+) -> Result<(Elem<'a>, bool, usize), VtkReadError> {
     let err = |element: &str, msg: &str| VtkReadError::Xml {
         file: file.to_string(),
         element: element.to_string(),
         msg: msg.to_string(),
     };
     let ns = j;
-    while b.get(j).is_some_and(|&c| !is_ws(c) && c != b'/' && c != b'>') {
+    while b
+        .get(j)
+        .is_some_and(|&c| !is_ws(c) && c != b'/' && c != b'>')
+    {
         j += 1;
     }
-    let name = std::str::from_utf8(&b[ns..j]).map_err(|_| err("document", "tag name is not UTF-8"))?;
+    let name =
+        std::str::from_utf8(&b[ns..j]).map_err(|_| err("document", "tag name is not UTF-8"))?;
     if name.is_empty() {
         return Err(err("document", "empty tag name"));
     }
@@ -216,17 +252,41 @@ fn start_tag<'a>(b: &'a [u8], mut j: usize, file: &str) -> Result<(Elem<'a>, boo
         }
         match b.get(j) {
             None => return Err(err(&tag, "unterminated start tag")),
-            Some(b'>') => return Ok((Elem { name, attrs, children: Vec::new(), text: Vec::new() }, false, j + 1)),
+            Some(b'>') => {
+                return Ok((
+                    Elem {
+                        name,
+                        attrs,
+                        children: Vec::new(),
+                        text: Vec::new(),
+                    },
+                    false,
+                    j + 1,
+                ));
+            }
             Some(b'/') if b.get(j + 1) == Some(&b'>') => {
-                return Ok((Elem { name, attrs, children: Vec::new(), text: Vec::new() }, true, j + 2));
+                return Ok((
+                    Elem {
+                        name,
+                        attrs,
+                        children: Vec::new(),
+                        text: Vec::new(),
+                    },
+                    true,
+                    j + 2,
+                ));
             }
             Some(_) => {}
         }
         let ks = j;
-        while b.get(j).is_some_and(|&c| !is_ws(c) && c != b'=' && c != b'>' && c != b'/') {
+        while b
+            .get(j)
+            .is_some_and(|&c| !is_ws(c) && c != b'=' && c != b'>' && c != b'/')
+        {
             j += 1;
         }
-        let key = std::str::from_utf8(&b[ks..j]).map_err(|_| err(&tag, "attribute name is not UTF-8"))?;
+        let key =
+            std::str::from_utf8(&b[ks..j]).map_err(|_| err(&tag, "attribute name is not UTF-8"))?;
         if key.is_empty() {
             return Err(err(&tag, "malformed attribute"));
         }
@@ -244,7 +304,8 @@ fn start_tag<'a>(b: &'a [u8], mut j: usize, file: &str) -> Result<(Elem<'a>, boo
             Some(&q @ (b'"' | b'\'')) => q,
             _ => return Err(err(&tag, &format!("attribute '{key}' value is not quoted"))),
         };
-        let ve = find(b, j + 1, &[q]).ok_or_else(|| err(&tag, &format!("unterminated value of attribute '{key}'")))?;
+        let ve = find(b, j + 1, &[q])
+            .ok_or_else(|| err(&tag, &format!("unterminated value of attribute '{key}'")))?;
         attrs.push((key, decode_entities(&b[j + 1..ve])));
         j = ve + 1;
     }
@@ -270,7 +331,11 @@ fn base64_decode(text: &[u8]) -> Result<Vec<u8>, String> {
         // `n` significant characters (2..=4), the rest is padding.
         let mut acc = 0u32;
         for (k, &c) in quad.iter().enumerate() {
-            let v = if k < n { val(c).ok_or_else(|| format!("invalid base64 character '{}'", c as char))? } else { 0 };
+            let v = if k < n {
+                val(c).ok_or_else(|| format!("invalid base64 character '{}'", c as char))?
+            } else {
+                0
+            };
             acc = (acc << 6) | v;
         }
         let bytes = acc.to_be_bytes();
@@ -302,7 +367,10 @@ fn base64_decode(text: &[u8]) -> Result<Vec<u8>, String> {
             return Err("base64 data after incomplete padding".into());
         }
         if val(c).is_none() {
-            return Err(format!("invalid base64 character '{}'", (c as char).escape_default()));
+            return Err(format!(
+                "invalid base64 character '{}'",
+                (c as char).escape_default()
+            ));
         }
         quad[n] = c;
         n += 1;
@@ -351,10 +419,20 @@ impl<'a> Ctx<'a, '_> {
     }
 
     fn xml_err(&self, element: impl Into<String>, msg: impl Into<String>) -> VtkReadError {
-        VtkReadError::Xml { file: self.file.to_string(), element: element.into(), msg: msg.into() }
+        VtkReadError::Xml {
+            file: self.file.to_string(),
+            element: element.into(),
+            msg: msg.into(),
+        }
     }
 
-    fn count_err(&self, element: impl Into<String>, what: impl Into<String>, expected: usize, found: usize) -> VtkReadError {
+    fn count_err(
+        &self,
+        element: impl Into<String>,
+        what: impl Into<String>,
+        expected: usize,
+        found: usize,
+    ) -> VtkReadError {
         VtkReadError::XmlCount {
             file: self.file.to_string(),
             element: element.into(),
@@ -365,25 +443,37 @@ impl<'a> Ctx<'a, '_> {
     }
 
     fn unsupported(&self, what: String) -> VtkReadError {
-        VtkReadError::Unsupported { file: self.file.to_string(), what }
+        VtkReadError::Unsupported {
+            file: self.file.to_string(),
+            what,
+        }
     }
 
     fn child(&self, e: &Elem, name: &str) -> Option<usize> {
-        e.children.iter().copied().find(|&c| self.el(c).name == name)
+        e.children
+            .iter()
+            .copied()
+            .find(|&c| self.el(c).name == name)
     }
 
     fn arrays(&self, e: &Elem) -> impl Iterator<Item = usize> + '_ {
         let kids: Vec<usize> = e.children.clone();
-        kids.into_iter().filter(|&c| matches!(self.el(c).name, "DataArray" | "Array"))
+        kids.into_iter()
+            .filter(|&c| matches!(self.el(c).name, "DataArray" | "Array"))
     }
 
     fn named_array(&self, e: &Elem, name: &str) -> Option<usize> {
-        self.arrays(e).find(|&c| self.el(c).attr("Name") == Some(name))
+        self.arrays(e)
+            .find(|&c| self.el(c).attr("Name") == Some(name))
     }
 
     fn usize_attr(&self, e: &Elem, key: &str, element: &str) -> Result<usize, VtkReadError> {
-        let v = e.attr(key).ok_or_else(|| self.xml_err(element, format!("missing attribute {key}")))?;
-        v.trim().parse().map_err(|_| self.xml_err(element, format!("invalid {key}=\"{v}\"")))
+        let v = e
+            .attr(key)
+            .ok_or_else(|| self.xml_err(element, format!("missing attribute {key}")))?;
+        v.trim()
+            .parse()
+            .map_err(|_| self.xml_err(element, format!("invalid {key}=\"{v}\"")))
     }
 
     fn text(&self, e: &Elem) -> Cow<'a, [u8]> {
@@ -406,10 +496,18 @@ impl<'a> Ctx<'a, '_> {
         let s = data.get(k.checked_mul(hs)?..k.checked_add(1)?.checked_mul(hs)?)?;
         Some(if self.h64 {
             let a: [u8; 8] = s.try_into().ok()?;
-            if self.big { u64::from_be_bytes(a) } else { u64::from_le_bytes(a) }
+            if self.big {
+                u64::from_be_bytes(a)
+            } else {
+                u64::from_le_bytes(a)
+            }
         } else {
             let a: [u8; 4] = s.try_into().ok()?;
-            u64::from(if self.big { u32::from_be_bytes(a) } else { u32::from_le_bytes(a) })
+            u64::from(if self.big {
+                u32::from_be_bytes(a)
+            } else {
+                u32::from_le_bytes(a)
+            })
         })
     }
 
@@ -418,17 +516,21 @@ impl<'a> Ctx<'a, '_> {
         let hs: usize = if self.h64 { 8 } else { 4 };
         let word = |k: usize, what: &str| {
             let w = self.header_word(data, k).ok_or_else(|| {
-                self.count_err(name, format!("{what} (binary header bytes)"), (k + 1) * hs, data.len())
+                self.count_err(
+                    name,
+                    format!("{what} (binary header bytes)"),
+                    (k + 1) * hs,
+                    data.len(),
+                )
             })?;
             usize::try_from(w).map_err(|_| self.xml_err(name, format!("{what} {w} out of range")))
         };
         if self.comp == Compressor::None {
             let n = word(0, "byte count")?;
             let body = data.get(hs..).unwrap_or(&[]);
-            return body
-                .get(..n)
-                .map(Cow::Borrowed)
-                .ok_or_else(|| self.count_err(name, "data bytes given by the header", n, body.len()));
+            return body.get(..n).map(Cow::Borrowed).ok_or_else(|| {
+                self.count_err(name, "data bytes given by the header", n, body.len())
+            });
         }
         let nb = word(0, "block count")?;
         let bs = word(1, "block size")?;
@@ -438,15 +540,28 @@ impl<'a> Ctx<'a, '_> {
             .and_then(|v| v.checked_mul(hs))
             .filter(|&h| h <= data.len())
             .ok_or_else(|| {
-                self.count_err(name, "compression header bytes", nb.saturating_add(3).saturating_mul(hs), data.len())
+                self.count_err(
+                    name,
+                    "compression header bytes",
+                    nb.saturating_add(3).saturating_mul(hs),
+                    data.len(),
+                )
             })?;
         let mut out = Vec::new();
         let mut pos = head;
         for k in 0..nb {
             let cs = word(3 + k, "compressed block size")?;
-            let blk = pos.checked_add(cs).and_then(|e| data.get(pos..e)).ok_or_else(|| {
-                self.count_err(name, format!("bytes of compressed block {k}"), cs, data.len().saturating_sub(pos))
-            })?;
+            let blk = pos
+                .checked_add(cs)
+                .and_then(|e| data.get(pos..e))
+                .ok_or_else(|| {
+                    self.count_err(
+                        name,
+                        format!("bytes of compressed block {k}"),
+                        cs,
+                        data.len().saturating_sub(pos),
+                    )
+                })?;
             let expect = if k + 1 == nb && last != 0 { last } else { bs };
             self.decompress(blk, expect, &mut out, name, k)?;
             pos += cs;
@@ -454,9 +569,21 @@ impl<'a> Ctx<'a, '_> {
         Ok(Cow::Owned(out))
     }
 
-    fn decompress(&self, blk: &[u8], expect: usize, out: &mut Vec<u8>, name: &str, k: usize) -> Result<(), VtkReadError> {
+    fn decompress(
+        &self,
+        blk: &[u8],
+        expect: usize,
+        out: &mut Vec<u8>,
+        name: &str,
+        k: usize,
+    ) -> Result<(), VtkReadError> {
         let before = out.len();
-        let fail = |e: String| self.xml_err(name, format!("block {k}: {:?} decompression failed: {e}", self.comp));
+        let fail = |e: String| {
+            self.xml_err(
+                name,
+                format!("block {k}: {:?} decompression failed: {e}", self.comp),
+            )
+        };
         match self.comp {
             Compressor::None => out.extend_from_slice(blk),
             Compressor::Zlib => {
@@ -466,7 +593,8 @@ impl<'a> Ctx<'a, '_> {
                     .map_err(|e| fail(e.to_string()))?;
             }
             Compressor::Lzma => {
-                let stream = xz2::stream::Stream::new_auto_decoder(LZMA_MEMLIMIT, 0).map_err(|e| fail(e.to_string()))?;
+                let stream = xz2::stream::Stream::new_auto_decoder(LZMA_MEMLIMIT, 0)
+                    .map_err(|e| fail(e.to_string()))?;
                 xz2::read::XzDecoder::new_stream(blk, stream)
                     .take(expect as u64)
                     .read_to_end(out)
@@ -475,42 +603,75 @@ impl<'a> Ctx<'a, '_> {
             Compressor::Lz4 => {
                 // LZ4 cannot expand more than ~255x: refuse headers claiming more.
                 if expect > blk.len().saturating_mul(255).saturating_add(64) {
-                    return Err(self.count_err(name, format!("plausible size of LZ4 block {k}"), blk.len() * 255, expect));
+                    return Err(self.count_err(
+                        name,
+                        format!("plausible size of LZ4 block {k}"),
+                        blk.len() * 255,
+                        expect,
+                    ));
                 }
                 let mut buf = vec![0u8; expect];
-                let n = lz4_flex::block::decompress_into(blk, &mut buf).map_err(|e| fail(e.to_string()))?;
+                let n = lz4_flex::block::decompress_into(blk, &mut buf)
+                    .map_err(|e| fail(e.to_string()))?;
                 out.extend_from_slice(&buf[..n.min(expect)]);
             }
         }
         let got = out.len() - before;
         if got != expect {
-            return Err(self.count_err(name, format!("decompressed bytes of block {k}"), expect, got));
+            return Err(self.count_err(
+                name,
+                format!("decompressed bytes of block {k}"),
+                expect,
+                got,
+            ));
         }
         Ok(())
     }
 
     fn payload(&self, e: &Elem<'a>) -> Result<Payload<'a>, VtkReadError> {
         let name = label(e);
-        let fmt = e.attr("format").ok_or_else(|| self.xml_err(&name, "missing attribute format"))?;
+        let fmt = e
+            .attr("format")
+            .ok_or_else(|| self.xml_err(&name, "missing attribute format"))?;
         match fmt {
             "ascii" => Ok(Payload::Text(self.text(e))),
             "binary" => {
                 let raw = base64_decode(&self.text(e)).map_err(|m| self.xml_err(&name, m))?;
-                Ok(Payload::Bytes(Cow::Owned(self.unblock(&raw, &name)?.into_owned())))
+                Ok(Payload::Bytes(Cow::Owned(
+                    self.unblock(&raw, &name)?.into_owned(),
+                )))
             }
             "appended" => {
-                let app = self.doc.appended.ok_or_else(|| self.xml_err(&name, "format=\"appended\" but no <AppendedData>"))?;
-                let off = self.usize_attr(e, "offset", &name)?;
-                let start = app.start.checked_add(off).filter(|&s| s <= app.end).ok_or_else(|| {
-                    self.count_err(&name, "appended offset within the appended data", app.end - app.start, off)
+                let app = self.doc.appended.ok_or_else(|| {
+                    self.xml_err(&name, "format=\"appended\" but no <AppendedData>")
                 })?;
+                let off = self.usize_attr(e, "offset", &name)?;
+                let start = app
+                    .start
+                    .checked_add(off)
+                    .filter(|&s| s <= app.end)
+                    .ok_or_else(|| {
+                        self.count_err(
+                            &name,
+                            "appended offset within the appended data",
+                            app.end - app.start,
+                            off,
+                        )
+                    })?;
                 if app.base64 {
                     let next = self.app_offsets.iter().copied().find(|&o| o > off);
-                    let end = next.and_then(|o| app.start.checked_add(o)).map_or(app.end, |e| e.min(app.end));
-                    let raw = base64_decode(&self.doc.b[start..end]).map_err(|m| self.xml_err(&name, m))?;
-                    Ok(Payload::Bytes(Cow::Owned(self.unblock(&raw, &name)?.into_owned())))
+                    let end = next
+                        .and_then(|o| app.start.checked_add(o))
+                        .map_or(app.end, |e| e.min(app.end));
+                    let raw = base64_decode(&self.doc.b[start..end])
+                        .map_err(|m| self.xml_err(&name, m))?;
+                    Ok(Payload::Bytes(Cow::Owned(
+                        self.unblock(&raw, &name)?.into_owned(),
+                    )))
                 } else {
-                    Ok(Payload::Bytes(self.unblock(&self.doc.b[start..app.end], &name)?))
+                    Ok(Payload::Bytes(
+                        self.unblock(&self.doc.b[start..app.end], &name)?,
+                    ))
                 }
             }
             other => Err(self.unsupported(format!("{name}: format '{other}'"))),
@@ -518,7 +679,9 @@ impl<'a> Ctx<'a, '_> {
     }
 
     fn scalar(&self, e: &Elem) -> Result<Scalar, VtkReadError> {
-        let t = e.attr("type").ok_or_else(|| self.xml_err(label(e), "missing attribute type"))?;
+        let t = e
+            .attr("type")
+            .ok_or_else(|| self.xml_err(label(e), "missing attribute type"))?;
         Scalar::from_xml(t).ok_or_else(|| self.unsupported(format!("{}: type '{t}'", label(e))))
     }
 
@@ -530,13 +693,15 @@ impl<'a> Ctx<'a, '_> {
                 .parse::<usize>()
                 .ok()
                 .filter(|c| (1..=65536).contains(c))
-                .ok_or_else(|| self.xml_err(label(e), format!("invalid NumberOfComponents=\"{v}\""))),
+                .ok_or_else(|| {
+                    self.xml_err(label(e), format!("invalid NumberOfComponents=\"{v}\""))
+                }),
         }
     }
 
     fn check_bytes(&self, e: &Elem, b: &[u8], ty: Scalar) -> Result<(), VtkReadError> {
         let size = ty.size().max(1);
-        if b.len() % size != 0 {
+        if !b.len().is_multiple_of(size) {
             return Err(self.count_err(
                 label(e),
                 format!("bytes (a multiple of {size}, the size of {ty:?})"),
@@ -553,8 +718,12 @@ impl<'a> Ctx<'a, '_> {
         match self.payload(e)? {
             Payload::Text(t) => tokens(&t)
                 .map(|tok| {
-                    parse_f64(tok)
-                        .ok_or_else(|| self.xml_err(label(e), format!("invalid number '{}'", String::from_utf8_lossy(tok))))
+                    parse_f64(tok).ok_or_else(|| {
+                        self.xml_err(
+                            label(e),
+                            format!("invalid number '{}'", String::from_utf8_lossy(tok)),
+                        )
+                    })
                 })
                 .collect(),
             Payload::Bytes(b) => {
@@ -570,8 +739,12 @@ impl<'a> Ctx<'a, '_> {
         match self.payload(e)? {
             Payload::Text(t) => tokens(&t)
                 .map(|tok| {
-                    parse_i64(tok)
-                        .ok_or_else(|| self.xml_err(label(e), format!("invalid integer '{}'", String::from_utf8_lossy(tok))))
+                    parse_i64(tok).ok_or_else(|| {
+                        self.xml_err(
+                            label(e),
+                            format!("invalid integer '{}'", String::from_utf8_lossy(tok)),
+                        )
+                    })
                 })
                 .collect(),
             Payload::Bytes(b) => {
@@ -592,29 +765,52 @@ impl<'a> Ctx<'a, '_> {
 
     /// XML offsets (end offsets, no leading 0) into an array of length `len`,
     /// returned with the leading 0.
-    fn end_offsets(&self, i: usize, n: usize, len: Option<usize>) -> Result<Vec<usize>, VtkReadError> {
+    fn end_offsets(
+        &self,
+        i: usize,
+        n: usize,
+        len: Option<usize>,
+    ) -> Result<Vec<usize>, VtkReadError> {
         let raw = self.ints(i, n, "values (one per cell)")?;
         let mut out = Vec::with_capacity(n + 1);
         out.push(0);
         let mut prev = 0usize;
         for (k, &o) in raw.iter().enumerate() {
-            let ou = usize::try_from(o).ok().filter(|&o| o >= prev).ok_or_else(|| {
-                self.xml_err(label(self.el(i)), format!("value {o} at index {k} is negative or decreasing"))
-            })?;
+            let ou = usize::try_from(o)
+                .ok()
+                .filter(|&o| o >= prev)
+                .ok_or_else(|| {
+                    self.xml_err(
+                        label(self.el(i)),
+                        format!("value {o} at index {k} is negative or decreasing"),
+                    )
+                })?;
             out.push(ou);
             prev = ou;
         }
         if let Some(len) = len
             && prev > len
         {
-            return Err(self.count_err(label(self.el(i)), "last offset within the indexed array", len, prev));
+            return Err(self.count_err(
+                label(self.el(i)),
+                "last offset within the indexed array",
+                len,
+                prev,
+            ));
         }
         Ok(out)
     }
 
     /// The data arrays of a `<PointData>` / `<CellData>` element.
-    fn properties(&self, parent: Option<usize>, n: usize, kind: &str) -> Result<Vec<Property>, VtkReadError> {
-        let Some(p) = parent else { return Ok(Vec::new()) };
+    fn properties(
+        &self,
+        parent: Option<usize>,
+        n: usize,
+        kind: &str,
+    ) -> Result<Vec<Property>, VtkReadError> {
+        let Some(p) = parent else {
+            return Ok(Vec::new());
+        };
         let mut out = Vec::new();
         for i in self.arrays(self.el(p)) {
             let e = self.el(i);
@@ -633,7 +829,11 @@ impl<'a> Ctx<'a, '_> {
                 ));
             }
             let name = e.attr("Name").unwrap_or("").to_string();
-            out.push(Property { name, components: comps, values });
+            out.push(Property {
+                name,
+                components: comps,
+                values,
+            });
         }
         Ok(out)
     }
@@ -655,7 +855,12 @@ impl<'a> Ctx<'a, '_> {
         let v = self.values_f64(arr)?;
         let expected = np.saturating_mul(3);
         if v.len() != expected {
-            return Err(self.count_err(label(e), format!("values (NumberOfPoints {np} x 3)"), expected, v.len()));
+            return Err(self.count_err(
+                label(e),
+                format!("values (NumberOfPoints {np} x 3)"),
+                expected,
+                v.len(),
+            ));
         }
         Ok(v)
     }
@@ -666,12 +871,25 @@ impl<'a> Ctx<'a, '_> {
         let points = self.points(piece, np)?;
         let cells = match self.child(piece, "Cells") {
             Some(ce) => self.cells(self.el(ce), nc)?,
-            None if nc == 0 => Cells { offsets: vec![0], ..Cells::default() },
-            None => return Err(self.xml_err("<Piece>", format!("NumberOfCells={nc} but no <Cells> element"))),
+            None if nc == 0 => Cells {
+                offsets: vec![0],
+                ..Cells::default()
+            },
+            None => {
+                return Err(self.xml_err(
+                    "<Piece>",
+                    format!("NumberOfCells={nc} but no <Cells> element"),
+                ));
+            }
         };
         let point_data = self.properties(self.child(piece, "PointData"), np, "NumberOfPoints")?;
         let cell_data = self.properties(self.child(piece, "CellData"), nc, "NumberOfCells")?;
-        Ok(Grid { points: to_points(&points), topology: Topology::Unstructured(cells), point_data, cell_data })
+        Ok(Grid {
+            points: to_points(&points),
+            topology: Topology::Unstructured(cells),
+            point_data,
+            cell_data,
+        })
     }
 
     fn cells(&self, ce: &Elem, nc: usize) -> Result<Cells, VtkReadError> {
@@ -684,7 +902,12 @@ impl<'a> Ctx<'a, '_> {
         let offsets = self.end_offsets(need("offsets")?, nc, None)?;
         let last = offsets.last().copied().unwrap_or(0);
         if last != conn.len() {
-            return Err(self.count_err(label(self.el(conn_i)), "values (the last cell offset)", last, conn.len()));
+            return Err(self.count_err(
+                label(self.el(conn_i)),
+                "values (the last cell offset)",
+                last,
+                conn.len(),
+            ));
         }
         let types = self.ints(need("types")?, nc, "values (NumberOfCells)")?;
         let has_poly = types.contains(&42);
@@ -692,7 +915,10 @@ impl<'a> Ctx<'a, '_> {
         let mut ranges: Vec<Option<(usize, usize)>> = Vec::new();
         if !has_poly {
             // faces arrays, if any, are irrelevant
-        } else if let (Some(fi), Some(foi)) = (self.named_array(ce, "faces"), self.named_array(ce, "faceoffsets")) {
+        } else if let (Some(fi), Some(foi)) = (
+            self.named_array(ce, "faces"),
+            self.named_array(ce, "faceoffsets"),
+        ) {
             // VTK < 9.4: per polyhedron a legacy face stream; faceoffsets are
             // end offsets, -1 for other cells.
             stream = self.values_i64(fi)?;
@@ -703,14 +929,21 @@ impl<'a> Ctx<'a, '_> {
                     ranges.push(None);
                     continue;
                 }
-                let end = usize::try_from(o).ok().filter(|&e| e >= prev && e <= stream.len()).ok_or_else(|| {
-                    self.xml_err(label(self.el(foi)), format!("value {o} for cell {c} is decreasing or beyond 'faces'"))
-                })?;
+                let end = usize::try_from(o)
+                    .ok()
+                    .filter(|&e| e >= prev && e <= stream.len())
+                    .ok_or_else(|| {
+                        self.xml_err(
+                            label(self.el(foi)),
+                            format!("value {o} for cell {c} is decreasing or beyond 'faces'"),
+                        )
+                    })?;
                 ranges.push(Some((prev, end)));
                 prev = end;
             }
         } else {
-            let find = |a: &str, b: &str| self.named_array(ce, a).or_else(|| self.named_array(ce, b));
+            let find =
+                |a: &str, b: &str| self.named_array(ce, a).or_else(|| self.named_array(ce, b));
             let (Some(pti), Some(poi), Some(fci), Some(foi)) = (
                 find("polyhedron_to_faces", "PolyhedronToFaces"),
                 find("polyhedron_offsets", "PolyhedronOffsets"),
@@ -738,9 +971,15 @@ impl<'a> Ctx<'a, '_> {
                 let start = stream.len();
                 stream.push((b - a) as i64);
                 for &f in &p2f[a..b] {
-                    let fu = usize::try_from(f).ok().filter(|&f| f < nf_total).ok_or_else(|| {
-                        self.xml_err(label(self.el(pti)), format!("cell {c} references face {f} of {nf_total}"))
-                    })?;
+                    let fu = usize::try_from(f)
+                        .ok()
+                        .filter(|&f| f < nf_total)
+                        .ok_or_else(|| {
+                            self.xml_err(
+                                label(self.el(pti)),
+                                format!("cell {c} references face {f} of {nf_total}"),
+                            )
+                        })?;
                     let ids = &fconn[foff[fu]..foff[fu + 1]];
                     stream.push(ids.len() as i64);
                     stream.extend_from_slice(ids);
@@ -748,17 +987,32 @@ impl<'a> Ctx<'a, '_> {
                 ranges.push(Some((start, stream.len())));
             }
         }
-        let faces = if has_poly { PolyFaces::Streams { stream: &stream, ranges: &ranges } } else { PolyFaces::InConnectivity };
+        let faces = if has_poly {
+            PolyFaces::Streams {
+                stream: &stream,
+                ranges: &ranges,
+            }
+        } else {
+            PolyFaces::InConnectivity
+        };
         build_cells(&types, &offsets, &conn, faces, self.file)
     }
 
     fn unstructured(&self, ds: &Elem) -> Result<Grid, VtkReadError> {
-        let pieces: Vec<usize> = ds.children.iter().copied().filter(|&c| self.el(c).name == "Piece").collect();
+        let pieces: Vec<usize> = ds
+            .children
+            .iter()
+            .copied()
+            .filter(|&c| self.el(c).name == "Piece")
+            .collect();
         let mut grids = pieces.iter().map(|&p| self.unstructured_piece(self.el(p)));
         let Some(first) = grids.next() else {
             return Ok(Grid {
                 points: Vec::new(),
-                topology: Topology::Unstructured(Cells { offsets: vec![0], ..Cells::default() }),
+                topology: Topology::Unstructured(Cells {
+                    offsets: vec![0],
+                    ..Cells::default()
+                }),
                 point_data: Vec::new(),
                 cell_data: Vec::new(),
             });
@@ -772,32 +1026,46 @@ impl<'a> Ctx<'a, '_> {
 
     /// Appends piece `g` (with piece-local point ids) to `grid`.
     fn append_piece(&self, grid: &mut Grid, g: Grid, k: usize) -> Result<(), VtkReadError> {
-        let base = u32::try_from(grid.points.len()).map_err(|_| self.unsupported("more than 2^32 points".into()))?;
-        let (Topology::Unstructured(dst), Topology::Unstructured(src)) = (&mut grid.topology, g.topology) else {
+        let base = u32::try_from(grid.points.len())
+            .map_err(|_| self.unsupported("more than 2^32 points".into()))?;
+        let (Topology::Unstructured(dst), Topology::Unstructured(src)) =
+            (&mut grid.topology, g.topology)
+        else {
             return Ok(());
         };
         let same = |a: &[Property], b: &[Property]| {
-            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.name == y.name && x.components == y.components)
+            a.len() == b.len()
+                && a.iter()
+                    .zip(b)
+                    .all(|(x, y)| x.name == y.name && x.components == y.components)
         };
         if !same(&grid.point_data, &g.point_data) || !same(&grid.cell_data, &g.cell_data) {
-            return Err(self.xml_err(format!("<Piece> {k}"), "data arrays differ from those of the first piece"));
+            return Err(self.xml_err(
+                format!("<Piece> {k}"),
+                "data arrays differ from those of the first piece",
+            ));
         }
-        let shift = |v: u32| v.checked_add(base).ok_or_else(|| self.unsupported("point ids beyond u32".into()));
-        let conn0 = u32::try_from(dst.connectivity.len()).map_err(|_| self.unsupported("connectivity beyond u32".into()))?;
+        let shift = |v: u32| {
+            v.checked_add(base)
+                .ok_or_else(|| self.unsupported("point ids beyond u32".into()))
+        };
+        let conn0 = u32::try_from(dst.connectivity.len())
+            .map_err(|_| self.unsupported("connectivity beyond u32".into()))?;
         for &v in &src.connectivity {
             dst.connectivity.push(shift(v)?);
         }
         if dst.offsets.is_empty() {
             dst.offsets.push(0);
         }
-        dst.offsets.extend(src.offsets.iter().skip(1).map(|&o| o + conn0));
+        dst.offsets
+            .extend(src.offsets.iter().skip(1).map(|&o| o + conn0));
         if !src.face_offsets.is_empty() || !dst.face_offsets.is_empty() {
             if dst.face_offsets.is_empty() {
                 dst.face_offsets = vec![0; dst.types.len() + 1];
             }
             for c in 0..src.types.len() {
                 // Re-walk the face stream (checked by build_cells) to shift point ids only.
-                let s = src.faces_of_checked(c);
+                let s = faces_checked(&src, c);
                 if let Some((&nf, mut rest)) = s.split_first() {
                     dst.face_stream.push(nf);
                     while let Some((&n, r)) = rest.split_first() {
@@ -809,7 +1077,8 @@ impl<'a> Ctx<'a, '_> {
                         rest = &r[k..];
                     }
                 }
-                let end = u32::try_from(dst.face_stream.len()).map_err(|_| self.unsupported("faces beyond u32".into()))?;
+                let end = u32::try_from(dst.face_stream.len())
+                    .map_err(|_| self.unsupported("faces beyond u32".into()))?;
                 dst.face_offsets.push(end);
             }
         }
@@ -825,46 +1094,66 @@ impl<'a> Ctx<'a, '_> {
     }
 
     fn structured(&self, ds: &Elem) -> Result<Grid, VtkReadError> {
-        let pieces: Vec<usize> = ds.children.iter().copied().filter(|&c| self.el(c).name == "Piece").collect();
+        let pieces: Vec<usize> = ds
+            .children
+            .iter()
+            .copied()
+            .filter(|&c| self.el(c).name == "Piece")
+            .collect();
         let piece = match pieces.as_slice() {
             [p] => self.el(*p),
             [] => return Err(self.xml_err("<StructuredGrid>", "no <Piece>")),
-            _ => return Err(self.unsupported(format!("StructuredGrid with {} pieces", pieces.len()))),
+            _ => {
+                return Err(
+                    self.unsupported(format!("StructuredGrid with {} pieces", pieces.len()))
+                );
+            }
         };
         let ext = piece
             .attr("Extent")
             .or_else(|| ds.attr("WholeExtent"))
             .ok_or_else(|| self.xml_err("<Piece>", "missing attribute Extent"))?;
-        let e: Vec<i64> = ext.split_ascii_whitespace().filter_map(|t| t.parse().ok()).collect();
+        let e: Vec<i64> = ext
+            .split_ascii_whitespace()
+            .filter_map(|t| t.parse().ok())
+            .collect();
         let bad = || self.xml_err("<Piece>", format!("invalid Extent=\"{ext}\""));
         if e.len() != 6 {
             return Err(bad());
         }
         let mut dims = [0usize; 3];
         for a in 0..3 {
-            let d = e[2 * a + 1].checked_sub(e[2 * a]).and_then(|d| d.checked_add(1)).ok_or_else(bad)?;
-            dims[a] = usize::try_from(d).ok().filter(|&d| d >= 1).ok_or_else(bad)?;
+            let d = e[2 * a + 1]
+                .checked_sub(e[2 * a])
+                .and_then(|d| d.checked_add(1))
+                .ok_or_else(bad)?;
+            dims[a] = usize::try_from(d)
+                .ok()
+                .filter(|&d| d >= 1)
+                .ok_or_else(bad)?;
         }
-        let np = dims[0].checked_mul(dims[1]).and_then(|v| v.checked_mul(dims[2])).ok_or_else(bad)?;
+        let np = dims[0]
+            .checked_mul(dims[1])
+            .and_then(|v| v.checked_mul(dims[2]))
+            .ok_or_else(bad)?;
         let nc = super::common::structured_cells(dims).ok_or_else(bad)?;
         let points = self.points(piece, np)?;
         let point_data = self.properties(self.child(piece, "PointData"), np, "point")?;
         let cell_data = self.properties(self.child(piece, "CellData"), nc, "cell")?;
-        Ok(Grid { points: to_points(&points), topology: Topology::Structured { dims }, point_data, cell_data })
+        Ok(Grid {
+            points: to_points(&points),
+            topology: Topology::Structured { dims },
+            point_data,
+            cell_data,
+        })
     }
 }
 
 /// Face stream of cell `c`, empty when absent or out of range (never panics).
-trait FacesChecked {
-    fn faces_of_checked(&self, c: usize) -> &[u32];
-}
-
-impl FacesChecked for Cells {
-    fn faces_of_checked(&self, c: usize) -> &[u32] {
-        match self.face_offsets.get(c..c + 2) {
-            Some(&[a, b]) => self.face_stream.get(a as usize..b as usize).unwrap_or(&[]),
-            _ => &[],
-        }
+fn faces_checked(cells: &Cells, c: usize) -> &[u32] {
+    match cells.face_offsets.get(c..c + 2) {
+        Some(&[a, b]) => cells.face_stream.get(a as usize..b as usize).unwrap_or(&[]),
+        _ => &[],
     }
 }
 
@@ -876,7 +1165,10 @@ fn tokens(t: &[u8]) -> impl Iterator<Item = &[u8]> {
 pub(crate) fn parse(b: &[u8], file: &str) -> Result<Grid, VtkReadError> {
     let doc = scan(b, file)?;
     let root = &doc.elems[doc.root];
-    let bad = |what: String| VtkReadError::Unsupported { file: file.to_string(), what };
+    let bad = |what: String| VtkReadError::Unsupported {
+        file: file.to_string(),
+        what,
+    };
     if root.name != "VTKFile" {
         return Err(VtkReadError::Xml {
             file: file.to_string(),
@@ -910,15 +1202,25 @@ pub(crate) fn parse(b: &[u8], file: &str) -> Result<Grid, VtkReadError> {
     app_offsets.sort_unstable();
     app_offsets.dedup();
     let kind = root.attr("type").unwrap_or("");
-    let ctx = Ctx { doc: &doc, file, big, h64, comp, app_offsets };
+    let ctx = Ctx {
+        doc: &doc,
+        file,
+        big,
+        h64,
+        comp,
+        app_offsets,
+    };
     let ds = ctx.child(root, kind).map(|i| ctx.el(i));
     match (kind, ds) {
         ("UnstructuredGrid", Some(ds)) => ctx.unstructured(ds),
         ("StructuredGrid", Some(ds)) => ctx.structured(ds),
-        ("UnstructuredGrid" | "StructuredGrid", None) => {
-            Err(ctx.xml_err("<VTKFile>", format!("type=\"{kind}\" but no <{kind}> element")))
-        }
-        _ => Err(bad(format!("VTK XML dataset type '{kind}' (only UnstructuredGrid and StructuredGrid)"))),
+        ("UnstructuredGrid" | "StructuredGrid", None) => Err(ctx.xml_err(
+            "<VTKFile>",
+            format!("type=\"{kind}\" but no <{kind}> element"),
+        )),
+        _ => Err(bad(format!(
+            "VTK XML dataset type '{kind}' (only UnstructuredGrid and StructuredGrid)"
+        ))),
     }
 }
 
@@ -938,6 +1240,9 @@ mod tests {
 
     #[test]
     fn entities() {
-        assert_eq!(decode_entities(b"a&lt;b&amp;c&#65;&#x42;&bogus;"), "a<b&cAB&bogus;");
+        assert_eq!(
+            decode_entities(b"a&lt;b&amp;c&#65;&#x42;&bogus;"),
+            "a<b&cAB&bogus;"
+        );
     }
 }
