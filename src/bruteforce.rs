@@ -2,7 +2,7 @@
 //! rule and the same polygon code as the sweep. O(N·K), used to check the
 //! structures and to benchmark against.
 
-use crate::extract::{code_of, emit_cell, intersects, EmitContext, LevelMesh};
+use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects};
 use crate::field::ScalarField;
 use crate::metacell::MAX_META_VERTICES;
 use crate::sweep::{CellGraph, LevelStats, NEVER};

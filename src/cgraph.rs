@@ -10,9 +10,9 @@
 
 use rayon::prelude::*;
 
-use crate::grid::{is_lower_dimensional, vtk_type, Cells, Grid, Topology};
-use crate::metacell::{builtin, Catalog, MetaCell, MAX_META_VERTICES, VOXEL_TO_HEX};
-use crate::structure::{classify_cell, is_sweepable, BitSet, CellClass, StructureError};
+use crate::grid::{Cells, Grid, Topology, is_lower_dimensional, vtk_type};
+use crate::metacell::{Catalog, MAX_META_VERTICES, MetaCell, VOXEL_TO_HEX, builtin};
+use crate::structure::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
 use crate::sweep::CellGraph;
 
 /// "No neighbour" marker.
@@ -49,7 +49,11 @@ pub struct CGraph {
 }
 
 /// Resolves each cell to a meta-cell id and its local-order vertex ids.
-fn resolve_cells(cells: &Cells, points: &[[f64; 3]], catalog: &mut Catalog) -> Result<(Vec<u16>, Vec<u32>, Vec<u32>), StructureError> {
+fn resolve_cells(
+    cells: &Cells,
+    points: &[[f64; 3]],
+    catalog: &mut Catalog,
+) -> Result<(Vec<u16>, Vec<u32>, Vec<u32>), StructureError> {
     let n = cells.len();
     let mut metas = Vec::with_capacity(n);
     let mut offsets = Vec::with_capacity(n + 1);
@@ -66,17 +70,21 @@ fn resolve_cells(cells: &Cells, points: &[[f64; 3]], catalog: &mut Catalog) -> R
         let m = if t == vtk_type::POLYHEDRON {
             let (local, faces) = polyhedron_local_faces(cells.faces_of(c), points)
                 .map_err(|why| StructureError::UnsupportedCell { cell: c, why })?;
-            let m = catalog.for_faces(local.len(), &faces).map_err(|e| StructureError::UnsupportedCell {
-                cell: c,
-                why: format!("polyhedron: {e}"),
+            let m = catalog.for_faces(local.len(), &faces).map_err(|e| {
+                StructureError::UnsupportedCell {
+                    cell: c,
+                    why: format!("polyhedron: {e}"),
+                }
             })?;
             verts.extend_from_slice(&local);
             m
         } else {
-            let m = catalog.for_vtk_type(t).ok_or_else(|| StructureError::UnsupportedCell {
-                cell: c,
-                why: format!("unsupported VTK cell type {t}"),
-            })?;
+            let m = catalog
+                .for_vtk_type(t)
+                .ok_or_else(|| StructureError::UnsupportedCell {
+                    cell: c,
+                    why: format!("unsupported VTK cell type {t}"),
+                })?;
             if t == vtk_type::VOXEL {
                 verts.extend(VOXEL_TO_HEX.iter().map(|&i| ids[i]));
             } else {
@@ -85,7 +93,10 @@ fn resolve_cells(cells: &Cells, points: &[[f64; 3]], catalog: &mut Catalog) -> R
             m
         };
         if verts.len() - *offsets.last().unwrap() as usize != catalog.get(m).nv {
-            return Err(StructureError::UnsupportedCell { cell: c, why: "vertex count does not match its type".into() });
+            return Err(StructureError::UnsupportedCell {
+                cell: c,
+                why: "vertex count does not match its type".into(),
+            });
         }
         metas.push(m);
         offsets.push(verts.len() as u32);
@@ -96,14 +107,19 @@ fn resolve_cells(cells: &Cells, points: &[[f64; 3]], catalog: &mut Catalog) -> R
 /// Local vertex list (first-appearance order) and local face loops of a
 /// polyhedron face stream, each face turned outward: its Newell normal must
 /// point away from the cell's vertex centroid (valid for convex cells).
-fn polyhedron_local_faces(stream: &[u32], points: &[[f64; 3]]) -> Result<(Vec<u32>, Vec<Vec<u8>>), String> {
+fn polyhedron_local_faces(
+    stream: &[u32],
+    points: &[[f64; 3]],
+) -> Result<(Vec<u32>, Vec<Vec<u8>>), String> {
     let mut local: Vec<u32> = Vec::new();
     let mut faces = Vec::new();
     let nf = *stream.first().ok_or("empty face stream")? as usize;
     let mut p = 1;
     for f in 0..nf {
         let n = *stream.get(p).ok_or(format!("face {f} missing"))? as usize;
-        let ids = stream.get(p + 1..p + 1 + n).ok_or(format!("face {f} truncated"))?;
+        let ids = stream
+            .get(p + 1..p + 1 + n)
+            .ok_or(format!("face {f} truncated"))?;
         let mut face = Vec::with_capacity(n);
         for &g in ids {
             let i = match local.iter().position(|&x| x == g) {
@@ -167,18 +183,28 @@ impl CGraph {
             .into_par_iter()
             .map(|c| match metas[c] {
                 NON_VOLUMETRIC => CellClass::NonVolumetric,
-                m => classify_cell(catalog.get(m), &verts[voff[c] as usize..voff[c + 1] as usize], &grid.points),
+                m => classify_cell(
+                    catalog.get(m),
+                    &verts[voff[c] as usize..voff[c + 1] as usize],
+                    &grid.points,
+                ),
             })
             .collect();
         for c in 0..n {
             let mut cl = class[c];
             if cl == CellClass::Inverted && catalog.get(metas[c]).name.starts_with("polyhedron") {
-                let flipped: Vec<Vec<u8>> =
-                    catalog.get(metas[c]).faces.iter().map(|f| f.iter().rev().copied().collect()).collect();
+                let flipped: Vec<Vec<u8>> = catalog
+                    .get(metas[c])
+                    .faces
+                    .iter()
+                    .map(|f| f.iter().rev().copied().collect())
+                    .collect();
                 let nv = catalog.get(metas[c]).nv;
-                metas[c] = catalog.for_faces(nv, &flipped).map_err(|e| StructureError::UnsupportedCell {
-                    cell: c,
-                    why: format!("polyhedron: {e}"),
+                metas[c] = catalog.for_faces(nv, &flipped).map_err(|e| {
+                    StructureError::UnsupportedCell {
+                        cell: c,
+                        why: format!("polyhedron: {e}"),
+                    }
                 })?;
                 cl = CellClass::Valid;
             }
@@ -260,14 +286,22 @@ impl CGraph {
 
     #[inline(always)]
     fn meta_of(&self, c: u32) -> u16 {
-        if self.meta.is_empty() { self.uniform_meta } else { self.meta[c as usize] }
+        if self.meta.is_empty() {
+            self.uniform_meta
+        } else {
+            self.meta[c as usize]
+        }
     }
 
     #[inline(always)]
     fn block(&self, c: u32) -> (&MetaCell, &[u32]) {
         let m = self.catalog.get(self.meta_of(c));
         let len = m.nv + m.faces.len();
-        let start = if self.offsets.is_empty() { c as usize * len } else { self.offsets[c as usize] as usize };
+        let start = if self.offsets.is_empty() {
+            c as usize * len
+        } else {
+            self.offsets[c as usize] as usize
+        };
         (m, &self.data[start..start + len])
     }
 
@@ -300,18 +334,38 @@ fn structured_as_hexes(dims: [usize; 3]) -> (Vec<u16>, Vec<u32>, Vec<u32>) {
         for j in 0..npj - 1 {
             for i in 0..npi - 1 {
                 let v0 = i + j * npi + k * slab;
-                for o in [0, 1, 1 + npi, npi, slab, slab + 1, slab + 1 + npi, slab + npi] {
+                for o in [
+                    0,
+                    1,
+                    1 + npi,
+                    npi,
+                    slab,
+                    slab + 1,
+                    slab + 1 + npi,
+                    slab + npi,
+                ] {
                     verts.push((v0 + o) as u32);
                 }
             }
         }
     }
-    (vec![builtin::HEXAHEDRON; n], (0..=n as u32).map(|c| c * 8).collect(), verts)
+    (
+        vec![builtin::HEXAHEDRON; n],
+        (0..=n as u32).map(|c| c * 8).collect(),
+        verts,
+    )
 }
 
 /// Finds face neighbours: for each face of each live cell, the live cell
 /// that has a face with exactly the same vertex set.
-fn sew(catalog: &Catalog, metas: &[u16], voff: &[u32], verts: &[u32], live: &BitSet, nv: usize) -> Vec<u32> {
+fn sew(
+    catalog: &Catalog,
+    metas: &[u16],
+    voff: &[u32],
+    verts: &[u32],
+    live: &BitSet,
+    nv: usize,
+) -> Vec<u32> {
     let n = metas.len();
     // Transient vertex -> incident live cells map (CSR).
     let mut start = vec![0u32; nv + 1];
@@ -368,7 +422,10 @@ fn sew(catalog: &Catalog, metas: &[u16], voff: &[u32], verts: &[u32], live: &Bit
                         }
                         let md = catalog.get(metas[d as usize]);
                         for g in &md.faces {
-                            if g.len() == k && face_key(d as usize, g, &mut other) == k && other[..k] == key[..k] {
+                            if g.len() == k
+                                && face_key(d as usize, g, &mut other) == k
+                                && other[..k] == key[..k]
+                            {
                                 return d;
                             }
                         }

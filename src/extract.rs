@@ -127,7 +127,10 @@ impl LevelMesh {
     }
     /// Number of triangles of a fan triangulation.
     pub fn triangle_count(&self) -> usize {
-        self.offsets.windows(2).map(|w| (w[1] - w[0]) as usize - 2).sum()
+        self.offsets
+            .windows(2)
+            .map(|w| (w[1] - w[0]) as usize - 2)
+            .sum()
     }
     /// Total polygon area (f64).
     pub fn area(&self) -> f64 {
@@ -173,8 +176,17 @@ pub fn face_above_connected(vals: &[f32], gids: &[u32], t: f32) -> bool {
     let t64 = t as f64;
     let verdict = if vals.len() == 4 {
         // Diagonal pairs: (0,2) and (1,3); one pair is above.
-        let (a, c, b, d) = if vals[0] >= t { (0, 2, 1, 3) } else { (1, 3, 0, 2) };
-        let (fa, fc, fb, fd) = (vals[a] as f64, vals[c] as f64, vals[b] as f64, vals[d] as f64);
+        let (a, c, b, d) = if vals[0] >= t {
+            (0, 2, 1, 3)
+        } else {
+            (1, 3, 0, 2)
+        };
+        let (fa, fc, fb, fd) = (
+            vals[a] as f64,
+            vals[c] as f64,
+            vals[b] as f64,
+            vals[d] as f64,
+        );
         let num = fa * fc - fb * fd;
         let den = (fa + fc) - (fb + fd);
         num.partial_cmp(&(t64 * den))

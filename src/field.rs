@@ -136,12 +136,14 @@ pub enum LevelError {
 
 /// Level values `t_k = lo + (k + 0.5)(hi − lo)/K` (DESIGN §9).
 pub fn levels_by_count(lo: f64, hi: f64, count: usize) -> Vec<f64> {
-    (0..count).map(|k| lo + (k as f64 + 0.5) * (hi - lo) / count as f64).collect()
+    (0..count)
+        .map(|k| lo + (k as f64 + 0.5) * (hi - lo) / count as f64)
+        .collect()
 }
 
 /// Level values `from, from+step, ...` up to and including `to` (within 1e-9 step).
 pub fn levels_by_range(from: f64, to: f64, step: f64) -> Vec<f64> {
-    if !(step > 0.0) || !from.is_finite() || !to.is_finite() || to < from {
+    if step.is_nan() || step <= 0.0 || !from.is_finite() || !to.is_finite() || to < from {
         return Vec::new();
     }
     let n = ((to - from) / step + 1e-9).floor() as usize + 1;
@@ -160,10 +162,14 @@ pub fn local_levels(world: &[f64], offset: f64) -> Result<Vec<f32>, LevelError> 
             return Err(LevelError::NotFinite { index: i });
         }
         let t = (w - offset) as f32;
-        if let Some(&p) = out.last() {
-            if t <= p {
-                return Err(LevelError::NotIncreasing { index: i, value: w, previous: world[i - 1] });
-            }
+        if let Some(&p) = out.last()
+            && t <= p
+        {
+            return Err(LevelError::NotIncreasing {
+                index: i,
+                value: w,
+                previous: world[i - 1],
+            });
         }
         out.push(t);
     }

@@ -43,7 +43,11 @@ pub struct Property {
 impl Property {
     /// A scalar property.
     pub fn scalar(name: impl Into<String>, values: Vec<f64>) -> Self {
-        Property { name: name.into(), components: 1, values }
+        Property {
+            name: name.into(),
+            components: 1,
+            values,
+        }
     }
     /// Number of tuples.
     pub fn len(&self) -> usize {
@@ -319,7 +323,13 @@ impl Grid {
         let o = self.origin();
         self.points
             .iter()
-            .map(|p| [(p[0] - o[0]) as f32, (p[1] - o[1]) as f32, (p[2] - o[2]) as f32])
+            .map(|p| {
+                [
+                    (p[0] - o[0]) as f32,
+                    (p[1] - o[1]) as f32,
+                    (p[2] - o[2]) as f32,
+                ]
+            })
             .collect()
     }
 
@@ -336,7 +346,11 @@ impl Grid {
     /// Per-cell hidden flags from VTK's `vtkGhostType` (bit 32), if present.
     pub fn hidden_cells(&self) -> Option<Vec<bool>> {
         let g = self.cell_property("vtkGhostType")?;
-        Some((0..g.len()).map(|i| (g.values[i] as u64 as u8) & GHOST_HIDDEN_CELL != 0).collect())
+        Some(
+            (0..g.len())
+                .map(|i| (g.values[i] as u64 as u8) & GHOST_HIDDEN_CELL != 0)
+                .collect(),
+        )
     }
 
     /// Checks counts, ids, finiteness and cell types. Never panics.
@@ -344,27 +358,51 @@ impl Grid {
         let np = self.points.len();
         let nc = self.cell_count();
         if np == 0 || nc == 0 {
-            return Err(GridError::Empty { points: np, cells: nc });
+            return Err(GridError::Empty {
+                points: np,
+                cells: nc,
+            });
         }
         if np >= u32::MAX as usize {
-            return Err(GridError::TooLarge { what: "points", count: np });
+            return Err(GridError::TooLarge {
+                what: "points",
+                count: np,
+            });
         }
         if nc >= u32::MAX as usize {
-            return Err(GridError::TooLarge { what: "cells", count: nc });
+            return Err(GridError::TooLarge {
+                what: "cells",
+                count: nc,
+            });
         }
-        if let Some((i, p)) = self.points.iter().enumerate().find(|(_, p)| !p.iter().all(|v| v.is_finite())) {
-            return Err(GridError::NonFinitePoint { point: i, coord: *p });
+        if let Some((i, p)) = self
+            .points
+            .iter()
+            .enumerate()
+            .find(|(_, p)| !p.iter().all(|v| v.is_finite()))
+        {
+            return Err(GridError::NonFinitePoint {
+                point: i,
+                coord: *p,
+            });
         }
         match &self.topology {
             Topology::Structured { dims } => {
                 let expected = dims[0] * dims[1] * dims[2];
                 if expected != np {
-                    return Err(GridError::DimsMismatch { dims: *dims, expected, found: np });
+                    return Err(GridError::DimsMismatch {
+                        dims: *dims,
+                        expected,
+                        found: np,
+                    });
                 }
             }
             Topology::Unstructured(cells) => validate_cells(cells, np)?,
         }
-        for (kind, props, n) in [("point", &self.point_data, np), ("cell", &self.cell_data, nc)] {
+        for (kind, props, n) in [
+            ("point", &self.point_data, np),
+            ("cell", &self.cell_data, nc),
+        ] {
             for p in props {
                 if p.len() != n || p.values.len() % p.components.max(1) != 0 {
                     return Err(GridError::PropertyLength {
@@ -390,26 +428,44 @@ impl Grid {
 fn validate_cells(cells: &Cells, np: usize) -> Result<(), GridError> {
     let nc = cells.len();
     if cells.offsets.len() != nc + 1 || cells.offsets[nc] as usize != cells.connectivity.len() {
-        return Err(GridError::BadPolyhedron { cell: 0, why: "inconsistent cell offsets".into() });
+        return Err(GridError::BadPolyhedron {
+            cell: 0,
+            why: "inconsistent cell offsets".into(),
+        });
     }
     for c in 0..nc {
         let t = cells.types[c];
         let (a, b) = (cells.offsets[c] as usize, cells.offsets[c + 1] as usize);
         if a > b {
-            return Err(GridError::BadPolyhedron { cell: c, why: "decreasing cell offsets".into() });
+            return Err(GridError::BadPolyhedron {
+                cell: c,
+                why: "decreasing cell offsets".into(),
+            });
         }
         let ids = &cells.connectivity[a..b];
         if let Some(&bad) = ids.iter().find(|&&v| v as usize >= np) {
-            return Err(GridError::MissingVertex { cell: c, point: bad as u64, points: np });
+            return Err(GridError::MissingVertex {
+                cell: c,
+                point: bad as u64,
+                points: np,
+            });
         }
         if t == vtk_type::POLYHEDRON {
             validate_face_stream(c, cells.faces_of(c), np)?;
         } else if let Some(n) = vertex_count_of(t) {
             if ids.len() != n {
-                return Err(GridError::WrongVertexCount { cell: c, vtk_type: t, expected: n, found: ids.len() });
+                return Err(GridError::WrongVertexCount {
+                    cell: c,
+                    vtk_type: t,
+                    expected: n,
+                    found: ids.len(),
+                });
             }
         } else if !is_lower_dimensional(t) {
-            return Err(GridError::UnknownCellType { cell: c, vtk_type: t });
+            return Err(GridError::UnknownCellType {
+                cell: c,
+                vtk_type: t,
+            });
         }
     }
     Ok(())
@@ -434,12 +490,17 @@ fn validate_face_stream(cell: usize, s: &[u32], np: usize) -> Result<(), GridErr
             return Err(bad(format!("face {f} is truncated")));
         }
         if let Some(&v) = r[..n as usize].iter().find(|&&v| v as usize >= np) {
-            return Err(bad(format!("face {f} references point {v}, but the grid has {np} points")));
+            return Err(bad(format!(
+                "face {f} references point {v}, but the grid has {np} points"
+            )));
         }
         rest = &r[n as usize..];
     }
     if !rest.is_empty() {
-        return Err(bad(format!("{} trailing values after {nf} faces", rest.len())));
+        return Err(bad(format!(
+            "{} trailing values after {nf} faces",
+            rest.len()
+        )));
     }
     Ok(())
 }

@@ -1,18 +1,25 @@
 //! stratasweep: incremental slicing, contouring and volume rendering of
 //! geological grids (Caumon et al. 2005).
 #![warn(missing_docs)]
+// Numeric kernels index several parallel arrays in one loop and pass many
+// small inputs; these style lints would make them harder to read.
+#![allow(
+    clippy::needless_range_loop,
+    clippy::too_many_arguments,
+    clippy::type_complexity
+)]
 
-pub mod generate;
-pub mod grid;
-pub mod io;
-pub mod mesh;
-pub mod pipeline;
-pub mod properties;
-pub mod metacell;
 pub mod bruteforce;
 pub mod cgraph;
 pub mod extract;
 pub mod field;
+pub mod generate;
+pub mod grid;
+pub mod io;
+pub mod mesh;
+pub mod metacell;
+pub mod pipeline;
+pub mod properties;
 pub mod scgraph;
 pub mod structure;
 pub mod sweep;

@@ -3,14 +3,16 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
-use serde_json::{json, Value};
+use serde_json::{Value, json};
 
-use stratasweep::field::{levels_by_range, FieldSpec};
-use stratasweep::grid::{vtk_type, Grid, Topology};
-use stratasweep::pipeline::{slice, LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice};
+use stratasweep::field::{FieldSpec, levels_by_range};
+use stratasweep::grid::{Grid, Topology, vtk_type};
+use stratasweep::pipeline::{
+    LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice, slice,
+};
 use stratasweep::structure::CELL_CLASS_NAMES;
 use stratasweep::{generate, io};
 
@@ -18,7 +20,11 @@ use stratasweep::{generate, io};
 const DEMO_DIMS: [usize; 3] = [64, 64, 64];
 
 #[derive(Parser)]
-#[command(name = "stratasweep", version, about = "Incremental slicing and contouring of geological grids (Caumon et al. 2005)")]
+#[command(
+    name = "stratasweep",
+    version,
+    about = "Incremental slicing and contouring of geological grids (Caumon et al. 2005)"
+)]
 struct Cli {
     /// No progress bars or chatter.
     #[arg(long, short, global = true)]
@@ -209,15 +215,25 @@ fn run(cli: Cli) -> Result<()> {
 fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
     let t = Instant::now();
     let (grid, name) = if input.demo {
-        (generate::warped(DEMO_DIMS, 1), format!("demo (warped {}x{}x{})", DEMO_DIMS[0], DEMO_DIMS[1], DEMO_DIMS[2]))
+        (
+            generate::warped(DEMO_DIMS, 1),
+            format!(
+                "demo (warped {}x{}x{})",
+                DEMO_DIMS[0], DEMO_DIMS[1], DEMO_DIMS[2]
+            ),
+        )
     } else {
-        let Some(path) = &input.grid else { bail!("give a grid file, or --demo for the built-in grid") };
+        let Some(path) = &input.grid else {
+            bail!("give a grid file, or --demo for the built-in grid")
+        };
         let sp = spinner(quiet, format!("reading {}", path.display()));
-        let g = io::vtk_read::read_vtk(path).with_context(|| format!("cannot load {}", path.display()))?;
+        let g = io::vtk_read::read_vtk(path)
+            .with_context(|| format!("cannot load {}", path.display()))?;
         sp.finish_and_clear();
         (g, path.display().to_string())
     };
-    grid.validate().with_context(|| format!("invalid grid {name}"))?;
+    grid.validate()
+        .with_context(|| format!("invalid grid {name}"))?;
     Ok((grid, name, t.elapsed().as_secs_f64()))
 }
 
@@ -236,7 +252,10 @@ fn bar(quiet: bool, len: u64, msg: &str) -> ProgressBar {
         return ProgressBar::hidden();
     }
     let pb = ProgressBar::new(len);
-    pb.set_style(ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}").unwrap());
+    pb.set_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}")
+            .unwrap(),
+    );
     pb.set_message(msg.to_string());
     pb
 }
@@ -286,7 +305,8 @@ fn memory_json(s: &Structure, grid: &Grid) -> (Value, usize) {
 fn cmd_info(a: InfoArgs) -> Result<()> {
     let (grid, name, load_s) = load(&a.input, true)?;
     let t = Instant::now();
-    let s = Structure::build(&grid, a.structure.into()).with_context(|| format!("cannot build a structure for {name}"))?;
+    let s = Structure::build(&grid, a.structure.into())
+        .with_context(|| format!("cannot build a structure for {name}"))?;
     let build_s = t.elapsed().as_secs_f64();
     let mut types = serde_json::Map::new();
     match &grid.topology {
@@ -304,7 +324,14 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         }
     }
     let (classes, catalog, hidden) = match &s {
-        Structure::SCGraph(g) => (g.class_counts, vec![g_catalog_json(stratasweep::sweep::CellGraph::catalog(g), None)], 0usize),
+        Structure::SCGraph(g) => (
+            g.class_counts,
+            vec![g_catalog_json(
+                stratasweep::sweep::CellGraph::catalog(g),
+                None,
+            )],
+            0usize,
+        ),
         Structure::CGraph(g) => (
             g.class_counts,
             vec![g_catalog_json(&g.catalog, Some(&g.meta_counts))],
@@ -312,7 +339,9 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         ),
     };
     let hidden = match &s {
-        Structure::SCGraph(_) => grid.hidden_cells().map_or(0, |h| h.iter().filter(|&&x| x).count()),
+        Structure::SCGraph(_) => grid
+            .hidden_cells()
+            .map_or(0, |h| h.iter().filter(|&&x| x).count()),
         _ => hidden,
     };
     let (mem, total) = memory_json(&s, &grid);
@@ -343,13 +372,19 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     }
     println!("{name}");
     println!("  vertices      {nv}");
-    println!("  cells         {nc} ({} live, {hidden} hidden)", s.live_cells());
+    println!(
+        "  cells         {nc} ({} live, {hidden} hidden)",
+        s.live_cells()
+    );
     for (k, v) in out["cell_types"].as_object().unwrap() {
         println!("    {k:<18} {v}");
     }
     println!("  cell classes  {}", out["cell_classes"]);
     println!("  bounds        {lo:?} .. {hi:?}");
-    println!("  properties    point {} / cell {}", out["point_properties"], out["cell_properties"]);
+    println!(
+        "  properties    point {} / cell {}",
+        out["point_properties"], out["cell_properties"]
+    );
     println!("  meta-cells");
     for m in out["meta_cells"].as_array().unwrap() {
         println!(
@@ -363,7 +398,12 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             m["cells"]
         );
     }
-    println!("  structure     {} ({:.1} B/vertex, {:.1} B/cell)", s.name(), total as f64 / nv as f64, total as f64 / nc as f64);
+    println!(
+        "  structure     {} ({:.1} B/vertex, {:.1} B/cell)",
+        s.name(),
+        total as f64 / nv as f64,
+        total as f64 / nc as f64
+    );
     for (k, v) in out["memory_bytes"].as_object().unwrap() {
         println!("    {k:<30} {v}");
     }
@@ -417,7 +457,10 @@ fn parse_axis(s: &str) -> Result<FieldSpec> {
         "z" | "Z" => 2,
         _ => bail!("--axis '{s}': expected x, y, z, -x, -y or -z"),
     };
-    Ok(FieldSpec::Axis { axis, negative: neg })
+    Ok(FieldSpec::Axis {
+        axis,
+        negative: neg,
+    })
 }
 
 fn field_spec(f: &FieldArgs) -> Result<FieldSpec> {
@@ -447,7 +490,7 @@ fn level_spec(l: &LevelArgs) -> Result<LevelSpec> {
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
         .with_context(|| format!("--values '{s}': expected FROM:TO:STEP"))?;
-    if p.len() != 3 || !(p[2] > 0.0) || p[1] < p[0] {
+    if p.len() != 3 || p[2].is_nan() || p[2] <= 0.0 || p[1] < p[0] {
         bail!("--values '{s}': expected FROM:TO:STEP with FROM <= TO and STEP > 0");
     }
     let v = levels_by_range(p[0], p[1], p[2]);
@@ -457,7 +500,15 @@ fn level_spec(l: &LevelArgs) -> Result<LevelSpec> {
     Ok(LevelSpec::Values(v))
 }
 
-fn stats_json(r: &SliceResult, s: &Structure, grid: &Grid, load: f64, build: f64, file: &str, field: &FieldSpec) -> Value {
+fn stats_json(
+    r: &SliceResult,
+    s: &Structure,
+    grid: &Grid,
+    load: f64,
+    build: f64,
+    file: &str,
+    field: &FieldSpec,
+) -> Value {
     let slices: Vec<Value> = r
         .stats
         .iter()
@@ -467,7 +518,8 @@ fn stats_json(r: &SliceResult, s: &Structure, grid: &Grid, load: f64, build: f64
                    "polygons": st.polygons, "triangles": st.triangles, "area": st.area})
         })
         .collect();
-    let sum = |f: &dyn Fn(&stratasweep::sweep::LevelStats) -> f64| r.stats.iter().map(f).sum::<f64>();
+    let sum =
+        |f: &dyn Fn(&stratasweep::sweep::LevelStats) -> f64| r.stats.iter().map(f).sum::<f64>();
     let (mut mem, _) = memory_json(s, grid);
     let total = mem["total"].as_u64().unwrap_or(0) + r.sweep_state_bytes as u64;
     mem["sweep_state"] = json!(r.sweep_state_bytes);
@@ -505,13 +557,18 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     }
     let (grid, name, load_s) = load(&a.input, quiet)?;
     let t = Instant::now();
-    let s = Structure::build(&grid, a.structure.into()).with_context(|| format!("cannot build a structure for {name}"))?;
+    let s = Structure::build(&grid, a.structure.into())
+        .with_context(|| format!("cannot build a structure for {name}"))?;
     let build_s = t.elapsed().as_secs_f64();
     let nlev = match &levels {
         LevelSpec::Count(k) => *k,
         LevelSpec::Values(v) => v.len(),
     };
-    let blocks = if a.structure == StructureArg::Bruteforce { 1 } else { a.threads };
+    let blocks = if a.structure == StructureArg::Bruteforce {
+        1
+    } else {
+        a.threads
+    };
     let pb = bar(quiet, (nlev * blocks) as u64, "slicing");
     let req = SliceRequest {
         field: field.clone(),
@@ -522,8 +579,12 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
         collect_mesh: a.output.is_some(),
     };
     let inc = |n: usize| pb.inc(n as u64);
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
-    let r = pool.install(|| slice(&grid, &s, &req, &inc)).with_context(|| format!("cannot slice {name}"))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads)
+        .build()?;
+    let r = pool
+        .install(|| slice(&grid, &s, &req, &inc))
+        .with_context(|| format!("cannot slice {name}"))?;
     pb.finish_and_clear();
     let stats = stats_json(&r, &s, &grid, load_s, build_s, &name, &field);
     if let Some(out) = &a.output {
@@ -538,7 +599,8 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
         sp.finish_and_clear();
     }
     if let Some(p) = &a.stats {
-        std::fs::write(p, serde_json::to_string_pretty(&stats)?).with_context(|| format!("cannot write {}", p.display()))?;
+        std::fs::write(p, serde_json::to_string_pretty(&stats)?)
+            .with_context(|| format!("cannot write {}", p.display()))?;
     }
     if !quiet {
         let t = &stats["totals"];
@@ -566,7 +628,7 @@ fn parse_dims(s: &str) -> Result<[usize; 3]> {
         .map(|x| x.trim().parse::<usize>())
         .collect::<Result<_, _>>()
         .with_context(|| format!("--dims '{s}': expected NI,NJ,NK"))?;
-    if v.len() != 3 || v.iter().any(|&d| d == 0) {
+    if v.len() != 3 || v.contains(&0) {
         bail!("--dims '{s}': expected three positive integers NI,NJ,NK");
     }
     if v.iter().map(|&d| (d + 1) as u128).product::<u128>() >= u32::MAX as u128 / 2 {
@@ -583,7 +645,12 @@ fn write_grid(path: &Path, grid: &Grid, want_ext: &str, quiet: bool) -> Result<(
     io::writers::write_vtk_xml_grid(path, grid)?;
     sp.finish_and_clear();
     if !quiet {
-        eprintln!("wrote {} ({} points, {} cells)", path.display(), grid.points.len(), grid.cell_count());
+        eprintln!(
+            "wrote {} ({} points, {} cells)",
+            path.display(),
+            grid.points.len(),
+            grid.cell_count()
+        );
     }
     Ok(())
 }
@@ -595,7 +662,11 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
             let grid = generate::warped(d, seed);
             write_grid(&output, &grid, "vts", quiet)
         }
-        GenCmd::Zoo { cells, seed, output } => {
+        GenCmd::Zoo {
+            cells,
+            seed,
+            output,
+        } => {
             if cells == 0 || cells > 200_000_000 {
                 bail!("--cells must be between 1 and 200000000");
             }
@@ -626,7 +697,9 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
     let t = Instant::now();
     let s = Structure::build(&grid, a.structure.into())?;
     let build_s = t.elapsed().as_secs_f64();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads.max(1)).build()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.max(1))
+        .build()?;
     let mut req = SliceRequest {
         field: field.clone(),
         levels: LevelSpec::Count(a.count),
@@ -636,7 +709,9 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
         collect_mesh: false,
     };
     let noop = |_: usize| {};
-    let (sweep_s, sr) = timed(a.repeat, || Ok(pool.install(|| slice(&grid, &s, &req, &noop))?))?;
+    let (sweep_s, sr) = timed(a.repeat, || {
+        Ok(pool.install(|| slice(&grid, &s, &req, &noop))?)
+    })?;
     let cut: u64 = sr.stats.iter().map(|s| s.cells).sum();
     let brute = if a.no_brute_force {
         None
@@ -666,9 +741,20 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
-        println!("{name}: {} vertices, {} cells, structure {}", grid.points.len(), grid.cell_count(), s.name());
-        println!("  levels {} along {}, {} cut cells, {} minima", a.count, a.axis, cut, sr.minima);
-        println!("  build {:.3} s, minima {:.4} s", build_s, sr.timings.minima);
+        println!(
+            "{name}: {} vertices, {} cells, structure {}",
+            grid.points.len(),
+            grid.cell_count(),
+            s.name()
+        );
+        println!(
+            "  levels {} along {}, {} cut cells, {} minima",
+            a.count, a.axis, cut, sr.minima
+        );
+        println!(
+            "  build {:.3} s, minima {:.4} s",
+            build_s, sr.timings.minima
+        );
         println!(
             "  sweep       {:.4} s  {:>8.2} M cut cells/s  {:>7.1} ns/cut cell (best of {})",
             sweep_s,
@@ -677,9 +763,18 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
             a.repeat
         );
         if let Some(b) = brute {
-            println!("  brute force {:.4} s  {:>8.2} M cut cells/s  sweep is {:.1}x faster", b, cut as f64 / b / 1e6, b / sweep_s);
+            println!(
+                "  brute force {:.4} s  {:>8.2} M cut cells/s  sweep is {:.1}x faster",
+                b,
+                cut as f64 / b / 1e6,
+                b / sweep_s
+            );
         }
-        println!("  memory {:.2} B/vertex ({} B)", total as f64 / grid.points.len() as f64, total);
+        println!(
+            "  memory {:.2} B/vertex ({} B)",
+            total as f64 / grid.points.len() as f64,
+            total
+        );
     }
     Ok(())
 }
@@ -710,7 +805,12 @@ fn bench_law(sizes: &[usize], a: &BenchArgs, quiet: bool) -> Result<()> {
         let cut_per_level = cut as f64 / a.count as f64;
         pts.push((cut_per_level, per_level));
         if !quiet && !a.json {
-            println!("  {n:>4}^3  {:>10.0} cut cells/level  {:>9.3} ms/level  {:>6.1} ns/cut cell", cut_per_level, per_level * 1e3, per_level * 1e9 / cut_per_level);
+            println!(
+                "  {n:>4}^3  {:>10.0} cut cells/level  {:>9.3} ms/level  {:>6.1} ns/cut cell",
+                cut_per_level,
+                per_level * 1e3,
+                per_level * 1e9 / cut_per_level
+            );
         }
         rows.push(json!({"n": n, "cells": grid.cell_count(), "cut_cells_per_level": cut_per_level, "seconds_per_level": per_level}));
     }
@@ -723,12 +823,21 @@ fn bench_law(sizes: &[usize], a: &BenchArgs, quiet: bool) -> Result<()> {
     let syy: f64 = pts.iter().map(|p| (p.1 - my).powi(2)).sum();
     let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
     let intercept = my - slope * mx;
-    let r2 = if sxx > 0.0 && syy > 0.0 { sxy * sxy / (sxx * syy) } else { 1.0 };
+    let r2 = if sxx > 0.0 && syy > 0.0 {
+        sxy * sxy / (sxx * syy)
+    } else {
+        1.0
+    };
     let out = json!({"rows": rows, "fit": {"seconds_per_level": "a + b * cut_cells", "a": intercept, "b_ns_per_cut_cell": slope * 1e9, "r2": r2}});
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
-        println!("  fit: time/level = {:.3} us + {:.2} ns x cut cells  (R^2 = {:.5})", intercept * 1e6, slope * 1e9, r2);
+        println!(
+            "  fit: time/level = {:.3} us + {:.2} ns x cut cells  (R^2 = {:.5})",
+            intercept * 1e6,
+            slope * 1e9,
+            r2
+        );
     }
     Ok(())
 }

@@ -46,7 +46,9 @@ pub enum MetaCellError {
         why: &'static str,
     },
     /// The faces do not form a closed, consistently oriented 2-manifold.
-    #[error("edge {a}-{b} is used {count} time(s) in the same direction or not matched by an opposite face side: the faces are not a closed, consistently oriented surface")]
+    #[error(
+        "edge {a}-{b} is used {count} time(s) in the same direction or not matched by an opposite face side: the faces are not a closed, consistently oriented surface"
+    )]
     NotClosed {
         /// Local vertex.
         a: u8,
@@ -92,7 +94,11 @@ pub struct MetaCell {
 
 impl MetaCell {
     /// Builds a meta-cell and all its tables from outward-oriented faces.
-    pub fn from_faces(name: impl Into<String>, nv: usize, faces: Vec<Vec<u8>>) -> Result<Self, MetaCellError> {
+    pub fn from_faces(
+        name: impl Into<String>,
+        nv: usize,
+        faces: Vec<Vec<u8>>,
+    ) -> Result<Self, MetaCellError> {
         if nv > MAX_META_VERTICES {
             return Err(MetaCellError::TooManyVertices { nv });
         }
@@ -101,17 +107,26 @@ impl MetaCell {
         let mut used = vec![false; nv];
         for (fi, f) in faces.iter().enumerate() {
             if f.len() < 3 {
-                return Err(MetaCellError::BadFace { face: fi, why: "fewer than 3 vertices" });
+                return Err(MetaCellError::BadFace {
+                    face: fi,
+                    why: "fewer than 3 vertices",
+                });
             }
             let mut s = f.clone();
             s.sort_unstable();
             if s.windows(2).any(|w| w[0] == w[1]) {
-                return Err(MetaCellError::BadFace { face: fi, why: "repeated vertex" });
+                return Err(MetaCellError::BadFace {
+                    face: fi,
+                    why: "repeated vertex",
+                });
             }
             for i in 0..f.len() {
                 let (a, b) = (f[i], f[(i + 1) % f.len()]);
                 if a as usize >= nv || b as usize >= nv {
-                    return Err(MetaCellError::BadFace { face: fi, why: "vertex id out of range" });
+                    return Err(MetaCellError::BadFace {
+                        face: fi,
+                        why: "vertex id out of range",
+                    });
                 }
                 used[a as usize] = true;
                 *directed.entry((a, b)).or_default() += 1;
@@ -125,7 +140,11 @@ impl MetaCell {
                 return Err(MetaCellError::NotClosed { a, b, count: n });
             }
         }
-        let mut edges: Vec<[u8; 2]> = directed.keys().filter(|(a, b)| a < b).map(|&(a, b)| [a, b]).collect();
+        let mut edges: Vec<[u8; 2]> = directed
+            .keys()
+            .filter(|(a, b)| a < b)
+            .map(|&(a, b)| [a, b])
+            .collect();
         edges.sort_unstable();
         let edge_id = |a: u8, b: u8| -> u8 {
             let k = if a < b { [a, b] } else { [b, a] };
@@ -134,7 +153,17 @@ impl MetaCell {
         // Per face side: (edge id, from vertex, to vertex).
         let sides: Vec<Vec<(u8, u8, u8)>> = faces
             .iter()
-            .map(|f| (0..f.len()).map(|i| (edge_id(f[i], f[(i + 1) % f.len()]), f[i], f[(i + 1) % f.len()])).collect())
+            .map(|f| {
+                (0..f.len())
+                    .map(|i| {
+                        (
+                            edge_id(f[i], f[(i + 1) % f.len()]),
+                            f[i],
+                            f[(i + 1) % f.len()],
+                        )
+                    })
+                    .collect()
+            })
             .collect();
 
         let ncodes = 1usize << nv;
@@ -213,8 +242,13 @@ impl MetaCell {
     /// face, in increasing face order): an iterator of edge-id slices.
     pub fn loops(&self, code: usize, outcome: u32) -> impl Iterator<Item = &[u8]> + '_ {
         let v = (self.variant_base[code] + outcome) as usize;
-        let (a, b) = (self.variant_loops[v] as usize, self.variant_loops[v + 1] as usize);
-        (a..b).map(move |l| &self.config[self.loop_start[l] as usize..self.loop_start[l + 1] as usize])
+        let (a, b) = (
+            self.variant_loops[v] as usize,
+            self.variant_loops[v + 1] as usize,
+        );
+        (a..b).map(move |l| {
+            &self.config[self.loop_start[l] as usize..self.loop_start[l + 1] as usize]
+        })
     }
 
     /// Bytes held by the tables.
@@ -230,16 +264,25 @@ impl MetaCell {
 
 /// Pairs the crossings of one face: for each down side, the up side that
 /// closes its segment (see the module docs), written into `next[edge]`.
-fn pair_face_sides(sides: &[(u8, u8, u8)], above: &impl Fn(u8) -> bool, above_connected: bool, next: &mut [u8]) {
+fn pair_face_sides(
+    sides: &[(u8, u8, u8)],
+    above: &impl Fn(u8) -> bool,
+    above_connected: bool,
+    next: &mut [u8],
+) {
     let n = sides.len();
     for i in 0..n {
         let (e, a, b) = sides[i];
-        if !(above(a) && !above(b)) {
+        if !above(a) || above(b) {
             continue; // not a down side
         }
         // Search for the matching up side.
         for step in 1..n {
-            let j = if above_connected { (i + step) % n } else { (i + n - step) % n };
+            let j = if above_connected {
+                (i + step) % n
+            } else {
+                (i + n - step) % n
+            };
             let (u, ua, ub) = sides[j];
             if !above(ua) && above(ub) {
                 next[e as usize] = u;
@@ -269,15 +312,33 @@ pub struct Catalog {
 /// Outward faces of VTK's tetrahedron.
 pub const TETRA_FACES: [&[u8]; 4] = [&[0, 1, 3], &[1, 2, 3], &[2, 0, 3], &[0, 2, 1]];
 /// Outward faces of VTK's pyramid.
-pub const PYRAMID_FACES: [&[u8]; 5] = [&[0, 3, 2, 1], &[0, 1, 4], &[1, 2, 4], &[2, 3, 4], &[3, 0, 4]];
+pub const PYRAMID_FACES: [&[u8]; 5] = [
+    &[0, 3, 2, 1],
+    &[0, 1, 4],
+    &[1, 2, 4],
+    &[2, 3, 4],
+    &[3, 0, 4],
+];
 /// Outward faces of VTK's wedge. VTK's valid wedges have the normal of
 /// (0, 1, 2) pointing *toward* (3, 4, 5), as checked with VTK 9.7's
 /// vtkCellValidator (its documentation says the opposite), like the base of
 /// the hexahedron and the prisms.
-pub const WEDGE_FACES: [&[u8]; 5] = [&[0, 2, 1], &[3, 4, 5], &[0, 1, 4, 3], &[1, 2, 5, 4], &[2, 0, 3, 5]];
+pub const WEDGE_FACES: [&[u8]; 5] = [
+    &[0, 2, 1],
+    &[3, 4, 5],
+    &[0, 1, 4, 3],
+    &[1, 2, 5, 4],
+    &[2, 0, 3, 5],
+];
 /// Outward faces of VTK's hexahedron.
-pub const HEXAHEDRON_FACES: [&[u8]; 6] =
-    [&[0, 4, 7, 3], &[1, 2, 6, 5], &[0, 1, 5, 4], &[3, 7, 6, 2], &[0, 3, 2, 1], &[4, 5, 6, 7]];
+pub const HEXAHEDRON_FACES: [&[u8]; 6] = [
+    &[0, 4, 7, 3],
+    &[1, 2, 6, 5],
+    &[0, 1, 5, 4],
+    &[3, 7, 6, 2],
+    &[0, 3, 2, 1],
+    &[4, 5, 6, 7],
+];
 /// VTK voxel vertex order mapped onto hexahedron order: `hex[i] = voxel[VOXEL_TO_HEX[i]]`.
 pub const VOXEL_TO_HEX: [usize; 8] = [0, 1, 3, 2, 4, 5, 7, 6];
 
@@ -316,19 +377,28 @@ impl Default for Catalog {
 impl Catalog {
     /// A catalog with the built-in tetrahedron, pyramid, wedge and hexahedron.
     pub fn new() -> Self {
-        let mut c = Catalog { metas: Vec::new(), ids: HashMap::new() };
+        let mut c = Catalog {
+            metas: Vec::new(),
+            ids: HashMap::new(),
+        };
         let builtins: [(u8, &str, usize, Vec<Vec<u8>>); 4] = [
             (vtk_type::TETRA, "tetrahedron", 4, owned(&TETRA_FACES)),
             (vtk_type::PYRAMID, "pyramid", 5, owned(&PYRAMID_FACES)),
             (vtk_type::WEDGE, "wedge", 6, owned(&WEDGE_FACES)),
-            (vtk_type::HEXAHEDRON, "hexahedron", 8, owned(&HEXAHEDRON_FACES)),
+            (
+                vtk_type::HEXAHEDRON,
+                "hexahedron",
+                8,
+                owned(&HEXAHEDRON_FACES),
+            ),
         ];
         for (t, name, nv, faces) in builtins {
             let m = MetaCell::from_faces(name, nv, faces).expect("built-in meta-cells are valid");
             c.ids.insert(MetaKey::Vtk(t), c.metas.len() as u16);
             c.metas.push(m);
         }
-        c.ids.insert(MetaKey::Vtk(vtk_type::VOXEL), builtin::HEXAHEDRON);
+        c.ids
+            .insert(MetaKey::Vtk(vtk_type::VOXEL), builtin::HEXAHEDRON);
         c
     }
 
@@ -348,7 +418,8 @@ impl Catalog {
             vtk_type::HEXAGONAL_PRISM => ("hexagonal prism", 6),
             _ => return None,
         };
-        let m = MetaCell::from_faces(name, 2 * n as usize, prism_faces(n)).expect("prism faces are valid");
+        let m = MetaCell::from_faces(name, 2 * n as usize, prism_faces(n))
+            .expect("prism faces are valid");
         Some(self.insert(MetaKey::Vtk(t), m))
     }
 
@@ -359,7 +430,11 @@ impl Catalog {
         if let Some(&id) = self.ids.get(&key) {
             return Ok(id);
         }
-        let m = MetaCell::from_faces(format!("polyhedron({nv}v,{}f)", faces.len()), nv, faces.to_vec())?;
+        let m = MetaCell::from_faces(
+            format!("polyhedron({nv}v,{}f)", faces.len()),
+            nv,
+            faces.to_vec(),
+        )?;
         Ok(self.insert(key, m))
     }
 
@@ -413,5 +488,7 @@ pub fn tet_volume(p0: [f64; 3], p1: [f64; 3], p2: [f64; 3], p3: [f64; 3]) -> f64
     let u = [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]];
     let v = [p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]];
     let w = [p3[0] - p0[0], p3[1] - p0[1], p3[2] - p0[2]];
-    (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0])) / 6.0
+    (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
+        + u[2] * (v[0] * w[1] - v[1] * w[0]))
+        / 6.0
 }

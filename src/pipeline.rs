@@ -10,7 +10,10 @@ use thiserror::Error;
 use crate::bruteforce::brute_force;
 use crate::cgraph::CGraph;
 use crate::extract::{EmitContext, LevelMesh};
-use crate::field::{levels_by_count, AxisField, local_levels, FieldSpec, LevelError, PlaneField, ScalarField, VertexField};
+use crate::field::{
+    AxisField, FieldSpec, LevelError, PlaneField, ScalarField, VertexField, levels_by_count,
+    local_levels,
+};
 use crate::grid::{Grid, GridError, Topology};
 use crate::mesh::PolyMesh;
 use crate::scgraph::SCGraph;
@@ -51,7 +54,9 @@ pub enum PipelineError {
     #[error(transparent)]
     Levels(#[from] LevelError),
     /// A named property that does not exist.
-    #[error("no property named '{name}' (point properties: {points:?}; cell properties: {cells:?})")]
+    #[error(
+        "no property named '{name}' (point properties: {points:?}; cell properties: {cells:?})"
+    )]
     NoSuchProperty {
         /// Requested name.
         name: String,
@@ -75,7 +80,9 @@ impl Structure {
         let hidden = grid.hidden_cells();
         let structured = matches!(grid.topology, Topology::Structured { .. });
         let s = match choice {
-            StructureChoice::SCGraph => Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?),
+            StructureChoice::SCGraph => {
+                Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
+            }
             StructureChoice::CGraph => Structure::CGraph(CGraph::build(grid, hidden.as_deref())?),
             StructureChoice::Auto | StructureChoice::BruteForce if structured => {
                 Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
@@ -228,19 +235,51 @@ pub fn slice(
         ($g:expr) => {{
             let g = $g;
             match (&req.field, &field_values) {
-                (FieldSpec::Property(_), Some(v)) => {
-                    run_on(grid, g, &VertexField { values: v }, None, 0.0, req, attribute.as_deref(), progress)
-                }
+                (FieldSpec::Property(_), Some(v)) => run_on(
+                    grid,
+                    g,
+                    &VertexField { values: v },
+                    None,
+                    0.0,
+                    req,
+                    attribute.as_deref(),
+                    progress,
+                ),
                 (FieldSpec::Axis { axis, negative }, _) => {
-                    let f = AxisField { axis: *axis, sign: if *negative { -1.0 } else { 1.0 }, positions: g.positions() };
+                    let f = AxisField {
+                        axis: *axis,
+                        sign: if *negative { -1.0 } else { 1.0 },
+                        positions: g.positions(),
+                    };
                     let off = req.field.world_offset(grid.origin());
-                    run_on(grid, g, &f, req.field.axis_slot(), off, req, attribute.as_deref(), progress)
+                    run_on(
+                        grid,
+                        g,
+                        &f,
+                        req.field.axis_slot(),
+                        off,
+                        req,
+                        attribute.as_deref(),
+                        progress,
+                    )
                 }
                 _ => {
                     let n = req.field.normal().expect("planar field");
-                    let f = PlaneField { normal: n.map(|c| c as f32), positions: g.positions() };
+                    let f = PlaneField {
+                        normal: n.map(|c| c as f32),
+                        positions: g.positions(),
+                    };
                     let off = req.field.world_offset(grid.origin());
-                    run_on(grid, g, &f, req.field.axis_slot(), off, req, attribute.as_deref(), progress)
+                    run_on(
+                        grid,
+                        g,
+                        &f,
+                        req.field.axis_slot(),
+                        off,
+                        req,
+                        attribute.as_deref(),
+                        progress,
+                    )
                 }
             }
         }};
@@ -300,7 +339,10 @@ fn run_on<G: CellGraph, F: ScalarField>(
         LevelSpec::Values(v) => v.clone(),
     };
     let levels = local_levels(&world, world_offset)?;
-    let ctx = EmitContext { positions: g.positions(), attribute };
+    let ctx = EmitContext {
+        positions: g.positions(),
+        attribute,
+    };
     let k = levels.len();
     let mut timings = Timings::default();
     let collect = req.collect_mesh;
@@ -312,50 +354,58 @@ fn run_on<G: CellGraph, F: ScalarField>(
             let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
             let corners = ids
                 .iter()
-                .map(|&i| (mesh.edge_keys[i as usize], mesh.positions[i as usize], mesh.values[i as usize]))
+                .map(|&i| {
+                    (
+                        mesh.edge_keys[i as usize],
+                        mesh.positions[i as usize],
+                        mesh.values[i as usize],
+                    )
+                })
                 .collect();
             pieces[level].push((g.source_cell(mesh.cells[p]), corners));
         }
     };
-    let (stats_blocks, minima, state_bytes): (Vec<(Vec<LevelStats>, Pieces)>, usize, usize) = if req.brute_force {
-        let t = Instant::now();
-        let mut acc = (vec![LevelStats::default(); k], vec![Vec::new(); k]);
-        let mut mesh = LevelMesh::default();
-        brute_force(g, f, &levels, &ctx, &mut mesh, |lv, m, st| {
-            acc.0[lv] = *st;
-            gather(&mut acc.1, lv, m);
-            progress(1);
-        });
-        timings.sweep = t.elapsed().as_secs_f64();
-        (vec![acc], 0, mesh.capacity_bytes())
-    } else {
-        let mut sw = Sweeper::new(g, req.threads.max(1));
-        let t = Instant::now();
-        let minima = sw.prepare_minima(f, axis_slot);
-        timings.minima = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let out = sw.sweep(
-            f,
-            axis_slot,
-            &levels,
-            &ctx,
-            || (vec![LevelStats::default(); k], vec![Vec::new(); k]),
-            |acc: &mut (Vec<LevelStats>, Pieces), lv, m, st| {
+    let (stats_blocks, minima, state_bytes): (Vec<(Vec<LevelStats>, Pieces)>, usize, usize) =
+        if req.brute_force {
+            let t = Instant::now();
+            let mut acc = (vec![LevelStats::default(); k], vec![Vec::new(); k]);
+            let mut mesh = LevelMesh::default();
+            brute_force(g, f, &levels, &ctx, &mut mesh, |lv, m, st| {
                 acc.0[lv] = *st;
                 gather(&mut acc.1, lv, m);
                 progress(1);
-            },
-        );
-        timings.sweep = t.elapsed().as_secs_f64();
-        (out, minima, sw.state_bytes())
-    };
+            });
+            timings.sweep = t.elapsed().as_secs_f64();
+            (vec![acc], 0, mesh.capacity_bytes())
+        } else {
+            let mut sw = Sweeper::new(g, req.threads.max(1));
+            let t = Instant::now();
+            let minima = sw.prepare_minima(f, axis_slot);
+            timings.minima = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let out = sw.sweep(
+                f,
+                axis_slot,
+                &levels,
+                &ctx,
+                || (vec![LevelStats::default(); k], vec![Vec::new(); k]),
+                |acc: &mut (Vec<LevelStats>, Pieces), lv, m, st| {
+                    acc.0[lv] = *st;
+                    gather(&mut acc.1, lv, m);
+                    progress(1);
+                },
+            );
+            timings.sweep = t.elapsed().as_secs_f64();
+            (out, minima, sw.state_bytes())
+        };
     let mut stats = vec![LevelStats::default(); k];
     for (b, _) in &stats_blocks {
         for (lv, st) in b.iter().enumerate() {
             stats[lv].add(st);
         }
     }
-    let mesh = collect.then(|| canonical_mesh(stats_blocks.into_iter().map(|b| b.1).collect(), &world));
+    let mesh =
+        collect.then(|| canonical_mesh(stats_blocks.into_iter().map(|b| b.1).collect(), &world));
     Ok(SliceResult {
         level_values: world,
         stats,
@@ -371,11 +421,16 @@ fn run_on<G: CellGraph, F: ScalarField>(
 /// source cell (stable), vertices welded by grid edge in first-use order.
 /// The result does not depend on the number of blocks.
 fn canonical_mesh(blocks: Vec<Pieces>, world: &[f64]) -> PolyMesh {
-    let mut m = PolyMesh { poly_offsets: vec![0], level_values: world.to_vec(), ..Default::default() };
+    let mut m = PolyMesh {
+        poly_offsets: vec![0],
+        level_values: world.to_vec(),
+        ..Default::default()
+    };
     let k = world.len();
     let mut weld: HashMap<u64, u32> = HashMap::new();
     for lv in 0..k {
-        let mut polys: Vec<&(u32, Vec<(u64, [f32; 3], f32)>)> = blocks.iter().flat_map(|b| b[lv].iter()).collect();
+        let mut polys: Vec<&(u32, Vec<(u64, [f32; 3], f32)>)> =
+            blocks.iter().flat_map(|b| b[lv].iter()).collect();
         polys.sort_by_key(|p| p.0);
         weld.clear();
         for (cell, corners) in polys {

@@ -18,13 +18,20 @@ pub fn cell_to_vertex<G: CellGraph>(g: &G, cell_values: &[f64], vertex_count: us
         }
         let (m, n) = g.cell(s, &mut ids);
         let meta = g.catalog().get(m);
-        let vol = meta.signed_volume(&|v| pos[ids[v] as usize].map(f64::from)).abs();
-        let Some(&val) = cell_values.get(g.source_cell(s) as usize) else { continue };
+        let vol = meta
+            .signed_volume(&|v| pos[ids[v] as usize].map(f64::from))
+            .abs();
+        let Some(&val) = cell_values.get(g.source_cell(s) as usize) else {
+            continue;
+        };
         for &v in &ids[..n] {
             sum[v as usize] += vol * val;
             wsum[v as usize] += vol;
         }
     }
     let mean = cell_values.iter().sum::<f64>() / cell_values.len().max(1) as f64;
-    sum.iter().zip(&wsum).map(|(&s, &w)| if w > 0.0 { (s / w) as f32 } else { mean as f32 }).collect()
+    sum.iter()
+        .zip(&wsum)
+        .map(|(&s, &w)| if w > 0.0 { (s / w) as f32 } else { mean as f32 })
+        .collect()
 }

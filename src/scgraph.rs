@@ -7,10 +7,10 @@
 //! neighbours `slot ± 1, ± npi, ± npi·npj` need no bounds checks.
 
 use crate::grid::{Grid, Topology};
-use crate::metacell::{builtin, Catalog, MAX_META_VERTICES};
+use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use rayon::prelude::*;
 
-use crate::structure::{classify_cell, is_sweepable, BitSet, CellClass, StructureError};
+use crate::structure::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
 use crate::sweep::CellGraph;
 
 /// The structured cellular graph.
@@ -50,7 +50,17 @@ impl SCGraph {
         let origin = grid.origin();
         let positions = grid.rebased_positions();
         let slab = npi * npj;
-        let mut offsets = [0, 1, 1 + npi, npi, slab, slab + 1, slab + 1 + npi, slab + npi].map(|o| o as u32);
+        let mut offsets = [
+            0,
+            1,
+            1 + npi,
+            npi,
+            slab,
+            slab + 1,
+            slab + 1 + npi,
+            slab + npi,
+        ]
+        .map(|o| o as u32);
         let catalog = Catalog::new();
         let mut live = BitSet::new(slots);
         let mut class_counts = [0usize; 5];
@@ -69,7 +79,10 @@ impl SCGraph {
         let mut classes = classify_all(offsets);
         // A left-handed IJK grid gives mirrored hexahedra: read the cells
         // with K reversed (top face first) so they come out positive.
-        let inverted = classes.iter().filter(|&&c| c == CellClass::Inverted).count();
+        let inverted = classes
+            .iter()
+            .filter(|&&c| c == CellClass::Inverted)
+            .count();
         let left_handed = inverted * 2 > classes.len();
         if left_handed {
             offsets = [4, 5, 6, 7, 0, 1, 2, 3].map(|i| offsets[i]);
@@ -83,12 +96,24 @@ impl SCGraph {
                 live.set(i + j * npi + k * slab + slab);
             }
         }
-        Ok(SCGraph { dims, origin, positions, live, class_counts, left_handed, catalog, offsets })
+        Ok(SCGraph {
+            dims,
+            origin,
+            positions,
+            live,
+            class_counts,
+            left_handed,
+            catalog,
+            offsets,
+        })
     }
 
     /// Bytes held by the structure: positions (12 B/vertex) and the live bit set.
     pub fn bytes(&self) -> Vec<(&'static str, usize)> {
-        vec![("positions", self.positions.len() * 12), ("live_bits", self.live.bytes())]
+        vec![
+            ("positions", self.positions.len() * 12),
+            ("live_bits", self.live.bytes()),
+        ]
     }
 
     /// Cells that the sweep will visit.
@@ -141,6 +166,13 @@ impl CellGraph for SCGraph {
         let slab = (self.dims[0] * self.dims[1]) as u64;
         let slabs = self.slot_count() as u64 / slab;
         let n = (n.max(1) as u64).min(slabs);
-        (0..n).map(|b| ((slabs * b / n * slab) as u32, (slabs * (b + 1) / n * slab) as u32)).collect()
+        (0..n)
+            .map(|b| {
+                (
+                    (slabs * b / n * slab) as u32,
+                    (slabs * (b + 1) / n * slab) as u32,
+                )
+            })
+            .collect()
     }
 }

@@ -9,7 +9,9 @@ use crate::metacell::MetaCell;
 #[derive(Debug, Error, PartialEq)]
 pub enum StructureError {
     /// S-CGraph needs a structured grid.
-    #[error("S-CGraph needs a structured (IJK) grid; this one is unstructured (use --structure cgraph)")]
+    #[error(
+        "S-CGraph needs a structured (IJK) grid; this one is unstructured (use --structure cgraph)"
+    )]
     NotStructured,
     /// No cells at all.
     #[error("the grid has no cells")]
@@ -47,7 +49,13 @@ pub enum CellClass {
 }
 
 /// Names of the [`CellClass`] variants, in order.
-pub const CELL_CLASS_NAMES: [&str; 5] = ["valid", "inverted", "zero_volume", "repeated_vertex", "non_volumetric"];
+pub const CELL_CLASS_NAMES: [&str; 5] = [
+    "valid",
+    "inverted",
+    "zero_volume",
+    "repeated_vertex",
+    "non_volumetric",
+];
 
 /// Classifies one cell from its global vertex ids (local order) and the f64 points.
 pub fn classify_cell(meta: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellClass {
@@ -69,7 +77,7 @@ pub fn classify_cell(meta: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellC
         let p = pos(v);
         ext = ext.max(p[0].abs()).max(p[1].abs()).max(p[2].abs());
     }
-    if !(vol.abs() > 1e-12 * ext * ext * ext) {
+    if vol.is_nan() || vol.abs() <= 1e-12 * ext * ext * ext {
         CellClass::ZeroVolume
     } else if vol < 0.0 {
         CellClass::Inverted
@@ -92,7 +100,9 @@ pub struct BitSet {
 impl BitSet {
     /// `n` cleared bits.
     pub fn new(n: usize) -> Self {
-        BitSet { words: vec![0; n.div_ceil(64)] }
+        BitSet {
+            words: vec![0; n.div_ceil(64)],
+        }
     }
     /// Sets bit `i`.
     #[inline]
@@ -102,7 +112,9 @@ impl BitSet {
     /// Reads bit `i`.
     #[inline(always)]
     pub fn get(&self, i: usize) -> bool {
-        self.words.get(i >> 6).is_some_and(|w| w >> (i & 63) & 1 == 1)
+        self.words
+            .get(i >> 6)
+            .is_some_and(|w| w >> (i & 63) & 1 == 1)
     }
     /// Number of set bits.
     pub fn count(&self) -> usize {

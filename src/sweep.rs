@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use crate::extract::{code_of, emit_cell, intersects, EmitContext, LevelMesh};
+use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects};
 use crate::field::ScalarField;
 use crate::metacell::{Catalog, MAX_META_VERTICES};
 
@@ -24,7 +24,9 @@ pub trait CellGraph: Sync {
     fn is_live(&self, slot: u32) -> bool;
     /// Initial stamps: 0 for live cells, [`NEVER`] for the rest.
     fn initial_stamps(&self) -> Vec<Stamp> {
-        (0..self.slot_count() as u32).map(|s| if self.is_live(s) { 0 } else { NEVER }).collect()
+        (0..self.slot_count() as u32)
+            .map(|s| if self.is_live(s) { 0 } else { NEVER })
+            .collect()
     }
     /// The catalog of meta-cells.
     fn catalog(&self) -> &Catalog;
@@ -42,7 +44,10 @@ pub trait CellGraph: Sync {
     fn blocks(&self, n: usize) -> Vec<(u32, u32)> {
         let total = self.slot_count() as u64;
         let n = n.max(1) as u64;
-        (0..n).map(|b| ((total * b / n) as u32, (total * (b + 1) / n) as u32)).filter(|r| r.0 < r.1).collect()
+        (0..n)
+            .map(|b| ((total * b / n) as u32, (total * (b + 1) / n) as u32))
+            .filter(|r| r.0 < r.1)
+            .collect()
     }
 }
 
@@ -132,7 +137,12 @@ impl Block {
     pub fn bytes(&self) -> usize {
         self.stamps.len() * std::mem::size_of::<Stamp>()
             + (self.work.capacity() + self.active.capacity()) * 4
-            + self.minima_cache.iter().flatten().map(|m| m.capacity() * 8).sum::<usize>()
+            + self
+                .minima_cache
+                .iter()
+                .flatten()
+                .map(|m| m.capacity() * 8)
+                .sum::<usize>()
             + self.mesh.capacity_bytes()
     }
 }
@@ -211,8 +221,12 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
             .par_iter_mut()
             .map(|b| {
                 let mut acc = make_acc();
-                let minima = b.minima_cache[slot].take().unwrap_or_else(|| block_minima(g, field, b));
-                sweep_block(g, field, b, &minima, levels, ctx, |k, mesh, st| on_level(&mut acc, k, mesh, st));
+                let minima = b.minima_cache[slot]
+                    .take()
+                    .unwrap_or_else(|| block_minima(g, field, b));
+                sweep_block(g, field, b, &minima, levels, ctx, |k, mesh, st| {
+                    on_level(&mut acc, k, mesh, st)
+                });
                 if axis_slot.is_some() {
                     b.minima_cache[slot] = Some(minima);
                 }
@@ -226,7 +240,13 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
 fn block_minima<G: CellGraph, F: ScalarField>(g: &G, f: &F, b: &Block) -> Vec<Minimum> {
     let len = b.stamps.len() as u32;
     let lo: Vec<f32> = (0..len)
-        .map(|i| if b.stamps[i as usize] == NEVER { f32::INFINITY } else { cell_lo(g, f, b.start + i) })
+        .map(|i| {
+            if b.stamps[i as usize] == NEVER {
+                f32::INFINITY
+            } else {
+                cell_lo(g, f, b.start + i)
+            }
+        })
         .collect();
     let mut out = Vec::new();
     for i in 0..len {
@@ -245,7 +265,10 @@ fn block_minima<G: CellGraph, F: ScalarField>(g: &G, f: &F, b: &Block) -> Vec<Mi
             }
         });
         if !has_pred {
-            out.push(Minimum { lo: key.0, slot: b.start + i });
+            out.push(Minimum {
+                lo: key.0,
+                slot: b.start + i,
+            });
         }
     }
     out.sort_unstable_by(|a, b| a.lo.total_cmp(&b.lo).then(a.slot.cmp(&b.slot)));
@@ -298,7 +321,16 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
             if intersects(lo, hi, t) {
                 b.active.push(c);
                 let code = code_of(&phi[..n], t);
-                emit_cell(catalog.get(m), &ids[..n], &phi[..n], t, code, c, ctx, &mut b.mesh);
+                emit_cell(
+                    catalog.get(m),
+                    &ids[..n],
+                    &phi[..n],
+                    t,
+                    code,
+                    c,
+                    ctx,
+                    &mut b.mesh,
+                );
             }
             let stamps = &mut b.stamps;
             let work = &mut b.work;

@@ -2,8 +2,8 @@
 //! edges, use every intersected edge exactly once, and are oriented toward
 //! increasing φ.
 
-use stratasweep::metacell::{Catalog, MetaCell, builtin};
 use stratasweep::grid::vtk_type;
+use stratasweep::metacell::{Catalog, MetaCell, builtin};
 
 fn catalog_with_prisms() -> Catalog {
     let mut c = Catalog::new();
@@ -23,13 +23,37 @@ fn reference_coords(m: &MetaCell) -> Vec<[f64; 3]> {
             .collect()
     };
     match m.name.as_str() {
-        "tetrahedron" => vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        "pyramid" => vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.5, 0.5, 1.0]],
+        "tetrahedron" => vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ],
+        "pyramid" => vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.5, 1.0],
+        ],
         // VTK wedge: (0,1,2) normal points toward (3,4,5).
-        "wedge" => vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]],
+        "wedge" => vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+            [0.0, 1.0, 1.0],
+        ],
         "hexahedron" => vec![
-            [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0],
-            [0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0],
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+            [1.0, 1.0, 1.0],
+            [0.0, 1.0, 1.0],
         ],
         "pentagonal prism" => [ngon(5, 0.0), ngon(5, 1.0)].concat(),
         "hexagonal prism" => [ngon(6, 0.0), ngon(6, 1.0)].concat(),
@@ -41,10 +65,12 @@ fn face_of_edge_pair(m: &MetaCell, e1: u8, e2: u8) -> bool {
     let [a, b] = m.edges[e1 as usize];
     let [c, d] = m.edges[e2 as usize];
     m.faces.iter().any(|f| {
-        let has = |x: u8, y: u8| (0..f.len()).any(|i| {
-            let (p, q) = (f[i], f[(i + 1) % f.len()]);
-            (p == x && q == y) || (p == y && q == x)
-        });
+        let has = |x: u8, y: u8| {
+            (0..f.len()).any(|i| {
+                let (p, q) = (f[i], f[(i + 1) % f.len()]);
+                (p == x && q == y) || (p == y && q == x)
+            })
+        };
         has(a, b) && has(c, d)
     })
 }
@@ -57,10 +83,12 @@ fn every_code_of_every_meta_cell_gives_closed_loops_over_intersected_edges() {
         let mut ambiguous = 0;
         for code in 0..m.code_count() {
             let above = |v: u8| code >> v & 1 == 1;
-            let crossed: Vec<u8> = (0..m.edges.len() as u8).filter(|&e| {
-                let [a, b] = m.edges[e as usize];
-                above(a) != above(b)
-            }).collect();
+            let crossed: Vec<u8> = (0..m.edges.len() as u8)
+                .filter(|&e| {
+                    let [a, b] = m.edges[e as usize];
+                    above(a) != above(b)
+                })
+                .collect();
             let nvar = 1u32 << m.ambiguous_faces[code].count_ones();
             if m.config_is_ambiguous(code) {
                 ambiguous += 1;
@@ -68,17 +96,34 @@ fn every_code_of_every_meta_cell_gives_closed_loops_over_intersected_edges() {
             for outcome in 0..nvar {
                 let mut used = vec![0; m.edges.len()];
                 for lp in m.loops(code, outcome) {
-                    assert!(lp.len() >= 3, "{} code {code}: loop of {} edges", m.name, lp.len());
+                    assert!(
+                        lp.len() >= 3,
+                        "{} code {code}: loop of {} edges",
+                        m.name,
+                        lp.len()
+                    );
                     for i in 0..lp.len() {
                         let e = lp[i];
-                        assert!(crossed.contains(&e), "{} code {code}: edge {e} not intersected", m.name);
+                        assert!(
+                            crossed.contains(&e),
+                            "{} code {code}: edge {e} not intersected",
+                            m.name
+                        );
                         used[e as usize] += 1;
                         // Closed: consecutive edges (cyclically) share a face.
-                        assert!(face_of_edge_pair(m, e, lp[(i + 1) % lp.len()]), "{} code {code}: loop not closed", m.name);
+                        assert!(
+                            face_of_edge_pair(m, e, lp[(i + 1) % lp.len()]),
+                            "{} code {code}: loop not closed",
+                            m.name
+                        );
                     }
                 }
                 for &e in &crossed {
-                    assert_eq!(used[e as usize], 1, "{} code {code} variant {outcome}: edge {e} used {} times", m.name, used[e as usize]);
+                    assert_eq!(
+                        used[e as usize], 1,
+                        "{} code {code} variant {outcome}: edge {e} used {} times",
+                        m.name, used[e as usize]
+                    );
                 }
                 if code == 0 || code == m.code_count() - 1 {
                     assert_eq!(m.loops(code, outcome).count(), 0);
@@ -96,25 +141,42 @@ fn every_code_of_every_meta_cell_gives_closed_loops_over_intersected_edges() {
 #[test]
 fn loops_are_oriented_toward_increasing_phi_for_linear_fields() {
     let cat = catalog_with_prisms();
-    let dirs = [[0.3, 0.5, 0.81], [-0.7, 0.2, 0.1], [0.05, -0.9, 0.4], [0.6, 0.6, -0.5]];
+    let dirs = [
+        [0.3, 0.5, 0.81],
+        [-0.7, 0.2, 0.1],
+        [0.05, -0.9, 0.4],
+        [0.6, 0.6, -0.5],
+    ];
     for m in &cat.metas {
         let x = reference_coords(m);
-        assert!(m.signed_volume(&|v| x[v]) > 0.0, "{}: reference coords not positive", m.name);
+        assert!(
+            m.signed_volume(&|v| x[v]) > 0.0,
+            "{}: reference coords not positive",
+            m.name
+        );
         for d in dirs {
-            let phi: Vec<f64> = x.iter().map(|p| p[0] * d[0] + p[1] * d[1] + p[2] * d[2]).collect();
-            let (lo, hi) = phi.iter().fold((f64::MAX, f64::MIN), |a, &v| (a.0.min(v), a.1.max(v)));
+            let phi: Vec<f64> = x
+                .iter()
+                .map(|p| p[0] * d[0] + p[1] * d[1] + p[2] * d[2])
+                .collect();
+            let (lo, hi) = phi
+                .iter()
+                .fold((f64::MAX, f64::MIN), |a, &v| (a.0.min(v), a.1.max(v)));
             for s in 1..8 {
                 let t = lo + (hi - lo) * s as f64 / 8.0 + 1e-7;
                 let code = (0..m.nv).fold(0, |c, v| c | ((phi[v] >= t) as usize) << v);
                 let mut loops = 0;
                 for lp in m.loops(code, 0) {
                     loops += 1;
-                    let pts: Vec<[f64; 3]> = lp.iter().map(|&e| {
-                        let [a, b] = m.edges[e as usize];
-                        let (a, b) = (a as usize, b as usize);
-                        let s = (t - phi[a]) / (phi[b] - phi[a]);
-                        [0, 1, 2].map(|k| x[a][k] + s * (x[b][k] - x[a][k]))
-                    }).collect();
+                    let pts: Vec<[f64; 3]> = lp
+                        .iter()
+                        .map(|&e| {
+                            let [a, b] = m.edges[e as usize];
+                            let (a, b) = (a as usize, b as usize);
+                            let s = (t - phi[a]) / (phi[b] - phi[a]);
+                            [0, 1, 2].map(|k| x[a][k] + s * (x[b][k] - x[a][k]))
+                        })
+                        .collect();
                     let mut n = [0.0; 3];
                     for i in 1..pts.len() - 1 {
                         let u = [0, 1, 2].map(|k| pts[i][k] - pts[0][k]);
@@ -124,7 +186,11 @@ fn loops_are_oriented_toward_increasing_phi_for_linear_fields() {
                         n[2] += u[0] * v[1] - u[1] * v[0];
                     }
                     let dot = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
-                    assert!(dot > 0.0, "{} code {code}: loop normal points against grad φ", m.name);
+                    assert!(
+                        dot > 0.0,
+                        "{} code {code}: loop normal points against grad φ",
+                        m.name
+                    );
                 }
                 // A plane cuts a convex cell in one polygon.
                 if code != 0 && code != m.code_count() - 1 {

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use stratasweep::field::FieldSpec;
-use stratasweep::pipeline::{slice, LevelSpec, SliceRequest, Structure, StructureChoice};
+use stratasweep::pipeline::{LevelSpec, SliceRequest, Structure, StructureChoice, slice};
 
 fn peer() -> Option<(String, PathBuf)> {
     let py = std::env::var("STRATASWEEP_PEER_PYTHON").ok()?;
@@ -13,24 +13,46 @@ fn peer() -> Option<(String, PathBuf)> {
     script.exists().then_some((py, script))
 }
 
-fn compare(grid_path: &std::path::Path, grid: &stratasweep::grid::Grid, axis: usize, count: usize, tol: f64) {
+fn compare(
+    grid_path: &std::path::Path,
+    grid: &stratasweep::grid::Grid,
+    axis: usize,
+    count: usize,
+    tol: f64,
+) {
     let Some((py, script)) = peer() else {
-        eprintln!("SKIP peer comparison: STRATASWEEP_PEER_PYTHON not set or ../shared/peer missing");
+        eprintln!(
+            "SKIP peer comparison: STRATASWEEP_PEER_PYTHON not set or ../shared/peer missing"
+        );
         return;
     };
     let json = grid_path.with_extension(format!("peer{axis}.json"));
     let out = Command::new(&py)
         .arg(&script)
         .arg(grid_path)
-        .args(["--axis", ["x", "y", "z"][axis], "--count", &count.to_string(), "--json"])
+        .args([
+            "--axis",
+            ["x", "y", "z"][axis],
+            "--count",
+            &count.to_string(),
+            "--json",
+        ])
         .arg(&json)
         .output()
         .expect("run peer");
-    assert!(out.status.success(), "peer failed: {}", String::from_utf8_lossy(&out.stderr));
-    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(
+        out.status.success(),
+        "peer failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let s = Structure::build(grid, StructureChoice::Auto).unwrap();
     let req = SliceRequest {
-        field: FieldSpec::Axis { axis, negative: false },
+        field: FieldSpec::Axis {
+            axis,
+            negative: false,
+        },
         levels: LevelSpec::Count(count),
         attribute: None,
         threads: 1,
@@ -44,12 +66,23 @@ fn compare(grid_path: &std::path::Path, grid: &stratasweep::grid::Grid, axis: us
     for (k, ps) in peer_slices.iter().enumerate() {
         let (pa, pv) = (ps["area"].as_f64().unwrap(), ps["value"].as_f64().unwrap());
         let ours = r.stats[k].area;
-        assert!((pv - r.level_values[k]).abs() < 1e-6 * (1.0 + pv.abs()), "level {k}: {pv} vs {}", r.level_values[k]);
+        assert!(
+            (pv - r.level_values[k]).abs() < 1e-6 * (1.0 + pv.abs()),
+            "level {k}: {pv} vs {}",
+            r.level_values[k]
+        );
         let rel = (ours - pa).abs() / pa.max(1e-300);
         worst = worst.max(rel);
-        assert!(rel < tol, "{}: slice {k} area {ours} vs VTK {pa} (rel {rel:e})", grid_path.display());
+        assert!(
+            rel < tol,
+            "{}: slice {k} area {ours} vs VTK {pa} (rel {rel:e})",
+            grid_path.display()
+        );
     }
-    eprintln!("{}: axis {axis}, {count} slices, worst relative area difference vs VTK {worst:e}", grid_path.display());
+    eprintln!(
+        "{}: axis {axis}, {count} slices, worst relative area difference vs VTK {worst:e}",
+        grid_path.display()
+    );
 }
 
 #[test]
@@ -76,7 +109,12 @@ fn real_grids_areas_match_vtk() {
         eprintln!("SKIP real-grid peer comparison: STRATASWEEP_DATA not set");
         return;
     };
-    for f in ["geos/box_hybrid_mesh.vtu", "pyvista/hexa.vtk", "structured/SampleStructGrid.vtk", "geos/synthetic.vtu"] {
+    for f in [
+        "geos/box_hybrid_mesh.vtu",
+        "pyvista/hexa.vtk",
+        "structured/SampleStructGrid.vtk",
+        "geos/synthetic.vtu",
+    ] {
         let p = PathBuf::from(&data).join(f);
         let g = stratasweep::io::vtk_read::read_vtk(&p).unwrap();
         compare(&p, &g, 2, 20, 1e-5);

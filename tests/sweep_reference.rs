@@ -3,7 +3,7 @@
 //! on vertex layers; plus watertightness of isosurfaces.
 
 mod common;
-use common::{structured, zoo_from_structured, Rng};
+use common::{Rng, structured, zoo_from_structured};
 use std::collections::HashMap;
 use stratasweep::bruteforce::brute_force;
 use stratasweep::cgraph::CGraph;
@@ -19,7 +19,10 @@ type Levels = Vec<Vec<(u32, Vec<[f32; 3]>)>>;
 fn collect(mesh: &LevelMesh, g: &impl CellGraph, out: &mut Vec<(u32, Vec<[f32; 3]>)>) {
     for p in 0..mesh.polygon_count() {
         let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
-        out.push((g.source_cell(mesh.cells[p]), ids.iter().map(|&i| mesh.positions[i as usize]).collect()));
+        out.push((
+            g.source_cell(mesh.cells[p]),
+            ids.iter().map(|&i| mesh.positions[i as usize]).collect(),
+        ));
     }
 }
 
@@ -30,14 +33,30 @@ fn sorted(mut l: Levels) -> Levels {
     l
 }
 
-fn run_sweep<G: CellGraph, F: ScalarField>(g: &G, f: &F, axis: Option<usize>, levels: &[f32], threads: usize) -> Levels {
-    let ctx = EmitContext { positions: g.positions(), attribute: None };
+fn run_sweep<G: CellGraph, F: ScalarField>(
+    g: &G,
+    f: &F,
+    axis: Option<usize>,
+    levels: &[f32],
+    threads: usize,
+) -> Levels {
+    let ctx = EmitContext {
+        positions: g.positions(),
+        attribute: None,
+    };
     let mut sw = Sweeper::new(g, threads);
     sw.prepare_minima(f, axis);
-    let parts = sw.sweep(f, axis, levels, &ctx, || vec![Vec::new(); levels.len()], |acc: &mut Levels, k, mesh, st| {
-        assert_eq!(st.polygons as usize, mesh.polygon_count());
-        collect(mesh, g, &mut acc[k]);
-    });
+    let parts = sw.sweep(
+        f,
+        axis,
+        levels,
+        &ctx,
+        || vec![Vec::new(); levels.len()],
+        |acc: &mut Levels, k, mesh, st| {
+            assert_eq!(st.polygons as usize, mesh.polygon_count());
+            collect(mesh, g, &mut acc[k]);
+        },
+    );
     let mut all = vec![Vec::new(); levels.len()];
     for p in parts {
         for (k, v) in p.into_iter().enumerate() {
@@ -48,10 +67,15 @@ fn run_sweep<G: CellGraph, F: ScalarField>(g: &G, f: &F, axis: Option<usize>, le
 }
 
 fn run_brute<G: CellGraph, F: ScalarField>(g: &G, f: &F, levels: &[f32]) -> Levels {
-    let ctx = EmitContext { positions: g.positions(), attribute: None };
+    let ctx = EmitContext {
+        positions: g.positions(),
+        attribute: None,
+    };
     let mut all = vec![Vec::new(); levels.len()];
     let mut mesh = LevelMesh::default();
-    brute_force(g, f, levels, &ctx, &mut mesh, |k, m, _| collect(m, g, &mut all[k]));
+    brute_force(g, f, levels, &ctx, &mut mesh, |k, m, _| {
+        collect(m, g, &mut all[k])
+    });
     sorted(all)
 }
 
@@ -78,29 +102,50 @@ fn check_all_fields<G: CellGraph>(g: &G, origin: [f64; 3], values: &[f32], label
         for neg in [false, true] {
             let mut n = [0.0f32; 3];
             n[axis] = if neg { -1.0 } else { 1.0 };
-            let f = PlaneField { normal: n, positions: pos };
+            let f = PlaneField {
+                normal: n,
+                positions: pos,
+            };
             // World integer layers -> local values.
             let o = (origin[axis] * n[axis] as f64) as f32;
             let levels: Vec<f32> = (-12..=12).map(|x| x as f32 - o).collect();
             let want = run_brute(g, &f, &levels);
-            assert!(want.iter().map(Vec::len).sum::<usize>() > 0, "{label}: nothing cut");
+            assert!(
+                want.iter().map(Vec::len).sum::<usize>() > 0,
+                "{label}: nothing cut"
+            );
             for threads in [1, 3] {
                 let got = run_sweep(g, &f, Some(axis * 2 + neg as usize), &levels, threads);
-                check_equal(&got, &want, &format!("{label} axis {axis} neg {neg} threads {threads}"));
+                check_equal(
+                    &got,
+                    &want,
+                    &format!("{label} axis {axis} neg {neg} threads {threads}"),
+                );
             }
             // Second sweep reuses the cached minima.
             let mut sw = Sweeper::new(g, 1);
             sw.prepare_minima(&f, Some(axis * 2));
         }
     }
-    let f = PlaneField { normal: [0.48, -0.6, 0.64], positions: pos };
+    let f = PlaneField {
+        normal: [0.48, -0.6, 0.64],
+        positions: pos,
+    };
     let levels: Vec<f32> = (0..37).map(|x| -9.0 + x as f32 * 0.5).collect();
-    check_equal(&run_sweep(g, &f, None, &levels, 1), &run_brute(g, &f, &levels), &format!("{label} normal"));
+    check_equal(
+        &run_sweep(g, &f, None, &levels, 1),
+        &run_brute(g, &f, &levels),
+        &format!("{label} normal"),
+    );
     let f = VertexField { values };
     let levels: Vec<f32> = (0..9).map(|x| x as f32 * 0.5).collect();
     let want = run_brute(g, &f, &levels);
     for threads in [1, 2] {
-        check_equal(&run_sweep(g, &f, None, &levels, threads), &want, &format!("{label} property threads {threads}"));
+        check_equal(
+            &run_sweep(g, &f, None, &levels, threads),
+            &want,
+            &format!("{label} property threads {threads}"),
+        );
     }
 }
 
@@ -120,7 +165,12 @@ fn scgraph_and_cgraph_match_brute_force_on_random_structured_grids() {
         let s = SCGraph::build(&g, hidden.as_deref()).unwrap();
         check_all_fields(&s, s.origin, &vals, &format!("scgraph case {case} {n:?}"));
         let c = CGraph::build(&g, hidden.as_deref()).unwrap();
-        check_all_fields(&c, c.origin, &vals, &format!("cgraph(structured) case {case} {n:?}"));
+        check_all_fields(
+            &c,
+            c.origin,
+            &vals,
+            &format!("cgraph(structured) case {case} {n:?}"),
+        );
     }
 }
 
@@ -133,7 +183,11 @@ fn cgraph_matches_brute_force_on_random_zoo_grids() {
         let g = zoo_from_structured(&s, &mut rng);
         let vals = f32_values(&g);
         let c = CGraph::build(&g, None).unwrap();
-        assert_eq!(c.class_counts[1..], [0, 0, 0, 0], "generated zoo cells must be valid");
+        assert_eq!(
+            c.class_counts[1..],
+            [0, 0, 0, 0],
+            "generated zoo cells must be valid"
+        );
         check_all_fields(&c, c.origin, &vals, &format!("zoo case {case} {n:?}"));
     }
 }
@@ -148,7 +202,6 @@ fn assert_closed_manifold(mesh: &LevelMesh, label: &str) {
             let (a, b) = (ids[i], ids[(i + 1) % ids.len()]);
             assert_ne!(a, b, "{label}: polygon repeats a welded vertex");
             *uses.entry((a.min(b), a.max(b))).or_default() += if a < b { 1 } else { -1 };
-            *uses.entry((a.min(b), a.max(b) | 0)).or_default() += 0;
         }
     }
     let mut count: HashMap<(u32, u32), u32> = HashMap::new();
@@ -161,7 +214,10 @@ fn assert_closed_manifold(mesh: &LevelMesh, label: &str) {
     }
     for (e, n) in &count {
         assert_eq!(*n, 2, "{label}: edge {e:?} used by {n} polygons");
-        assert_eq!(uses[e], 0, "{label}: edge {e:?} used twice in the same direction");
+        assert_eq!(
+            uses[e], 0,
+            "{label}: edge {e:?} used twice in the same direction"
+        );
     }
 }
 
@@ -174,12 +230,20 @@ fn isosurfaces_inside_the_domain_are_closed_manifolds() {
         let mut g = structured(n, 0.2, 0.0, &mut rng);
         // Interior vertices: noisy values (continuous and quantised);
         // boundary vertices: below every level, so the surfaces are closed.
-        let Some(stratasweep::grid::Topology::Structured { dims }) = Some(g.topology.clone()) else { unreachable!() };
+        let Some(stratasweep::grid::Topology::Structured { dims }) = Some(g.topology.clone())
+        else {
+            unreachable!()
+        };
         for k in 0..dims[2] {
             for j in 0..dims[1] {
                 for i in 0..dims[0] {
                     let v = i + dims[0] * (j + dims[1] * k);
-                    let border = i == 0 || j == 0 || k == 0 || i + 1 == dims[0] || j + 1 == dims[1] || k + 1 == dims[2];
+                    let border = i == 0
+                        || j == 0
+                        || k == 0
+                        || i + 1 == dims[0]
+                        || j + 1 == dims[1]
+                        || k + 1 == dims[2];
                     g.point_data[0].values[v] = if border {
                         -1.0
                     } else if case % 2 == 0 {
@@ -190,19 +254,33 @@ fn isosurfaces_inside_the_domain_are_closed_manifolds() {
                 }
             }
         }
-        let grids: Vec<(String, Grid)> =
-            vec![("hex".to_string(), g.clone()), ("zoo".to_string(), zoo_from_structured(&g, &mut rng))];
+        let grids: Vec<(String, Grid)> = vec![
+            ("hex".to_string(), g.clone()),
+            ("zoo".to_string(), zoo_from_structured(&g, &mut rng)),
+        ];
         for (label, grid) in grids {
             let vals = f32_values(&grid);
             let c = CGraph::build(&grid, None).unwrap();
             let f = VertexField { values: &vals };
-            let levels: Vec<f32> = (1..8).map(|x| x as f32 * 0.5 + 0.013 * (case % 2) as f32).collect();
-            let ctx = EmitContext { positions: c.positions(), attribute: None };
+            let levels: Vec<f32> = (1..8)
+                .map(|x| x as f32 * 0.5 + 0.013 * (case % 2) as f32)
+                .collect();
+            let ctx = EmitContext {
+                positions: c.positions(),
+                attribute: None,
+            };
             let mut sw = Sweeper::new(&c, 1);
             sw.prepare_minima(&f, None);
-            sw.sweep(&f, None, &levels, &ctx, || (), |_, k, mesh, _| {
-                assert_closed_manifold(mesh, &format!("{label} case {case} level {k}"));
-            });
+            sw.sweep(
+                &f,
+                None,
+                &levels,
+                &ctx,
+                || (),
+                |_, k, mesh, _| {
+                    assert_closed_manifold(mesh, &format!("{label} case {case} level {k}"));
+                },
+            );
             // Count ambiguous configurations met, so the test proves it exercised them.
             let mut ids = [0u32; 12];
             for cell in 0..c.slot_count() as u32 {
@@ -216,5 +294,8 @@ fn isosurfaces_inside_the_domain_are_closed_manifolds() {
             }
         }
     }
-    assert!(ambiguous_hits > 100, "only {ambiguous_hits} ambiguous configurations were exercised");
+    assert!(
+        ambiguous_hits > 100,
+        "only {ambiguous_hits} ambiguous configurations were exercised"
+    );
 }

@@ -1,7 +1,7 @@
 //! Small random grids for property tests.
 #![allow(dead_code)]
 
-use stratasweep::grid::{vtk_type, Cells, Grid, Property, Topology};
+use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
 
 /// SplitMix64.
 pub struct Rng(pub u64);
@@ -34,8 +34,8 @@ pub fn structured(n: [usize; 3], jitter: f64, holes: f64, rng: &mut Rng) -> Grid
             for i in 0..dims[0] {
                 let mut p = [i as f64, j as f64, k as f64];
                 if jitter > 0.0 {
-                    for a in 0..3 {
-                        p[a] += jitter * (rng.f64() - 0.5);
+                    for c in p.iter_mut() {
+                        *c += jitter * (rng.f64() - 0.5);
                     }
                 }
                 points.push(p);
@@ -69,17 +69,32 @@ pub fn structured(n: [usize; 3], jitter: f64, holes: f64, rng: &mut Rng) -> Grid
 /// the centre... (only splits that keep faces conforming: hexes, wedge
 /// columns split along the same diagonal in i-j, and pyramid-split hexes).
 pub fn zoo_from_structured(g: &Grid, rng: &mut Rng) -> Grid {
-    let Topology::Structured { dims } = g.topology else { panic!() };
+    let Topology::Structured { dims } = g.topology else {
+        panic!()
+    };
     let [npi, npj, npk] = dims;
     let mut points = g.points.clone();
     let mut f = g.point_data[0].values.clone();
     let mut cells = Cells::default();
-    let wedge_col: Vec<bool> = (0..(npi - 1) * (npj - 1)).map(|_| rng.f64() < 0.3).collect();
+    let wedge_col: Vec<bool> = (0..(npi - 1) * (npj - 1))
+        .map(|_| rng.f64() < 0.3)
+        .collect();
     for k in 0..npk - 1 {
         for j in 0..npj - 1 {
             for i in 0..npi - 1 {
-                let v = |di: usize, dj: usize, dk: usize| ((i + di) + (j + dj) * npi + (k + dk) * npi * npj) as u32;
-                let h = [v(0, 0, 0), v(1, 0, 0), v(1, 1, 0), v(0, 1, 0), v(0, 0, 1), v(1, 0, 1), v(1, 1, 1), v(0, 1, 1)];
+                let v = |di: usize, dj: usize, dk: usize| {
+                    ((i + di) + (j + dj) * npi + (k + dk) * npi * npj) as u32
+                };
+                let h = [
+                    v(0, 0, 0),
+                    v(1, 0, 0),
+                    v(1, 1, 0),
+                    v(0, 1, 0),
+                    v(0, 0, 1),
+                    v(1, 0, 1),
+                    v(1, 1, 1),
+                    v(0, 1, 1),
+                ];
                 if wedge_col[i + j * (npi - 1)] {
                     // VTK wedge: the normal of (0,1,2) points toward (3,4,5).
                     cells.push(vtk_type::WEDGE, &[h[0], h[1], h[2], h[4], h[5], h[6]]);

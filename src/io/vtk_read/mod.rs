@@ -2,7 +2,7 @@
 //! `STRUCTURED_GRID`) and XML `.vtu` / `.vts` files, read into a [`Grid`].
 //!
 //! **vtkio vs hand-written.** Every reader in this module is hand-written; the
-//! `vtkio` crate (0.6.3, still listed in Cargo.toml) is not used here. It was
+//! `vtkio` crate (0.6.3) is not a dependency. It was
 //! tried first on the real grids in the shared data directory and failed on
 //! six of the eleven files: all three GEOS `.vtu` files are rejected (raw
 //! appended binary data (box_hybrid_mesh) fails in its XML deserializer; base64
