@@ -590,11 +590,9 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     if let Some(out) = &a.output {
         let mesh = r.mesh.as_ref().expect("collected");
         let sp = spinner(quiet, format!("writing {}", out.display()));
-        let mut mesh = mesh.clone();
-        mesh.origin = s.origin();
         match out.extension().and_then(|e| e.to_str()) {
-            Some("ply") => io::writers::write_ply(out, &mesh)?,
-            _ => io::writers::write_vtp(out, &mesh)?,
+            Some("ply") => io::writers::write_ply(out, mesh)?,
+            _ => io::writers::write_vtp(out, mesh)?,
         }
         sp.finish_and_clear();
     }

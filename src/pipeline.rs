@@ -292,6 +292,7 @@ pub fn slice(
     r.attribute_name = attr_name.unwrap_or_else(|| "level_value".into());
     if let Some(m) = &mut r.mesh {
         m.property_name = r.attribute_name.clone();
+        m.origin = s.origin();
     }
     Ok(r)
 }
