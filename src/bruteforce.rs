@@ -43,13 +43,7 @@ pub fn brute_force<G: CellGraph, F: ScalarField>(
                 emit_cell(catalog.get(m), &ids[..n], &phi[..n], t, code, c, ctx, mesh);
             }
         }
-        let stats = LevelStats {
-            cells: mesh.cut_cells as u64,
-            visited: valid.len() as u64,
-            polygons: mesh.polygon_count() as u64,
-            triangles: mesh.triangle_count() as u64,
-            area: mesh.area(),
-        };
+        let stats = LevelStats::of(mesh, valid.len() as u64);
         on_level(k, mesh, &stats);
     }
 }

@@ -11,30 +11,48 @@ pub fn intersects(lo: f32, hi: f32, t: f32) -> bool {
     lo < t && t <= hi
 }
 
-/// Open-addressing map from a grid edge key to an output vertex index that
-/// keeps its capacity across [`EdgeMap::clear`].
-#[derive(Clone, Debug, Default)]
-pub struct EdgeMap {
-    keys: Vec<u64>,
-    vals: Vec<u32>,
-    len: usize,
-    shift: u32,
+/// One slot of an [`EdgeMap`]: key, value and the generation that wrote it.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(16))]
+struct Entry {
+    key: u64,
+    val: u32,
+    /// The slot is occupied iff this equals the map's current generation.
+    gen_: u32,
 }
 
-const EMPTY: u64 = u64::MAX;
+/// Open-addressing map from a grid edge key to an output vertex index that
+/// keeps its capacity across [`EdgeMap::clear`].
+///
+/// Key, value and a generation tag share one 16-byte slot, so a lookup
+/// touches one cache line; clearing bumps the generation instead of
+/// rewriting the table (the table is rewritten once every 2³² − 1 clears).
+#[derive(Clone, Debug, Default)]
+pub struct EdgeMap {
+    entries: Vec<Entry>,
+    len: usize,
+    shift: u32,
+    /// Current generation (never 0 once the table exists).
+    gen_: u32,
+}
 
 impl EdgeMap {
-    /// Removes all entries, keeping the capacity. O(capacity).
+    /// Removes all entries, keeping the capacity. O(1) (O(capacity) once
+    /// every 2³² − 1 calls).
     pub fn clear(&mut self) {
         if self.len > 0 {
-            self.keys.fill(EMPTY);
             self.len = 0;
+            self.gen_ = self.gen_.wrapping_add(1);
+            if self.gen_ == 0 {
+                self.entries.fill(Entry::default());
+                self.gen_ = 1;
+            }
         }
     }
 
     /// Bytes held.
     pub fn capacity_bytes(&self) -> usize {
-        self.keys.capacity() * 8 + self.vals.capacity() * 4
+        self.entries.capacity() * std::mem::size_of::<Entry>()
     }
 
     #[inline(always)]
@@ -42,43 +60,49 @@ impl EdgeMap {
         (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> self.shift) as usize
     }
 
+    #[cold]
     fn grow(&mut self) {
-        let cap = (self.keys.len() * 2).max(1024);
-        let old_k = std::mem::replace(&mut self.keys, vec![EMPTY; cap]);
-        let old_v = std::mem::replace(&mut self.vals, vec![0; cap]);
+        let cap = (self.entries.len() * 2).max(1024);
+        let old = std::mem::replace(&mut self.entries, vec![Entry::default(); cap]);
+        let old_gen = self.gen_;
+        self.gen_ = 1;
         self.shift = 64 - cap.trailing_zeros();
-        for (k, v) in old_k.into_iter().zip(old_v) {
-            if k != EMPTY {
-                let mask = self.keys.len() - 1;
-                let mut s = self.slot(k);
-                while self.keys[s] != EMPTY {
-                    s = (s + 1) & mask;
-                }
-                self.keys[s] = k;
-                self.vals[s] = v;
+        let mask = cap - 1;
+        for e in old.into_iter().filter(|e| e.gen_ == old_gen) {
+            let mut s = self.slot(e.key);
+            while self.entries[s].gen_ == self.gen_ {
+                s = (s + 1) & mask;
             }
+            self.entries[s] = Entry {
+                gen_: self.gen_,
+                ..e
+            };
         }
     }
 
-    /// Returns the value for `key`, inserting `make()` when absent; the bool
-    /// tells whether it was inserted.
+    /// Returns the value for `key`, inserting `value_if_new` when absent; the
+    /// bool tells whether it was inserted.
     #[inline(always)]
     pub fn get_or_insert(&mut self, key: u64, value_if_new: u32) -> (u32, bool) {
-        if (self.len + 1) * 2 > self.keys.len() {
+        if (self.len + 1) * 2 > self.entries.len() {
             self.grow();
         }
-        let mask = self.keys.len() - 1;
+        let mask = self.entries.len() - 1;
+        let cur = self.gen_;
         let mut s = self.slot(key);
         loop {
-            let k = self.keys[s];
-            if k == key {
-                return (self.vals[s], false);
-            }
-            if k == EMPTY {
-                self.keys[s] = key;
-                self.vals[s] = value_if_new;
+            let e = &mut self.entries[s];
+            if e.gen_ != cur {
+                *e = Entry {
+                    key,
+                    val: value_if_new,
+                    gen_: cur,
+                };
                 self.len += 1;
                 return (value_if_new, true);
+            }
+            if e.key == key {
+                return (e.val, false);
             }
             s = (s + 1) & mask;
         }
@@ -105,6 +129,12 @@ pub struct LevelMesh {
     pub cells: Vec<u32>,
     /// Number of intersected cells emitted.
     pub cut_cells: u32,
+    /// Per polygon: the squared norm of its summed fan cross products (see
+    /// [`polygon_norm2`]), computed while emitting so that the area needs
+    /// no second pass over the indices.
+    norms: Vec<f64>,
+    /// Running count of fan triangles.
+    triangle_sum: usize,
     weld: EdgeMap,
 }
 
@@ -119,6 +149,8 @@ impl LevelMesh {
         self.indices.clear();
         self.cells.clear();
         self.cut_cells = 0;
+        self.norms.clear();
+        self.triangle_sum = 0;
         self.weld.clear();
     }
     /// Number of polygons.
@@ -139,18 +171,105 @@ impl LevelMesh {
             .map(|w| polygon_area(&self.indices[w[0] as usize..w[1] as usize], &self.positions))
             .sum()
     }
+    /// [`LevelMesh::area`] from the per-polygon norms gathered while
+    /// emitting: the same per-polygon values summed in the same order, so
+    /// the same bits, without re-reading indices and positions.
+    #[inline]
+    pub fn accumulated_area(&self) -> f64 {
+        self.norms.iter().map(|&n2| 0.5 * n2.sqrt()).sum()
+    }
+    /// [`LevelMesh::triangle_count`], accumulated while emitting.
+    #[inline]
+    pub fn accumulated_triangles(&self) -> usize {
+        self.triangle_sum
+    }
+    /// Emits one loop (edge ids `lp` of `edges`) as a polygon of source cell
+    /// `slot`, welding its vertices by grid edge.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn emit_loop(
+        &mut self,
+        edges: &[[u8; 2]],
+        lp: &[u8],
+        gids: &[u32],
+        phi: &[f32],
+        t: f32,
+        slot: u32,
+        ctx: &EmitContext,
+    ) {
+        let start = self.indices.len();
+        self.indices.reserve(lp.len());
+        for &e in lp {
+            let [la, lb] = edges[e as usize];
+            let (la, lb) = (la as usize, lb as usize);
+            let (mut ga, mut gb) = (gids[la], gids[lb]);
+            let (mut fa, mut fb) = (phi[la], phi[lb]);
+            if ga > gb {
+                std::mem::swap(&mut ga, &mut gb);
+                std::mem::swap(&mut fa, &mut fb);
+            }
+            let key = (ga as u64) << 32 | gb as u64;
+            let (vi, new) = self.weld.get_or_insert(key, self.positions.len() as u32);
+            if new {
+                self.push_vertex(key, ga, gb, fa, fb, t, ctx);
+            }
+            self.indices.push(vi);
+        }
+        let end = self.indices.len();
+        self.offsets.push(end as u32);
+        self.cells.push(slot);
+        self.triangle_sum += end - start - 2;
+        self.norms
+            .push(polygon_norm2(&self.indices[start..end], &self.positions));
+    }
+    /// Appends the vertex where the level `t` crosses grid edge `ga`–`gb`
+    /// (`ga < gb`, with φ values `fa`, `fb`).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn push_vertex(
+        &mut self,
+        key: u64,
+        ga: u32,
+        gb: u32,
+        fa: f32,
+        fb: f32,
+        t: f32,
+        ctx: &EmitContext,
+    ) {
+        let s = (t - fa) / (fb - fa);
+        let pa = ctx.positions[ga as usize];
+        let pb = ctx.positions[gb as usize];
+        self.positions.push([
+            pa[0] + s * (pb[0] - pa[0]),
+            pa[1] + s * (pb[1] - pa[1]),
+            pa[2] + s * (pb[2] - pa[2]),
+        ]);
+        self.values.push(match ctx.attribute {
+            Some(a) => a[ga as usize] + s * (a[gb as usize] - a[ga as usize]),
+            None => t,
+        });
+        self.edge_keys.push(key);
+    }
     /// Bytes held by the buffers.
     pub fn capacity_bytes(&self) -> usize {
         self.positions.capacity() * 12
             + self.values.capacity() * 4
             + self.edge_keys.capacity() * 8
             + (self.offsets.capacity() + self.indices.capacity() + self.cells.capacity()) * 4
+            + self.norms.capacity() * 8
             + self.weld.capacity_bytes()
     }
 }
 
 /// Area of a planar polygon (f64), by the norm of the summed fan cross products.
 pub fn polygon_area(ids: &[u32], pos: &[[f32; 3]]) -> f64 {
+    0.5 * polygon_norm2(ids, pos).sqrt()
+}
+
+/// Squared norm of the summed fan cross products of a polygon (f64):
+/// [`polygon_area`] is `0.5 * polygon_norm2(..).sqrt()`.
+#[inline(always)]
+pub fn polygon_norm2(ids: &[u32], pos: &[[f32; 3]]) -> f64 {
     let p0 = pos[ids[0] as usize].map(f64::from);
     let mut n = [0.0f64; 3];
     for w in ids[1..].windows(2) {
@@ -162,7 +281,7 @@ pub fn polygon_area(ids: &[u32], pos: &[[f32; 3]]) -> f64 {
         n[1] += u[2] * v[0] - u[0] * v[2];
         n[2] += u[0] * v[1] - u[1] * v[0];
     }
-    0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+    n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
 }
 
 /// Face decider for an ambiguous face: `true` when the above-level arcs are
@@ -244,57 +363,39 @@ pub fn emit_cell(
     ctx: &EmitContext,
     mesh: &mut LevelMesh,
 ) {
-    let mut outcome = 0u32;
-    let mut mask = meta.ambiguous_faces[code];
-    if mask != 0 {
-        let mut bit = 0;
-        while mask != 0 {
-            let f = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            let face = &meta.faces[f];
-            let mut fv = [0f32; 32];
-            let mut fg = [0u32; 32];
-            let n = face.len().min(32);
-            for (i, &lv) in face.iter().take(n).enumerate() {
-                fv[i] = phi[lv as usize];
-                fg[i] = gids[lv as usize];
-            }
-            if face_above_connected(&fv[..n], &fg[..n], t) {
-                outcome |= 1 << bit;
-            }
-            bit += 1;
-        }
-    }
+    let outcome = if meta.ambiguous_faces[code] != 0 {
+        decide_faces(meta, gids, phi, t, code)
+    } else {
+        0
+    };
     mesh.cut_cells += 1;
     for lp in meta.loops(code, outcome) {
-        for &e in lp {
-            let [la, lb] = meta.edges[e as usize];
-            let (mut ga, mut gb) = (gids[la as usize], gids[lb as usize]);
-            let (mut fa, mut fb) = (phi[la as usize], phi[lb as usize]);
-            if ga > gb {
-                std::mem::swap(&mut ga, &mut gb);
-                std::mem::swap(&mut fa, &mut fb);
-            }
-            let key = (ga as u64) << 32 | gb as u64;
-            let (vi, new) = mesh.weld.get_or_insert(key, mesh.positions.len() as u32);
-            if new {
-                let s = (t - fa) / (fb - fa);
-                let pa = ctx.positions[ga as usize];
-                let pb = ctx.positions[gb as usize];
-                mesh.positions.push([
-                    pa[0] + s * (pb[0] - pa[0]),
-                    pa[1] + s * (pb[1] - pa[1]),
-                    pa[2] + s * (pb[2] - pa[2]),
-                ]);
-                mesh.values.push(match ctx.attribute {
-                    Some(a) => a[ga as usize] + s * (a[gb as usize] - a[ga as usize]),
-                    None => t,
-                });
-                mesh.edge_keys.push(key);
-            }
-            mesh.indices.push(vi);
-        }
-        mesh.offsets.push(mesh.indices.len() as u32);
-        mesh.cells.push(slot);
+        mesh.emit_loop(&meta.edges, lp, gids, phi, t, slot, ctx);
     }
+}
+
+/// Decider bits of the ambiguous faces of `code` (one bit per ambiguous
+/// face, in increasing face order).
+#[inline(never)]
+fn decide_faces(meta: &MetaCell, gids: &[u32], phi: &[f32], t: f32, code: usize) -> u32 {
+    let mut outcome = 0u32;
+    let mut mask = meta.ambiguous_faces[code];
+    let mut bit = 0;
+    while mask != 0 {
+        let f = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        let face = &meta.faces[f];
+        let mut fv = [0f32; 32];
+        let mut fg = [0u32; 32];
+        let n = face.len().min(32);
+        for (i, &lv) in face.iter().take(n).enumerate() {
+            fv[i] = phi[lv as usize];
+            fg[i] = gids[lv as usize];
+        }
+        if face_above_connected(&fv[..n], &fg[..n], t) {
+            outcome |= 1 << bit;
+        }
+        bit += 1;
+    }
+    outcome
 }

@@ -10,6 +10,7 @@ use crate::grid::{Grid, Topology};
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use rayon::prelude::*;
 
+use crate::field::ScalarField;
 use crate::structure::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
 use crate::sweep::CellGraph;
 
@@ -31,6 +32,9 @@ pub struct SCGraph {
     pub left_handed: bool,
     catalog: Catalog,
     offsets: [u32; 8],
+    /// Per neighbour direction (−i, +i, −j, +j, −k, +k): the local vertices
+    /// of the face shared with that neighbour.
+    faces: [[u8; 4]; 6],
 }
 
 impl SCGraph {
@@ -96,7 +100,20 @@ impl SCGraph {
                 live.set(i + j * npi + k * slab + slab);
             }
         }
+        // Lattice bits (i, j, k) of each local vertex, from its offset.
+        let mut faces = [[0u8; 4]; 6];
+        let mut fill = [0usize; 6];
+        for (l, &o) in offsets.iter().enumerate() {
+            let o = o as usize;
+            let bits = [o % npi, (o % slab) / npi, o / slab];
+            for (axis, &bit) in bits.iter().enumerate() {
+                let dir = 2 * axis + bit;
+                faces[dir][fill[dir]] = l as u8;
+                fill[dir] += 1;
+            }
+        }
         Ok(SCGraph {
+            faces,
             dims,
             origin,
             positions,
@@ -154,6 +171,41 @@ impl CellGraph for SCGraph {
         f(slot + dj);
         f(slot - dk);
         f(slot + dk);
+    }
+    /// Hexahedron fast path: a neighbour shares a face (4 vertices) with
+    /// `slot`, so only its 4 far vertices are evaluated.
+    #[inline(always)]
+    fn scan_neighbours<F: ScalarField>(
+        &self,
+        f: &F,
+        slot: u32,
+        ids: &[u32; MAX_META_VERTICES],
+        phi: &[f32; MAX_META_VERTICES],
+        mut want: impl FnMut(u32) -> bool,
+        mut found: impl FnMut(u32, f32),
+    ) {
+        let deltas = [
+            1u32,
+            self.dims[0] as u32,
+            (self.dims[0] * self.dims[1]) as u32,
+        ];
+        for (dir, face) in self.faces.iter().enumerate() {
+            let delta = deltas[dir / 2];
+            let up = dir & 1 == 1;
+            let nb = if up { slot + delta } else { slot - delta };
+            if want(nb) {
+                let mut lo = f32::INFINITY;
+                for &l in face {
+                    let l = l as usize;
+                    // The far vertex of the neighbour across this face
+                    // vertex; it exists because `want` only accepts live
+                    // neighbours.
+                    let v = if up { ids[l] + delta } else { ids[l] - delta };
+                    lo = lo.min(phi[l]).min(f.phi(v));
+                }
+                found(nb, lo);
+            }
+        }
     }
     fn source_cell(&self, slot: u32) -> u32 {
         let [npi, npj, _] = self.dims;

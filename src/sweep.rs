@@ -37,6 +37,33 @@ pub trait CellGraph: Sync {
     fn cell(&self, slot: u32, out: &mut [u32; MAX_META_VERTICES]) -> (u16, usize);
     /// Calls `f` with every face-neighbour slot of `slot` (ghost slots included).
     fn for_each_neighbour(&self, slot: u32, f: impl FnMut(u32));
+    /// Visits the face neighbours of `slot` in [`CellGraph::for_each_neighbour`]
+    /// order: for each neighbour `nb` with `want(nb)` true, calls
+    /// `found(nb, lo)` where `lo` is the minimum of φ over `nb`'s vertices.
+    /// `want` must return false for ghost and dead slots.
+    ///
+    /// `ids` and `phi` hold `slot`'s vertex ids (as written by
+    /// [`CellGraph::cell`]) and their φ values; implementations may reuse
+    /// them for the vertices a neighbour shares with `slot`.
+    #[inline(always)]
+    fn scan_neighbours<F: ScalarField>(
+        &self,
+        f: &F,
+        slot: u32,
+        ids: &[u32; MAX_META_VERTICES],
+        phi: &[f32; MAX_META_VERTICES],
+        mut want: impl FnMut(u32) -> bool,
+        mut found: impl FnMut(u32, f32),
+    ) where
+        Self: Sized,
+    {
+        let _ = (ids, phi);
+        self.for_each_neighbour(slot, |nb| {
+            if want(nb) {
+                found(nb, cell_lo(self, f, nb));
+            }
+        });
+    }
     /// Id of the cell in `slot` in the input grid's numbering.
     fn source_cell(&self, slot: u32) -> u32;
     /// Splits `0..slot_count` into at most `n` contiguous, roughly equal,
@@ -72,8 +99,9 @@ fn load_phi<G: CellGraph, F: ScalarField>(
     (m, n, lo, hi)
 }
 
+/// Minimum of φ over the vertices of `slot`.
 #[inline(always)]
-fn cell_lo<G: CellGraph, F: ScalarField>(g: &G, f: &F, slot: u32) -> f32 {
+pub fn cell_lo<G: CellGraph + ?Sized, F: ScalarField>(g: &G, f: &F, slot: u32) -> f32 {
     let mut ids = [0u32; MAX_META_VERTICES];
     let (_, n) = g.cell(slot, &mut ids);
     let mut lo = f32::INFINITY;
@@ -108,6 +136,16 @@ pub struct LevelStats {
 }
 
 impl LevelStats {
+    /// The figures of one level's output `mesh`, with `visited` cells popped.
+    pub fn of(mesh: &LevelMesh, visited: u64) -> Self {
+        LevelStats {
+            cells: mesh.cut_cells as u64,
+            visited,
+            polygons: mesh.polygon_count() as u64,
+            triangles: mesh.accumulated_triangles() as u64,
+            area: mesh.accumulated_area(),
+        }
+    }
     /// Adds another block's figures.
     pub fn add(&mut self, o: &LevelStats) {
         self.cells += o.cells;
@@ -305,6 +343,12 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
         // The work queue starts with A_{k-1}...
         std::mem::swap(&mut b.work, &mut b.active);
         b.active.clear();
+        // Stamp A_{k-1} now: those cells are already queued, and as their
+        // lo < t_{k-1} no neighbour scan would push them again, so stamping
+        // them only spares the scans from recomputing their lo.
+        for &c in &b.work {
+            b.stamps[(c - start) as usize] = step;
+        }
         // ...plus the minima with t_{k-1} <= lo < t_k.
         while next_min < minima.len() && minima[next_min].lo < t {
             let m = minima[next_min];
@@ -334,27 +378,31 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
             }
             let stamps = &mut b.stamps;
             let work = &mut b.work;
-            g.for_each_neighbour(c, |nb| {
-                let j = nb.wrapping_sub(start);
-                if j < len && stamps[j as usize] < step {
+            g.scan_neighbours(
+                f,
+                c,
+                &ids,
+                &phi,
+                |nb| {
+                    let j = nb.wrapping_sub(start);
                     // Stamp every neighbour examined, pushed or not: whether it
                     // belongs to this step depends only on its own lo, so each
                     // cell's lo is evaluated at most once per step.
-                    stamps[j as usize] = step;
-                    let lo_n = cell_lo(g, f, nb);
+                    if j < len && stamps[j as usize] < step {
+                        stamps[j as usize] = step;
+                        true
+                    } else {
+                        false
+                    }
+                },
+                |nb, lo_n| {
                     if lo_n >= t_prev && lo_n < t {
                         work.push(nb);
                     }
-                }
-            });
+                },
+            );
         }
-        let stats = LevelStats {
-            cells: b.mesh.cut_cells as u64,
-            visited: b.work.len() as u64,
-            polygons: b.mesh.polygon_count() as u64,
-            triangles: b.mesh.triangle_count() as u64,
-            area: b.mesh.area(),
-        };
+        let stats = LevelStats::of(&b.mesh, b.work.len() as u64);
         on_level(k, &b.mesh, &stats);
         t_prev = t;
     }
