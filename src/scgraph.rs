@@ -10,6 +10,7 @@ use crate::grid::{Grid, Topology};
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use rayon::prelude::*;
 
+use crate::extract::{EmitContext, prefetch};
 use crate::field::ScalarField;
 use crate::structure::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
 use crate::sweep::CellGraph;
@@ -204,6 +205,33 @@ impl CellGraph for SCGraph {
                     lo = lo.min(phi[l]).min(f.phi(v));
                 }
                 found(nb, lo);
+            }
+        }
+    }
+    /// Prefetches the cell's 4 vertex rows (positions and attribute) and
+    /// the far rows of its ±j and ±k neighbours (±i share the cell's rows).
+    #[inline(always)]
+    fn prefetch_cell(&self, slot: u32, ctx: &EmitContext) {
+        let [npi, npj, _] = self.dims;
+        let slab = npi * npj;
+        let v0 = slot as usize - slab;
+        // Rows (j, k) relative to the cell: its own 2×2, then the neighbours'.
+        let rows: [(isize, isize); 8] = [
+            (0, 0),
+            (1, 0),
+            (0, 1),
+            (1, 1),
+            (-1, 0),
+            (2, 0),
+            (0, -1),
+            (0, 2),
+        ];
+        for (dj, dk) in rows {
+            let v = v0.wrapping_add((dj * npi as isize + dk * slab as isize) as usize);
+            prefetch(&self.positions, v);
+            let own_row = (0..=1).contains(&dj) && (0..=1).contains(&dk);
+            if let (true, Some(a)) = (own_row, ctx.attribute) {
+                prefetch(a, v);
             }
         }
     }

@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects};
+use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects, prefetch};
 use crate::field::ScalarField;
 use crate::metacell::{Catalog, MAX_META_VERTICES};
 
@@ -64,6 +64,20 @@ pub trait CellGraph: Sync {
             }
         });
     }
+    /// Prefetch hint, issued some cells ahead of processing `slot`: fetches
+    /// what the sweep will read for it (vertex positions and attribute; the
+    /// S-CGraph adds its neighbours' far vertices). Never changes results.
+    #[inline(always)]
+    fn prefetch_cell(&self, slot: u32, ctx: &EmitContext) {
+        let mut ids = [0u32; MAX_META_VERTICES];
+        let (_, n) = self.cell(slot, &mut ids);
+        for &v in &ids[..n] {
+            prefetch(ctx.positions, v as usize);
+            if let Some(a) = ctx.attribute {
+                prefetch(a, v as usize);
+            }
+        }
+    }
     /// Id of the cell in `slot` in the input grid's numbering.
     fn source_cell(&self, slot: u32) -> u32;
     /// Splits `0..slot_count` into at most `n` contiguous, roughly equal,
@@ -110,6 +124,9 @@ pub fn cell_lo<G: CellGraph + ?Sized, F: ScalarField>(g: &G, f: &F, slot: u32) -
     }
     lo
 }
+
+/// How many work-queue entries ahead [`CellGraph::prefetch_cell`] is issued.
+const PREFETCH_AHEAD: usize = 2;
 
 /// A minimum: a cell with no predecessor, with its `lo`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -360,6 +377,9 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
         let mut i = 0;
         while i < b.work.len() {
             let c = b.work[i];
+            if let Some(&ahead) = b.work.get(i + PREFETCH_AHEAD) {
+                g.prefetch_cell(ahead, ctx);
+            }
             i += 1;
             let (m, n, lo, hi) = load_phi(g, f, c, &mut ids, &mut phi);
             if intersects(lo, hi, t) {
