@@ -534,8 +534,8 @@ fn stats_json(
         "minima": r.minima,
         "slices": slices,
         "totals": {
-            "cells": sum(&|s| s.cells as f64), "visited": sum(&|s| s.visited as f64),
-            "polygons": sum(&|s| s.polygons as f64), "triangles": sum(&|s| s.triangles as f64),
+            "cells": sum(&|s| s.cells as f64) as u64, "visited": sum(&|s| s.visited as f64) as u64,
+            "polygons": sum(&|s| s.polygons as f64) as u64, "triangles": sum(&|s| s.triangles as f64) as u64,
             "area": sum(&|s| s.area),
         },
         "memory_bytes": mem,
