@@ -326,23 +326,18 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     let (classes, catalog, hidden) = match &s {
         Structure::SCGraph(g) => (
             g.class_counts,
-            vec![g_catalog_json(
+            catalog_json(
                 stratasweep::sweep::CellGraph::catalog(g),
-                None,
-            )],
-            0usize,
+                &hex_only(grid.cell_count()),
+            ),
+            grid.hidden_cells()
+                .map_or(0, |h| h.iter().filter(|&&x| x).count()),
         ),
         Structure::CGraph(g) => (
             g.class_counts,
-            vec![g_catalog_json(&g.catalog, Some(&g.meta_counts))],
+            catalog_json(&g.catalog, &g.meta_counts),
             g.hidden_count,
         ),
-    };
-    let hidden = match &s {
-        Structure::SCGraph(_) => grid
-            .hidden_cells()
-            .map_or(0, |h| h.iter().filter(|&&x| x).count()),
-        _ => hidden,
     };
     let (mem, total) = memory_json(&s, &grid);
     let nv = grid.points.len();
@@ -357,7 +352,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         "hidden_cells": hidden,
         "cell_types": types,
         "cell_classes": CELL_CLASS_NAMES.iter().zip(classes).map(|(k, v)| (k.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
-        "meta_cells": catalog[0],
+        "meta_cells": catalog,
         "bounds": {"min": lo, "max": hi},
         "point_properties": grid.point_data.iter().map(|p| &p.name).collect::<Vec<_>>(),
         "cell_properties": grid.cell_data.iter().map(|p| &p.name).collect::<Vec<_>>(),
@@ -410,13 +405,21 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     Ok(())
 }
 
-fn g_catalog_json(c: &stratasweep::metacell::Catalog, counts: Option<&Vec<usize>>) -> Value {
+/// Cells per meta-cell id for a grid of `n` hexahedra (S-CGraph).
+fn hex_only(n: usize) -> Vec<usize> {
+    let mut v = vec![0; stratasweep::metacell::builtin::HEXAHEDRON as usize + 1];
+    v[stratasweep::metacell::builtin::HEXAHEDRON as usize] = n;
+    v
+}
+
+/// The catalog's meta-cells that have cells, with their tables and counts.
+fn catalog_json(c: &stratasweep::metacell::Catalog, counts: &[usize]) -> Value {
+    let used = |i: usize| counts.get(i).is_some_and(|&n| n > 0);
     Value::Array(
         c.metas
             .iter()
             .enumerate()
-            .filter(|(i, _)| counts.is_none_or(|cs| cs.get(*i).copied().unwrap_or(0) > 0) || counts.is_none() && *i == 3)
-            .filter(|(i, _)| counts.is_some() || *i == 3)
+            .filter(|(i, _)| used(*i))
             .map(|(i, m)| {
                 json!({
                     "name": m.name,
@@ -427,7 +430,7 @@ fn g_catalog_json(c: &stratasweep::metacell::Catalog, counts: Option<&Vec<usize>
                     "ambiguous_codes": (0..m.code_count()).filter(|&c| m.config_is_ambiguous(c)).count(),
                     "loops": m.config_size.len(),
                     "table_bytes": m.table_bytes(),
-                    "cells": counts.map_or(Value::Null, |cs| json!(cs[i])),
+                    "cells": counts[i],
                 })
             })
             .collect(),

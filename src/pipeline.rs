@@ -231,55 +231,40 @@ pub fn slice(
         _ => None,
     };
     let setup = t0.elapsed().as_secs_f64();
+    // World value of local φ = 0 (n·origin for planes, 0 for properties).
+    let offset = req.field.world_offset(grid.origin());
+    let axis_slot = req.field.axis_slot();
+    let attribute = attribute.as_deref();
     macro_rules! run {
         ($g:expr) => {{
             let g = $g;
+            let pos = g.positions();
             match (&req.field, &field_values) {
                 (FieldSpec::Property(_), Some(v)) => run_on(
-                    grid,
                     g,
                     &VertexField { values: v },
                     None,
-                    0.0,
+                    offset,
                     req,
-                    attribute.as_deref(),
+                    attribute,
                     progress,
                 ),
                 (FieldSpec::Axis { axis, negative }, _) => {
+                    let sign = if *negative { -1.0 } else { 1.0 };
                     let f = AxisField {
                         axis: *axis,
-                        sign: if *negative { -1.0 } else { 1.0 },
-                        positions: g.positions(),
+                        sign,
+                        positions: pos,
                     };
-                    let off = req.field.world_offset(grid.origin());
-                    run_on(
-                        grid,
-                        g,
-                        &f,
-                        req.field.axis_slot(),
-                        off,
-                        req,
-                        attribute.as_deref(),
-                        progress,
-                    )
+                    run_on(g, &f, axis_slot, offset, req, attribute, progress)
                 }
                 _ => {
                     let n = req.field.normal().expect("planar field");
                     let f = PlaneField {
                         normal: n.map(|c| c as f32),
-                        positions: g.positions(),
+                        positions: pos,
                     };
-                    let off = req.field.world_offset(grid.origin());
-                    run_on(
-                        grid,
-                        g,
-                        &f,
-                        req.field.axis_slot(),
-                        off,
-                        req,
-                        attribute.as_deref(),
-                        progress,
-                    )
+                    run_on(g, &f, axis_slot, offset, req, attribute, progress)
                 }
             }
         }};
@@ -318,9 +303,7 @@ fn live_range<G: CellGraph, F: ScalarField>(g: &G, f: &F) -> Option<(f32, f32)> 
 /// Per block: per level, polygons as (source cell, corners (edge key, position, value)).
 type Pieces = Vec<Vec<(u32, Vec<(u64, [f32; 3], f32)>)>>;
 
-#[allow(clippy::too_many_arguments)]
 fn run_on<G: CellGraph, F: ScalarField>(
-    _grid: &Grid,
     g: &G,
     f: &F,
     axis_slot: Option<usize>,
