@@ -50,7 +50,7 @@ struct Entry {
 pub struct EdgeMap {
     entries: Vec<Entry>,
     len: usize,
-    shift: u32,
+    mask: usize,
     /// Current generation (never 0 once the table exists).
     gen_: u32,
 }
@@ -76,7 +76,13 @@ impl EdgeMap {
 
     #[inline(always)]
     fn slot(&self, key: u64) -> usize {
-        (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> self.shift) as usize
+        // Locality-preserving: edges of nearby vertices land in nearby
+        // slots (the sweep emits neighbouring cells one after another), so
+        // lookups hit cache lines the previous cells brought in. Two bits
+        // from the edge's id difference separate the edges of one vertex.
+        let (ga, gb) = ((key >> 32) as u32, key as u32);
+        let dir = gb.wrapping_sub(ga).wrapping_mul(0x9E37_79B9) >> 30;
+        ((ga as usize) << 2 | dir as usize) & self.mask
     }
 
     #[cold]
@@ -85,7 +91,7 @@ impl EdgeMap {
         let old = std::mem::replace(&mut self.entries, vec![Entry::default(); cap]);
         let old_gen = self.gen_;
         self.gen_ = 1;
-        self.shift = 64 - cap.trailing_zeros();
+        self.mask = cap - 1;
         let mask = cap - 1;
         for e in old.into_iter().filter(|e| e.gen_ == old_gen) {
             let mut s = self.slot(e.key);
@@ -99,13 +105,20 @@ impl EdgeMap {
         }
     }
 
-    /// Returns the value for `key`, inserting `value_if_new` when absent; the
-    /// bool tells whether it was inserted.
+    /// Makes room for `extra` more entries within the load limit, so that
+    /// the next `extra` inserts need no check.
     #[inline(always)]
-    pub fn get_or_insert(&mut self, key: u64, value_if_new: u32) -> (u32, bool) {
-        if (self.len + 1) * 8 > self.entries.len() * 5 {
+    pub fn reserve(&mut self, extra: usize) {
+        while (self.len + extra) * 8 > self.entries.len() * 5 {
             self.grow();
         }
+    }
+
+    /// Returns the value for `key`, inserting `value_if_new` when absent; the
+    /// bool tells whether it was inserted. Call [`EdgeMap::reserve`] first.
+    #[inline(always)]
+    pub(crate) fn get_or_insert(&mut self, key: u64, value_if_new: u32) -> (u32, bool) {
+        debug_assert!((self.len + 1) * 8 <= self.entries.len() * 5);
         let mask = self.entries.len() - 1;
         let cur = self.gen_;
         let mut s = self.slot(key);
@@ -216,24 +229,41 @@ impl LevelMesh {
         slot: u32,
         ctx: &EmitContext,
     ) {
-        let start = self.indices.len();
-        self.indices.reserve(lp.len());
+        let start = self.begin_polygon();
         for &e in lp {
             let [la, lb] = edges[e as usize];
             let (la, lb) = (la as usize, lb as usize);
-            let (mut ga, mut gb) = (gids[la], gids[lb]);
-            let (mut fa, mut fb) = (phi[la], phi[lb]);
-            if ga > gb {
-                std::mem::swap(&mut ga, &mut gb);
-                std::mem::swap(&mut fa, &mut fb);
+            if gids[la] < gids[lb] {
+                self.corner(gids[la], gids[lb], phi[la], phi[lb], t, ctx);
+            } else {
+                self.corner(gids[lb], gids[la], phi[lb], phi[la], t, ctx);
             }
-            let key = (ga as u64) << 32 | gb as u64;
-            let (vi, new) = self.weld.get_or_insert(key, self.positions.len() as u32);
-            if new {
-                self.push_vertex(key, ga, gb, fa, fb, t, ctx);
-            }
-            self.indices.push(vi);
         }
+        self.end_polygon(start, slot);
+    }
+    /// Starts a polygon; returns the token for [`LevelMesh::end_polygon`].
+    #[inline(always)]
+    pub(crate) fn begin_polygon(&mut self) -> usize {
+        // A polygon has at most one corner per cell edge (≤ 32 for the
+        // catalog's cells).
+        self.weld.reserve(32);
+        self.indices.len()
+    }
+    /// Adds the polygon corner where level `t` crosses grid edge `ga`–`gb`
+    /// (`ga < gb`, φ values `fa`, `fb`), welded by the edge.
+    #[inline(always)]
+    pub(crate) fn corner(&mut self, ga: u32, gb: u32, fa: f32, fb: f32, t: f32, ctx: &EmitContext) {
+        let key = (ga as u64) << 32 | gb as u64;
+        let (vi, new) = self.weld.get_or_insert(key, self.positions.len() as u32);
+        if new {
+            self.push_vertex(key, ga, gb, fa, fb, t, ctx);
+        }
+        self.indices.push(vi);
+    }
+    /// Closes the polygon begun at `start` (from [`LevelMesh::begin_polygon`])
+    /// with source cell `slot`.
+    #[inline(always)]
+    pub(crate) fn end_polygon(&mut self, start: usize, slot: u32) {
         let end = self.indices.len();
         self.offsets.push(end as u32);
         self.cells.push(slot);
@@ -286,20 +316,33 @@ pub fn polygon_area(ids: &[u32], pos: &[[f32; 3]]) -> f64 {
 }
 
 /// Squared norm of the summed fan cross products of a polygon (f64):
-/// [`polygon_area`] is `0.5 * polygon_norm2(..).sqrt()`.
+/// [`polygon_area`] is `0.5 * polygon_norm2(..).sqrt()`. Quads use the
+/// equal cross product of their diagonals (one product instead of two).
 #[inline(always)]
 pub fn polygon_norm2(ids: &[u32], pos: &[[f32; 3]]) -> f64 {
-    let p0 = pos[ids[0] as usize].map(f64::from);
-    let mut n = [0.0f64; 3];
-    for w in ids[1..].windows(2) {
-        let a = pos[w[0] as usize].map(f64::from);
-        let b = pos[w[1] as usize].map(f64::from);
-        let u = [a[0] - p0[0], a[1] - p0[1], a[2] - p0[2]];
-        let v = [b[0] - p0[0], b[1] - p0[1], b[2] - p0[2]];
-        n[0] += u[1] * v[2] - u[2] * v[1];
-        n[1] += u[2] * v[0] - u[0] * v[2];
-        n[2] += u[0] * v[1] - u[1] * v[0];
-    }
+    let p = |i: usize| pos[ids[i] as usize].map(f64::from);
+    let cross = |u: [f64; 3], v: [f64; 3]| {
+        [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ]
+    };
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let n = if ids.len() == 4 {
+        cross(sub(p(2), p(0)), sub(p(3), p(1)))
+    } else {
+        let p0 = p(0);
+        let mut n = [0.0f64; 3];
+        let mut a = sub(p(1), p0);
+        for i in 2..ids.len() {
+            let b = sub(p(i), p0);
+            let c = cross(a, b);
+            n = [n[0] + c[0], n[1] + c[1], n[2] + c[2]];
+            a = b;
+        }
+        n
+    };
     n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
 }
 
@@ -417,4 +460,91 @@ fn decide_faces(meta: &MetaCell, gids: &[u32], phi: &[f32], t: f32, code: usize)
         bit += 1;
     }
     outcome
+}
+
+/// The hexahedron's tables flattened for a lattice (S-CGraph) where every
+/// cell's vertex ids are `v0 + offsets[local]`: which end of each edge has
+/// the smaller global id is then the same for every cell, so a corner is
+/// two table reads. Codes with an ambiguous face fall back to [`emit_cell`].
+#[derive(Clone, Debug)]
+pub struct LatticeHexTable {
+    /// Per code: start of its polygons in `polys`, or `u16::MAX` when ambiguous.
+    start: Vec<u16>,
+    /// Per code: polygon count, then per polygon its corner count and edges.
+    polys: Vec<u8>,
+    /// Per edge: (local vertex with the smaller offset, the other one).
+    edges: [(u8, u8); 12],
+}
+
+impl LatticeHexTable {
+    /// Flattens the tables of hexahedron `meta` for vertex offsets `offsets`.
+    pub fn new(meta: &MetaCell, offsets: &[u32; 8]) -> Self {
+        let mut edges = [(0u8, 0u8); 12];
+        for (e, &[a, b]) in meta.edges.iter().enumerate().take(12) {
+            edges[e] = if offsets[a as usize] < offsets[b as usize] {
+                (a, b)
+            } else {
+                (b, a)
+            };
+        }
+        let mut start = vec![u16::MAX; 256];
+        let mut polys = Vec::new();
+        for code in 0..256.min(meta.code_count()) {
+            if meta.config_is_ambiguous(code) {
+                continue;
+            }
+            start[code] = polys.len() as u16;
+            let loops: Vec<&[u8]> = meta.loops(code, 0).collect();
+            polys.push(loops.len() as u8);
+            for lp in loops {
+                polys.push(lp.len() as u8);
+                polys.extend_from_slice(lp);
+            }
+        }
+        LatticeHexTable {
+            start,
+            polys,
+            edges,
+        }
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of::<Self>() + self.start.len() * 2 + self.polys.len()
+    }
+
+    /// [`emit_cell`] for a lattice hexahedron (same polygons, same order).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn emit(
+        &self,
+        meta: &MetaCell,
+        gids: &[u32; 8],
+        phi: &[f32; 8],
+        t: f32,
+        code: usize,
+        slot: u32,
+        ctx: &EmitContext,
+        mesh: &mut LevelMesh,
+    ) {
+        let s = self.start[code & 255];
+        if s == u16::MAX {
+            emit_cell(meta, gids, phi, t, code, slot, ctx, mesh);
+            return;
+        }
+        mesh.cut_cells += 1;
+        let polys = &self.polys[s as usize..];
+        let mut p = 1;
+        for _ in 0..polys[0] {
+            let n = polys[p] as usize;
+            let first = mesh.begin_polygon();
+            for &e in &polys[p + 1..p + 1 + n] {
+                let (a, b) = self.edges[e as usize];
+                let (a, b) = (a as usize, b as usize);
+                mesh.corner(gids[a], gids[b], phi[a], phi[b], t, ctx);
+            }
+            mesh.end_polygon(first, slot);
+            p += 1 + n;
+        }
+    }
 }

@@ -1,11 +1,17 @@
 //! Slicing fields φ over the vertices and the level values to sweep.
 
+use rayon::prelude::*;
 use thiserror::Error;
 
 /// A scalar field evaluated per vertex, in the structure's local (rebased) frame.
 pub trait ScalarField: Sync {
     /// φ at vertex `v`.
     fn phi(&self, v: u32) -> f32;
+    /// φ of every vertex as one array, when the field is stored that way
+    /// (lets lattice sweeps read it directly).
+    fn values(&self) -> Option<&[f32]> {
+        None
+    }
 }
 
 /// φ(x) = n·(x − origin): a family of parallel planes, in local coordinates.
@@ -59,6 +65,17 @@ impl ScalarField for VertexField<'_> {
     fn phi(&self, v: u32) -> f32 {
         self.values[v as usize]
     }
+    fn values(&self) -> Option<&[f32]> {
+        Some(self.values)
+    }
+}
+
+/// φ of every vertex `0..n` of `f`, evaluated in parallel: the sweep and the
+/// brute force read φ from this array (4 bytes per vertex, contiguous)
+/// instead of re-deriving it from positions. Same values, bit for bit, as
+/// `f.phi`.
+pub fn materialise<F: ScalarField>(f: &F, n: usize) -> Vec<f32> {
+    (0..n as u32).into_par_iter().map(|v| f.phi(v)).collect()
 }
 
 /// What to slice by, before it is bound to a structure's arrays.

@@ -12,7 +12,7 @@ use crate::cgraph::CGraph;
 use crate::extract::{EmitContext, LevelMesh};
 use crate::field::{
     AxisField, FieldSpec, LevelError, PlaneField, ScalarField, VertexField, levels_by_count,
-    local_levels,
+    local_levels, materialise,
 };
 use crate::grid::{Grid, GridError, Topology};
 use crate::mesh::PolyMesh;
@@ -165,6 +165,8 @@ pub struct SliceRequest {
 pub struct Timings {
     /// Binding the field and placing levels.
     pub setup: f64,
+    /// Evaluating φ at every vertex (planes; properties are used as they are).
+    pub field: f64,
     /// Finding (or fetching cached) minima.
     pub minima: f64,
     /// The sweep itself.
@@ -235,45 +237,50 @@ pub fn slice(
     let offset = req.field.world_offset(grid.origin());
     let axis_slot = req.field.axis_slot();
     let attribute = attribute.as_deref();
-    macro_rules! run {
-        ($g:expr) => {{
-            let g = $g;
-            let pos = g.positions();
-            match (&req.field, &field_values) {
-                (FieldSpec::Property(_), Some(v)) => run_on(
-                    g,
-                    &VertexField { values: v },
-                    None,
-                    offset,
-                    req,
-                    attribute,
-                    progress,
-                ),
-                (FieldSpec::Axis { axis, negative }, _) => {
-                    let sign = if *negative { -1.0 } else { 1.0 };
-                    let f = AxisField {
-                        axis: *axis,
-                        sign,
-                        positions: pos,
-                    };
-                    run_on(g, &f, axis_slot, offset, req, attribute, progress)
-                }
-                _ => {
-                    let n = req.field.normal().expect("planar field");
-                    let f = PlaneField {
-                        normal: n.map(|c| c as f32),
-                        positions: pos,
-                    };
-                    run_on(g, &f, axis_slot, offset, req, attribute, progress)
-                }
+    // φ per vertex, materialised once: the sweep and the brute force read
+    // this contiguous array (4 B/vertex) rather than the 12-byte positions.
+    let t_field = Instant::now();
+    let phi_of = |pos: &[[f32; 3]]| -> Vec<f32> {
+        match &req.field {
+            FieldSpec::Property(_) => Vec::new(),
+            FieldSpec::Axis { axis, negative } => {
+                let sign = if *negative { -1.0 } else { 1.0 };
+                let f = AxisField {
+                    axis: *axis,
+                    sign,
+                    positions: pos,
+                };
+                materialise(&f, pos.len())
             }
-        }};
+            FieldSpec::Normal(_) => {
+                let n = req.field.normal().expect("planar field");
+                let f = PlaneField {
+                    normal: n.map(|c| c as f32),
+                    positions: pos,
+                };
+                materialise(&f, pos.len())
+            }
+        }
+    };
+    let planar_phi = match s {
+        Structure::SCGraph(g) => phi_of(g.positions()),
+        Structure::CGraph(g) => phi_of(g.positions()),
+    };
+    let phi = VertexField {
+        values: field_values.as_deref().unwrap_or(&planar_phi),
+    };
+    let field_s = t_field.elapsed().as_secs_f64();
+    macro_rules! run {
+        ($g:expr) => {
+            run_on($g, &phi, axis_slot, offset, req, attribute, progress)
+        };
     }
     let mut r = match s {
         Structure::SCGraph(g) => run!(g),
         Structure::CGraph(g) => run!(g),
     }?;
     r.timings.setup = setup;
+    r.timings.field = field_s;
     r.attribute_name = attr_name.unwrap_or_else(|| "level_value".into());
     if let Some(m) = &mut r.mesh {
         m.property_name = r.attribute_name.clone();

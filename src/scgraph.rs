@@ -10,10 +10,10 @@ use crate::grid::{Grid, Topology};
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use rayon::prelude::*;
 
-use crate::extract::{EmitContext, prefetch};
+use crate::extract::{EmitContext, LatticeHexTable, prefetch};
 use crate::field::ScalarField;
 use crate::structure::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
-use crate::sweep::CellGraph;
+use crate::sweep::{CellGraph, Lattice};
 
 /// The structured cellular graph.
 #[derive(Clone, Debug)]
@@ -36,6 +36,8 @@ pub struct SCGraph {
     /// Per neighbour direction (−i, +i, −j, +j, −k, +k): the local vertices
     /// of the face shared with that neighbour.
     faces: [[u8; 4]; 6],
+    /// The hexahedron's tables flattened for `offsets`.
+    table: LatticeHexTable,
 }
 
 impl SCGraph {
@@ -113,7 +115,9 @@ impl SCGraph {
                 fill[dir] += 1;
             }
         }
+        let table = LatticeHexTable::new(catalog.get(builtin::HEXAHEDRON), &offsets);
         Ok(SCGraph {
+            table,
             faces,
             dims,
             origin,
@@ -234,6 +238,17 @@ impl CellGraph for SCGraph {
                 prefetch(a, v);
             }
         }
+    }
+    fn lattice(&self) -> Option<Lattice<'_>> {
+        let slab = (self.dims[0] * self.dims[1]) as u32;
+        Some(Lattice {
+            base: slab,
+            offsets: self.offsets,
+            deltas: [1, self.dims[0] as u32, slab],
+            faces: self.faces,
+            meta: self.catalog.get(builtin::HEXAHEDRON),
+            table: &self.table,
+        })
     }
     fn source_cell(&self, slot: u32) -> u32 {
         let [npi, npj, _] = self.dims;

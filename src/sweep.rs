@@ -4,9 +4,11 @@
 
 use rayon::prelude::*;
 
-use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects, prefetch};
+use crate::extract::{
+    EmitContext, LatticeHexTable, LevelMesh, code_of, emit_cell, intersects, prefetch,
+};
 use crate::field::ScalarField;
-use crate::metacell::{Catalog, MAX_META_VERTICES};
+use crate::metacell::{Catalog, MAX_META_VERTICES, MetaCell};
 
 /// Per-cell step stamp. 16 bits keep the S-CGraph within 20 bytes per
 /// vertex; the stamps are reset once every 65 534 levels.
@@ -80,6 +82,12 @@ pub trait CellGraph: Sync {
     }
     /// Id of the cell in `slot` in the input grid's numbering.
     fn source_cell(&self, slot: u32) -> u32;
+    /// The lattice layout when every cell is a hexahedron with vertex ids
+    /// `slot - base + offsets[local]` (the S-CGraph): the sweep then runs a
+    /// specialised loop ([`Lattice`]). `None` for general graphs.
+    fn lattice(&self) -> Option<Lattice<'_>> {
+        None
+    }
     /// Splits `0..slot_count` into at most `n` contiguous, roughly equal,
     /// spatially coherent ranges for parallel sweeping.
     fn blocks(&self, n: usize) -> Vec<(u32, u32)> {
@@ -123,6 +131,27 @@ pub fn cell_lo<G: CellGraph + ?Sized, F: ScalarField>(g: &G, f: &F, slot: u32) -
         lo = lo.min(f.phi(v));
     }
     lo
+}
+
+/// An implicit hexahedral lattice, for the specialised sweep loop: cell
+/// `slot` has vertices `slot - base + offsets[l]` and face neighbours
+/// `slot ± deltas[axis]`; the face toward neighbour direction `d`
+/// (−i, +i, −j, +j, −k, +k) holds local vertices `faces[d]`. Neighbour
+/// slots outside the grid are dead (never-sweep) slots, so no bounds checks.
+#[derive(Clone, Copy, Debug)]
+pub struct Lattice<'a> {
+    /// Slot of the cell whose first vertex is 0.
+    pub base: u32,
+    /// Local vertex offsets.
+    pub offsets: [u32; 8],
+    /// Slot steps along i, j, k.
+    pub deltas: [u32; 3],
+    /// Local vertices of the face toward each neighbour direction.
+    pub faces: [[u8; 4]; 6],
+    /// The hexahedron's meta-cell.
+    pub meta: &'a MetaCell,
+    /// Its tables flattened for `offsets`.
+    pub table: &'a LatticeHexTable,
 }
 
 /// How many work-queue entries ahead [`CellGraph::prefetch_cell`] is issued.
@@ -188,6 +217,39 @@ pub struct Block {
 }
 
 impl Block {
+    /// Starts the step of level `t`: the work queue becomes `A_{k-1}` plus
+    /// the minima with `lo < t` (advancing `next_min`), all stamped with the
+    /// returned step; the active queue and the output buffer are emptied.
+    fn begin_level(&mut self, minima: &[Minimum], next_min: &mut usize, t: f32) -> Stamp {
+        if self.step >= NEVER - 1 {
+            for s in self.stamps.iter_mut().filter(|s| **s != NEVER) {
+                *s = 0;
+            }
+            self.step = 0;
+        }
+        self.step += 1;
+        let step = self.step;
+        let start = self.start;
+        // The work queue starts with A_{k-1}...
+        std::mem::swap(&mut self.work, &mut self.active);
+        self.active.clear();
+        // Stamp A_{k-1} now: those cells are already queued, and as their
+        // lo < t_{k-1} no neighbour scan would push them again, so stamping
+        // them only spares the scans from recomputing their lo.
+        for &c in &self.work {
+            self.stamps[(c - start) as usize] = step;
+        }
+        // ...plus the minima with t_{k-1} <= lo < t_k.
+        while *next_min < minima.len() && minima[*next_min].lo < t {
+            let m = minima[*next_min];
+            self.stamps[(m.slot - start) as usize] = step;
+            self.work.push(m.slot);
+            *next_min += 1;
+        }
+        self.mesh.clear();
+        step
+    }
+
     /// Bytes of sweep state (stamps, queues, minima, output buffer).
     pub fn bytes(&self) -> usize {
         self.stamps.len() * std::mem::size_of::<Stamp>()
@@ -330,6 +392,7 @@ fn block_minima<G: CellGraph, F: ScalarField>(g: &G, f: &F, b: &Block) -> Vec<Mi
     out
 }
 
+#[inline(never)]
 fn sweep_block<G: CellGraph, F: ScalarField>(
     g: &G,
     f: &F,
@@ -339,6 +402,10 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     ctx: &EmitContext,
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
+    if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {
+        sweep_block_lattice(&lat, phi, b, minima, levels, ctx, on_level);
+        return;
+    }
     let catalog = g.catalog();
     let start = b.start;
     let len = b.stamps.len() as u32;
@@ -349,31 +416,7 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     let mut ids = [0u32; MAX_META_VERTICES];
     let mut phi = [0f32; MAX_META_VERTICES];
     for (k, &t) in levels.iter().enumerate() {
-        if b.step >= NEVER - 1 {
-            for s in b.stamps.iter_mut().filter(|s| **s != NEVER) {
-                *s = 0;
-            }
-            b.step = 0;
-        }
-        b.step += 1;
-        let step = b.step;
-        // The work queue starts with A_{k-1}...
-        std::mem::swap(&mut b.work, &mut b.active);
-        b.active.clear();
-        // Stamp A_{k-1} now: those cells are already queued, and as their
-        // lo < t_{k-1} no neighbour scan would push them again, so stamping
-        // them only spares the scans from recomputing their lo.
-        for &c in &b.work {
-            b.stamps[(c - start) as usize] = step;
-        }
-        // ...plus the minima with t_{k-1} <= lo < t_k.
-        while next_min < minima.len() && minima[next_min].lo < t {
-            let m = minima[next_min];
-            b.stamps[(m.slot - start) as usize] = step;
-            b.work.push(m.slot);
-            next_min += 1;
-        }
-        b.mesh.clear();
+        let step = b.begin_level(minima, &mut next_min, t);
         let mut i = 0;
         while i < b.work.len() {
             let c = b.work[i];
@@ -426,4 +469,129 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
         on_level(k, &b.mesh, &stats);
         t_prev = t;
     }
+}
+
+/// [`sweep_block`] specialised for a hexahedral [`Lattice`] with φ stored
+/// per vertex: the same steps, queues, stamps and output (tests compare it
+/// with the generic loop and the brute force), with the cell's vertices,
+/// neighbours and shared faces from the lattice's constant tables.
+#[inline(never)]
+fn sweep_block_lattice(
+    lat: &Lattice,
+    phi: &[f32],
+    b: &mut Block,
+    minima: &[Minimum],
+    levels: &[f32],
+    ctx: &EmitContext,
+    mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
+) {
+    let start = b.start;
+    let off = lat.offsets;
+    b.work.clear();
+    b.active.clear();
+    let mut next_min = 0;
+    let mut t_prev = f32::NEG_INFINITY;
+    for (k, &t) in levels.iter().enumerate() {
+        let step = b.begin_level(minima, &mut next_min, t);
+        let Block {
+            stamps,
+            work,
+            active,
+            mesh,
+            ..
+        } = b;
+        let stamps = &mut stamps[..];
+        let len = stamps.len() as u32;
+        let mut i = 0;
+        while i < work.len() {
+            let c = work[i];
+            if let Some(&ahead) = work.get(i + PREFETCH_AHEAD) {
+                let v = ahead - lat.base;
+                for o in [off[0], off[3], off[4], off[7]] {
+                    prefetch(phi, (v + o) as usize);
+                }
+            }
+            i += 1;
+            let v0 = c - lat.base;
+            let f: [f32; 8] = std::array::from_fn(|q| phi[(v0 + off[q]) as usize]);
+            let (lo, hi) = min_max8(&f);
+            if intersects(lo, hi, t) {
+                active.push(c);
+                let ids: [u32; 8] = std::array::from_fn(|q| v0 + off[q]);
+                lat.table
+                    .emit(lat.meta, &ids, &f, t, code8(&f, t), c, ctx, mesh);
+            }
+            // The six neighbours, unrolled: stamp every one examined (see
+            // `sweep_block`); its lo is the min of the shared face's φ and
+            // of its 4 far vertices.
+            macro_rules! visit {
+                ($nb:expr, $face:expr, $far:expr) => {{
+                    let nb: u32 = $nb;
+                    let j = nb.wrapping_sub(start);
+                    if j < len && stamps[j as usize] < step {
+                        stamps[j as usize] = step;
+                        let mut lo_n = f32::INFINITY;
+                        for &l in &lat.faces[$face] {
+                            let l = l as usize;
+                            #[allow(clippy::redundant_closure_call)]
+                            let far: u32 = $far(v0 + off[l]);
+                            lo_n = fmin(lo_n, fmin(f[l], phi[far as usize]));
+                        }
+                        if lo_n >= t_prev && lo_n < t {
+                            work.push(nb);
+                        }
+                    }
+                }};
+            }
+            let [di, dj, dk] = lat.deltas;
+            visit!(c - di, 0, |v| v - di);
+            visit!(c + di, 1, |v| v + di);
+            visit!(c - dj, 2, |v| v - dj);
+            visit!(c + dj, 3, |v| v + dj);
+            visit!(c - dk, 4, |v| v - dk);
+            visit!(c + dk, 5, |v| v + dk);
+        }
+        let stats = LevelStats::of(mesh, work.len() as u64);
+        on_level(k, mesh, &stats);
+        t_prev = t;
+    }
+}
+
+/// min of two non-NaN values (one `minss`; φ is never NaN).
+#[inline(always)]
+fn fmin(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
+/// (min, max) of eight non-NaN values.
+#[inline(always)]
+fn min_max8(f: &[f32; 8]) -> (f32, f32) {
+    let mut lo = f[0];
+    let mut hi = f[0];
+    for &x in &f[1..] {
+        lo = if x < lo { x } else { lo };
+        hi = if x > hi { x } else { hi };
+    }
+    (lo, hi)
+}
+
+/// [`code_of`] for eight values: bit q set iff `f[q] >= t`.
+#[inline(always)]
+fn code8(f: &[f32; 8], t: f32) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE is part of the x86_64 baseline; the loads read the
+        // 8 floats of `f` (unaligned loads).
+        unsafe {
+            let tt = _mm_set1_ps(t);
+            let a = _mm_loadu_ps(f.as_ptr());
+            let b = _mm_loadu_ps(f.as_ptr().add(4));
+            let ma = _mm_movemask_ps(_mm_cmpge_ps(a, tt)) as usize;
+            let mb = _mm_movemask_ps(_mm_cmpge_ps(b, tt)) as usize;
+            ma | mb << 4
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    code_of(f, t)
 }

@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use stratasweep::bruteforce::brute_force;
 use stratasweep::cgraph::CGraph;
 use stratasweep::extract::{EmitContext, LevelMesh};
-use stratasweep::field::{PlaneField, ScalarField, VertexField};
+use stratasweep::field::{PlaneField, ScalarField, VertexField, materialise};
 use stratasweep::grid::Grid;
 use stratasweep::scgraph::SCGraph;
 use stratasweep::sweep::{CellGraph, Sweeper};
@@ -114,12 +114,23 @@ fn check_all_fields<G: CellGraph>(g: &G, origin: [f64; 3], values: &[f32], label
                 want.iter().map(Vec::len).sum::<usize>() > 0,
                 "{label}: nothing cut"
             );
+            // φ materialised per vertex (as the pipeline does) takes the
+            // S-CGraph's specialised lattice loop; it must give the same
+            // output as the generic loop and the brute force.
+            let phi = materialise(&f, pos.len());
+            let fv = VertexField { values: &phi };
             for threads in [1, 3] {
                 let got = run_sweep(g, &f, Some(axis * 2 + neg as usize), &levels, threads);
                 check_equal(
                     &got,
                     &want,
                     &format!("{label} axis {axis} neg {neg} threads {threads}"),
+                );
+                let got = run_sweep(g, &fv, Some(axis * 2 + neg as usize), &levels, threads);
+                check_equal(
+                    &got,
+                    &want,
+                    &format!("{label} axis {axis} neg {neg} threads {threads} materialised"),
                 );
             }
             // Second sweep reuses the cached minima.
@@ -132,10 +143,17 @@ fn check_all_fields<G: CellGraph>(g: &G, origin: [f64; 3], values: &[f32], label
         positions: pos,
     };
     let levels: Vec<f32> = (0..37).map(|x| -9.0 + x as f32 * 0.5).collect();
+    let want = run_brute(g, &f, &levels);
     check_equal(
         &run_sweep(g, &f, None, &levels, 1),
-        &run_brute(g, &f, &levels),
+        &want,
         &format!("{label} normal"),
+    );
+    let phi = materialise(&f, pos.len());
+    check_equal(
+        &run_sweep(g, &VertexField { values: &phi }, None, &levels, 1),
+        &want,
+        &format!("{label} normal materialised"),
     );
     let f = VertexField { values };
     let levels: Vec<f32> = (0..9).map(|x| x as f32 * 0.5).collect();
