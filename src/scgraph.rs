@@ -242,6 +242,7 @@ impl CellGraph for SCGraph {
     fn lattice(&self) -> Option<Lattice<'_>> {
         let slab = (self.dims[0] * self.dims[1]) as u32;
         Some(Lattice {
+            vertices: self.positions.len(),
             base: slab,
             offsets: self.offsets,
             deltas: [1, self.dims[0] as u32, slab],

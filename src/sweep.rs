@@ -140,6 +140,8 @@ pub fn cell_lo<G: CellGraph + ?Sized, F: ScalarField>(g: &G, f: &F, slot: u32) -
 /// slots outside the grid are dead (never-sweep) slots, so no bounds checks.
 #[derive(Clone, Copy, Debug)]
 pub struct Lattice<'a> {
+    /// Vertex count: every live cell's vertex ids are below it.
+    pub vertices: usize,
     /// Slot of the cell whose first vertex is 0.
     pub base: u32,
     /// Local vertex offsets.
@@ -487,6 +489,18 @@ fn sweep_block_lattice(
 ) {
     let start = b.start;
     let off = lat.offsets;
+    // Every live cell's vertices, and those of its live neighbours, are
+    // below `lat.vertices`: this one check makes the unchecked φ reads
+    // below sound.
+    assert!(
+        phi.len() >= lat.vertices,
+        "φ has {} values for {} vertices",
+        phi.len(),
+        lat.vertices
+    );
+    // SAFETY (for `at`): callers pass vertex ids of a live cell, or of a live
+    // neighbour (stamp < step, so not a never-sweep slot), all < lat.vertices.
+    let at = |v: u32| unsafe { *phi.get_unchecked(v as usize) };
     b.work.clear();
     b.active.clear();
     let mut next_min = 0;
@@ -513,7 +527,7 @@ fn sweep_block_lattice(
             }
             i += 1;
             let v0 = c - lat.base;
-            let f: [f32; 8] = std::array::from_fn(|q| phi[(v0 + off[q]) as usize]);
+            let f: [f32; 8] = std::array::from_fn(|q| at(v0 + off[q]));
             let (lo, hi) = min_max8(&f);
             if intersects(lo, hi, t) {
                 active.push(c);
@@ -535,7 +549,7 @@ fn sweep_block_lattice(
                             let l = l as usize;
                             #[allow(clippy::redundant_closure_call)]
                             let far: u32 = $far(v0 + off[l]);
-                            lo_n = fmin(lo_n, fmin(f[l], phi[far as usize]));
+                            lo_n = fmin(lo_n, fmin(f[l], at(far)));
                         }
                         if lo_n >= t_prev && lo_n < t {
                             work.push(nb);
