@@ -1,17 +1,19 @@
 //! CGraph: the zoo-grid cellular graph. Per cell: its meta-cell id, its
 //! vertex ids and its face neighbours (`u32::MAX` = none).
 //!
-//! Storage is flat. Each cell owns a block `nv` vertex ids followed by `nf`
-//! neighbour ids in `data`; for grids of one cell type the per-cell offsets
-//! and meta ids are implicit (`offset = cell · (nv + nf)`). Cells are sewn
-//! through a transient vertex → incident-cells map that is dropped after the
-//! build. Slots are the input cell ids; hidden and degenerate cells stay as
+//! Storage is stencil-coded ([`CellStore`]): most cells of a real grid
+//! repeat a few *stencils*, the vertex ids relative to the cell's first
+//! vertex and the neighbour ids relative to the cell id (a hexahedral block
+//! exported in IJK order has one stencil per boundary situation). Each cell
+//! then costs an anchor vertex (4 B) and a stencil id (2 B); cells whose
+//! stencil is rare are stored explicitly. Cells are sewn through a
+//! transient vertex → incident-cells map that is dropped after the build. Slots are the input cell ids; hidden and degenerate cells stay as
 //! dead slots (never swept, never anyone's neighbour).
 
 use rayon::prelude::*;
 
 use crate::grid::{Cells, Grid, Topology, is_lower_dimensional, vtk_type};
-use crate::metacell::{Catalog, MAX_META_VERTICES, MetaCell, VOXEL_TO_HEX, builtin};
+use crate::metacell::{Catalog, MAX_META_VERTICES, VOXEL_TO_HEX, builtin};
 use crate::structure::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
 use crate::sweep::CellGraph;
 
@@ -30,13 +32,8 @@ pub struct CGraph {
     pub positions: Vec<[f32; 3]>,
     /// Meta-cell catalog.
     pub catalog: Catalog,
-    /// Meta id per cell, or empty when every cell has meta `uniform_meta`.
-    meta: Vec<u16>,
-    uniform_meta: u16,
-    /// Per-cell start in `data`, or empty when uniform.
-    offsets: Vec<u32>,
-    /// Vertex ids then neighbour ids, per cell.
-    data: Vec<u32>,
+    /// Meta id, vertex ids and neighbours of every cell.
+    cells: CellStore,
     live: BitSet,
     /// Counts of cell classes (see [`crate::structure::CELL_CLASS_NAMES`]).
     pub class_counts: [usize; 5],
@@ -170,7 +167,7 @@ impl CGraph {
     /// whose cells become hexahedra). `hidden` marks cells to exclude.
     pub fn build(grid: &Grid, hidden: Option<&[bool]>) -> Result<Self, StructureError> {
         let mut catalog = Catalog::new();
-        let (mut metas, voff, mut verts) = match &grid.topology {
+        let (mut metas, voff, verts) = match &grid.topology {
             Topology::Unstructured(cells) => resolve_cells(cells, &grid.points, &mut catalog)?,
             Topology::Structured { dims } => structured_as_hexes(*dims),
         };
@@ -223,40 +220,17 @@ impl CGraph {
         }
         let nbrs = sew(&catalog, &metas, &voff, &verts, &live, grid.points.len());
         let sewn_faces = nbrs.iter().filter(|&&x| x != NONE).count();
-        // Interleave vertex ids and neighbours per cell.
-        let uniform = metas.iter().all(|&m| m == metas[0]);
-        let mut data = Vec::with_capacity(verts.len() + nbrs.len());
-        let mut offsets = Vec::new();
-        let mut noff = 0usize;
-        for c in 0..n {
-            if !uniform {
-                offsets.push(data.len() as u32);
-            }
-            if metas[c] == NON_VOLUMETRIC {
-                continue;
-            }
-            let m = catalog.get(metas[c]);
-            data.extend_from_slice(&verts[voff[c] as usize..voff[c + 1] as usize]);
-            data.extend_from_slice(&nbrs[noff..noff + m.faces.len()]);
-            noff += m.faces.len();
-        }
-        verts.clear();
         let mut meta_counts = vec![0; catalog.metas.len()];
         for &m in metas.iter().filter(|&&m| m != NON_VOLUMETRIC) {
             meta_counts[m as usize] += 1;
         }
-        let uniform_meta = metas[0];
-        if uniform {
-            metas = Vec::new();
-        }
+        let cells = CellStore::build(&catalog, &metas, &voff, &verts, &nbrs);
+        drop(verts);
         Ok(CGraph {
             origin: grid.origin(),
             positions: grid.rebased_positions(),
             catalog,
-            meta: metas,
-            uniform_meta,
-            offsets,
-            data,
+            cells,
             live,
             class_counts,
             meta_counts,
@@ -267,16 +241,7 @@ impl CGraph {
 
     /// Number of cells (slots).
     pub fn cell_count(&self) -> usize {
-        self.live_len()
-    }
-
-    fn live_len(&self) -> usize {
-        if self.meta.is_empty() {
-            let m = self.catalog.get(self.uniform_meta);
-            self.data.len() / (m.nv + m.faces.len())
-        } else {
-            self.meta.len()
-        }
+        self.cells.len()
     }
 
     /// Cells that the sweep will visit.
@@ -284,40 +249,21 @@ impl CGraph {
         self.live.count()
     }
 
-    #[inline(always)]
-    fn meta_of(&self, c: u32) -> u16 {
-        if self.meta.is_empty() {
-            self.uniform_meta
-        } else {
-            self.meta[c as usize]
-        }
-    }
-
-    #[inline(always)]
-    fn block(&self, c: u32) -> (&MetaCell, &[u32]) {
-        let m = self.catalog.get(self.meta_of(c));
-        let len = m.nv + m.faces.len();
-        let start = if self.offsets.is_empty() {
-            c as usize * len
-        } else {
-            self.offsets[c as usize] as usize
-        };
-        (m, &self.data[start..start + len])
-    }
-
-    /// Face neighbours of cell `c` (NONE where there is none).
-    pub fn neighbours(&self, c: u32) -> &[u32] {
-        let (m, b) = self.block(c);
-        &b[m.nv..]
+    /// Face neighbours of cell `c` (NONE where there is none), in face order.
+    pub fn neighbours(&self, c: u32) -> Vec<u32> {
+        let mut out = Vec::new();
+        self.cells.neighbours(&self.catalog, c, |n| out.push(n));
+        out
     }
 
     /// Bytes held per part of the structure.
     pub fn bytes(&self) -> Vec<(&'static str, usize)> {
         vec![
             ("positions", self.positions.len() * 12),
-            ("cell_meta", self.meta.len() * 2),
-            ("cell_offsets", self.offsets.len() * 4),
-            ("cell_vertices_and_neighbours", self.data.len() * 4),
+            ("cell_anchors", self.cells.anchor.len() * 4),
+            ("cell_stencil_ids", self.cells.stencil.len() * 2),
+            ("stencils", self.cells.stencil_bytes()),
+            ("explicit_cells", self.cells.explicit.len() * 4),
             ("live_bits", self.live.bytes()),
             ("meta_cell_tables", self.catalog.table_bytes()),
         ]
@@ -440,7 +386,7 @@ fn sew(
 
 impl CellGraph for CGraph {
     fn slot_count(&self) -> usize {
-        self.live_len()
+        self.cells.len()
     }
     fn is_live(&self, slot: u32) -> bool {
         self.live.get(slot as usize)
@@ -453,19 +399,220 @@ impl CellGraph for CGraph {
     }
     #[inline(always)]
     fn cell(&self, slot: u32, out: &mut [u32; MAX_META_VERTICES]) -> (u16, usize) {
-        let (m, b) = self.block(slot);
-        out[..m.nv].copy_from_slice(&b[..m.nv]);
-        (self.meta_of(slot), m.nv)
+        self.cells.vertices(&self.catalog, slot, out)
     }
     #[inline(always)]
     fn for_each_neighbour(&self, slot: u32, mut f: impl FnMut(u32)) {
-        for &n in self.neighbours(slot) {
+        self.cells.neighbours(&self.catalog, slot, |n| {
             if n != NONE {
                 f(n);
             }
-        }
+        });
     }
     fn source_cell(&self, slot: u32) -> u32 {
         slot
+    }
+}
+
+/// Stencil id of cells stored explicitly.
+const ESCAPED: u16 = u16::MAX;
+
+/// Neighbour delta standing for [`NONE`] (no real delta reaches it: cell
+/// ids are below 2³¹).
+const NONE_DELTA: i32 = i32::MIN;
+
+/// Stencil-coded cell connectivity (see the module docs).
+///
+/// Cell `c` with stencil `s = stencil[c] != ESCAPED` has meta
+/// `stencil_meta[s]`, vertices `anchor[c] + deltas[k]` and neighbours
+/// `c + deltas[nv + f]` (wrapping, [`NONE_DELTA`] = none) with `k`, `f`
+/// running over the stencil's block of `deltas`. An escaped cell has
+/// `explicit[anchor[c]..]` = meta id, vertex ids, neighbour ids.
+#[derive(Clone, Debug, Default)]
+pub struct CellStore {
+    anchor: Vec<u32>,
+    stencil: Vec<u16>,
+    stencil_meta: Vec<u16>,
+    stencil_start: Vec<u32>,
+    deltas: Vec<i32>,
+    explicit: Vec<u32>,
+}
+
+impl CellStore {
+    /// Codes cells given as meta ids, vertex ids (`verts[voff[c]..voff[c+1]]`)
+    /// and neighbours (`nbrs`, `nf` per volumetric cell, in cell order).
+    fn build(catalog: &Catalog, metas: &[u16], voff: &[u32], verts: &[u32], nbrs: &[u32]) -> Self {
+        let n = metas.len();
+        let mut nstart = Vec::with_capacity(n + 1);
+        nstart.push(0usize);
+        for &m in metas {
+            let nf = if m == NON_VOLUMETRIC {
+                0
+            } else {
+                catalog.get(m).faces.len()
+            };
+            nstart.push(nstart.last().copied().unwrap_or(0) + nf);
+        }
+        let key_of = |c: usize| -> Vec<i32> {
+            let v = &verts[voff[c] as usize..voff[c + 1] as usize];
+            let mut k = Vec::with_capacity(1 + v.len() + nstart[c + 1] - nstart[c]);
+            k.push(metas[c] as i32);
+            k.extend(v.iter().map(|&x| x.wrapping_sub(v[0]) as i32));
+            k.extend(nbrs[nstart[c]..nstart[c + 1]].iter().map(|&x| {
+                if x == NONE {
+                    NONE_DELTA
+                } else {
+                    x.wrapping_sub(c as u32) as i32
+                }
+            }));
+            k
+        };
+        let hash_of = |k: &[i32]| -> u64 {
+            k.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &x| {
+                (h ^ x as u32 as u64).wrapping_mul(0x0100_0000_01b3)
+            })
+        };
+        let hashes: Vec<u64> = (0..n)
+            .into_par_iter()
+            .map(|c| {
+                if metas[c] == NON_VOLUMETRIC {
+                    0
+                } else {
+                    hash_of(&key_of(c))
+                }
+            })
+            .collect();
+        // Count stencils (by hash), keep the most frequent repeated ones.
+        let mut count: std::collections::HashMap<u64, (u32, u32)> = Default::default();
+        for c in 0..n {
+            if metas[c] != NON_VOLUMETRIC {
+                count.entry(hashes[c]).or_insert((0, c as u32)).0 += 1;
+            }
+        }
+        let mut common: Vec<(u64, u32, u32)> = count
+            .into_iter()
+            .filter(|e| e.1.0 >= 2)
+            .map(|(h, (k, first))| (h, k, first))
+            .collect();
+        common.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(a.2.cmp(&b.2)));
+        common.truncate(ESCAPED as usize);
+        let mut store = CellStore::default();
+        let mut id_of: std::collections::HashMap<u64, u16> = Default::default();
+        for (i, &(h, _, first)) in common.iter().enumerate() {
+            let k = key_of(first as usize);
+            store.stencil_meta.push(k[0] as u16);
+            store.stencil_start.push(store.deltas.len() as u32);
+            store.deltas.extend_from_slice(&k[1..]);
+            id_of.insert(h, i as u16);
+        }
+        store.stencil_start.push(store.deltas.len() as u32);
+        store.anchor.reserve_exact(n);
+        store.stencil.reserve_exact(n);
+        for c in 0..n {
+            let v = &verts[voff[c] as usize..voff[c + 1] as usize];
+            let coded = (metas[c] != NON_VOLUMETRIC)
+                .then(|| id_of.get(&hashes[c]).copied())
+                .flatten()
+                // A hash collision must not merge two stencils: compare.
+                .filter(|&s| {
+                    let (a, b) = store.block(s);
+                    store.stencil_meta[s as usize] as i32 == metas[c] as i32
+                        && store.deltas[a..b] == key_of(c)[1..]
+                });
+            match coded {
+                Some(s) => {
+                    store.anchor.push(v[0]);
+                    store.stencil.push(s);
+                }
+                None => {
+                    store.anchor.push(store.explicit.len() as u32);
+                    store.stencil.push(ESCAPED);
+                    store.explicit.push(metas[c] as u32);
+                    store.explicit.extend_from_slice(v);
+                    store
+                        .explicit
+                        .extend_from_slice(&nbrs[nstart[c]..nstart[c + 1]]);
+                }
+            }
+        }
+        store.explicit.shrink_to_fit();
+        store
+    }
+
+    /// Number of cells.
+    fn len(&self) -> usize {
+        self.stencil.len()
+    }
+
+    /// Range of stencil `s` in `deltas`.
+    #[inline(always)]
+    fn block(&self, s: u16) -> (usize, usize) {
+        (
+            self.stencil_start[s as usize] as usize,
+            self.stencil_start[s as usize + 1] as usize,
+        )
+    }
+
+    /// Bytes of the stencil tables.
+    fn stencil_bytes(&self) -> usize {
+        self.stencil_meta.len() * 2 + self.stencil_start.len() * 4 + self.deltas.len() * 4
+    }
+
+    /// Meta id and vertex ids of cell `c` (into `out`); vertex count.
+    #[inline(always)]
+    fn vertices(
+        &self,
+        catalog: &Catalog,
+        c: u32,
+        out: &mut [u32; MAX_META_VERTICES],
+    ) -> (u16, usize) {
+        let s = self.stencil[c as usize];
+        let a = self.anchor[c as usize];
+        if s != ESCAPED {
+            let m = self.stencil_meta[s as usize];
+            let nv = catalog.get(m).nv;
+            let start = self.stencil_start[s as usize] as usize;
+            for (o, &d) in out[..nv].iter_mut().zip(&self.deltas[start..start + nv]) {
+                *o = a.wrapping_add(d as u32);
+            }
+            (m, nv)
+        } else {
+            let m = self.explicit[a as usize] as u16;
+            if m == NON_VOLUMETRIC {
+                return (m, 0);
+            }
+            let nv = catalog.get(m).nv;
+            let a = a as usize + 1;
+            out[..nv].copy_from_slice(&self.explicit[a..a + nv]);
+            (m, nv)
+        }
+    }
+
+    /// Calls `f` with each face neighbour of `c` (NONE included), in face order.
+    #[inline(always)]
+    fn neighbours(&self, catalog: &Catalog, c: u32, mut f: impl FnMut(u32)) {
+        let s = self.stencil[c as usize];
+        let a = self.anchor[c as usize];
+        if s != ESCAPED {
+            let m = catalog.get(self.stencil_meta[s as usize]);
+            let start = self.stencil_start[s as usize] as usize + m.nv;
+            for &d in &self.deltas[start..start + m.faces.len()] {
+                f(if d == NONE_DELTA {
+                    NONE
+                } else {
+                    c.wrapping_add(d as u32)
+                });
+            }
+        } else {
+            let m = self.explicit[a as usize] as u16;
+            if m == NON_VOLUMETRIC {
+                return;
+            }
+            let m = catalog.get(m);
+            let a = a as usize + 1 + m.nv;
+            for &n in &self.explicit[a..a + m.faces.len()] {
+                f(n);
+            }
+        }
     }
 }

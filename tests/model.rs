@@ -271,3 +271,85 @@ fn constant_fields_and_empty_grids_are_errors() {
     );
     assert!(e.is_err());
 }
+
+/// The stencil-coded CGraph returns exactly the input cells and symmetric
+/// neighbours, whether a cell's stencil is common (IJK-ordered block) or
+/// escaped (cells shuffled out of order), and a hexahedral grid stays
+/// within the 40 bytes per cell budget (plus 16 per vertex).
+#[test]
+fn stencil_coded_cgraph_decodes_exactly_and_fits_the_budget() {
+    let s = stratasweep::generate::warped([12, 10, 9], 5);
+    let Topology::Structured { dims } = s.topology else {
+        panic!("warped is structured")
+    };
+    let [npi, npj, npk] = dims;
+    let slab = npi * npj;
+    let mut hexes: Vec<[u32; 8]> = Vec::new();
+    for k in 0..npk - 1 {
+        for j in 0..npj - 1 {
+            for i in 0..npi - 1 {
+                let v0 = i + j * npi + k * slab;
+                hexes.push(
+                    [
+                        0,
+                        1,
+                        1 + npi,
+                        npi,
+                        slab,
+                        slab + 1,
+                        slab + 1 + npi,
+                        slab + npi,
+                    ]
+                    .map(|o| (v0 + o) as u32),
+                );
+            }
+        }
+    }
+    let build = |order: &[usize]| {
+        let mut cells = Cells::default();
+        for &c in order {
+            cells.push(vtk_type::HEXAHEDRON, &hexes[c]);
+        }
+        let grid = Grid {
+            topology: Topology::Unstructured(cells.clone()),
+            ..s.clone()
+        };
+        (CGraph::build(&grid, None).unwrap(), cells)
+    };
+    let part = |g: &CGraph, k: &str| g.bytes().iter().find(|b| b.0 == k).map_or(0, |b| b.1);
+    // Move every 7th cell to the end: those (and their neighbours) get odd
+    // stencils and are stored explicitly.
+    let (mut order, tail): (Vec<usize>, Vec<usize>) = (0..hexes.len()).partition(|c| c % 7 != 0);
+    order.extend(tail);
+    let (g, cells) = build(&order);
+    assert!(part(&g, "cell_stencil_ids") > 0 && part(&g, "explicit_cells") > 0);
+    use stratasweep::sweep::CellGraph;
+    let none = stratasweep::cgraph::NONE;
+    let mut ids = [0u32; 12];
+    for c in 0..cells.len() {
+        let (_, n) = g.cell(c as u32, &mut ids);
+        assert_eq!(&ids[..n], cells.cell(c), "cell {c}");
+        let nb = g.neighbours(c as u32);
+        assert_eq!(nb.len(), 6);
+        for &n in nb.iter().filter(|&&n| n != none) {
+            assert!(
+                g.neighbours(n).contains(&(c as u32)),
+                "{c} -> {n} not mutual"
+            );
+        }
+        let interior = nb.iter().filter(|&&n| n != none).count();
+        assert!(interior >= 3, "cell {c} has only {interior} neighbours");
+    }
+    // In IJK order nearly every cell shares a stencil.
+    let (g, _) = build(&(0..hexes.len()).collect::<Vec<_>>());
+    let cell_bytes: usize = g
+        .bytes()
+        .iter()
+        .filter(|b| b.0 != "positions")
+        .map(|b| b.1)
+        .sum::<usize>()
+        + 2 * g.cell_count(); // u16 step stamps
+    let per_cell = cell_bytes as f64 / g.cell_count() as f64;
+    assert!(per_cell <= 40.0, "{per_cell} B/cell");
+    assert_eq!(part(&g, "positions"), 12 * s.points.len());
+}
