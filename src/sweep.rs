@@ -520,9 +520,20 @@ fn sweep_block_lattice(
         while i < work.len() {
             let c = work[i];
             if let Some(&ahead) = work.get(i + PREFETCH_AHEAD) {
+                // The four vertex rows of the cell two entries ahead: φ,
+                // positions and attribute (read when it is cut).
+                let j = (ahead - start) as usize;
+                let dk = lat.deltas[2] as usize;
+                prefetch(stamps, j.wrapping_sub(dk));
+                prefetch(stamps, j + dk);
                 let v = ahead - lat.base;
                 for o in [off[0], off[3], off[4], off[7]] {
-                    prefetch(phi, (v + o) as usize);
+                    let r = (v + o) as usize;
+                    prefetch(phi, r);
+                    prefetch(ctx.positions, r);
+                    if let Some(a) = ctx.attribute {
+                        prefetch(a, r);
+                    }
                 }
             }
             i += 1;
