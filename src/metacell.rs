@@ -456,7 +456,7 @@ impl MetaCell {
     /// by a fan of tetrahedra from the vertex centroid over triangulated faces.
     /// Exact for planar faces; for warped quads it is the volume of the
     /// polyhedron with the faces split into triangles around their centroid.
-    pub fn signed_volume(&self, pos: &dyn Fn(usize) -> [f64; 3]) -> f64 {
+    pub fn signed_volume(&self, pos: impl Fn(usize) -> [f64; 3]) -> f64 {
         let mut c = [0.0; 3];
         for v in 0..self.nv {
             let p = pos(v);

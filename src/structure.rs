@@ -3,7 +3,7 @@
 
 use thiserror::Error;
 
-use crate::metacell::MetaCell;
+use crate::metacell::{MAX_META_VERTICES, MetaCell};
 
 /// Errors building a sweep structure from a grid.
 #[derive(Debug, Error, PartialEq)]
@@ -67,16 +67,14 @@ pub fn classify_cell(meta: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellC
         }
     }
     let p0 = points[ids[0] as usize];
-    let pos = |v: usize| {
-        let p = points[ids[v] as usize];
-        [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]]
-    };
-    let vol = meta.signed_volume(&pos);
+    let mut local = [[0.0f64; 3]; MAX_META_VERTICES];
     let mut ext = 0.0f64;
-    for v in 0..ids.len() {
-        let p = pos(v);
-        ext = ext.max(p[0].abs()).max(p[1].abs()).max(p[2].abs());
+    for (l, &v) in local.iter_mut().zip(ids) {
+        let p = points[v as usize];
+        *l = [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]];
+        ext = ext.max(l[0].abs()).max(l[1].abs()).max(l[2].abs());
     }
+    let vol = meta.signed_volume(|v| local[v]);
     if vol.is_nan() || vol.abs() <= 1e-12 * ext * ext * ext {
         CellClass::ZeroVolume
     } else if vol < 0.0 {
