@@ -45,6 +45,19 @@ pub enum GpuError {
         /// Adapter name.
         adapter: String,
     },
+    /// One frame's buffers exceed a limit: split the frame by levels
+    /// ([`crate::gpu::emit::emit_chunked`] does).
+    #[error(
+        "{what} of one frame needs {bytes} bytes, over the limit of {limit} bytes per storage binding"
+    )]
+    FrameTooLarge {
+        /// Which buffer.
+        what: String,
+        /// Bytes needed.
+        bytes: u64,
+        /// The limit.
+        limit: u64,
+    },
     /// The adapter lacks a capability this path needs.
     #[error("adapter '{adapter}' cannot run this: {why}")]
     Unsupported {

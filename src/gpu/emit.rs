@@ -27,6 +27,8 @@ pub struct EmitTimings {
     pub count: f64,
     /// Emit pass until the device finished.
     pub emit: f64,
+    /// Level chunks the frame was split into (1 when it fit; 0 unset).
+    pub chunks: usize,
 }
 
 /// A growable GPU buffer.
@@ -42,7 +44,7 @@ pub struct GpuEmitter<'c> {
     count: wgpu::ComputePipeline,
     scan: wgpu::ComputePipeline,
     emit: wgpu::ComputePipeline,
-    grid: GridBuffers,
+    grid: std::sync::Arc<GridBuffers>,
     params: wgpu::Buffer,
     tables: wgpu::Buffer,
     grid_buf: wgpu::Buffer,
@@ -205,7 +207,7 @@ impl<'c> GpuEmitter<'c> {
             count,
             scan,
             emit,
-            grid,
+            grid: std::sync::Arc::new(grid),
             params,
             tables,
             grid_buf,
@@ -223,6 +225,38 @@ impl<'c> GpuEmitter<'c> {
         })
     }
 
+    /// An emitter sharing this one's grid buffers and pipelines, with its
+    /// own frame buffers (for the chunks of a frame too large for one).
+    pub fn fork(&self) -> Self {
+        GpuEmitter {
+            ctx: self.ctx,
+            layout: self.layout.clone(),
+            count: self.count.clone(),
+            scan: self.scan.clone(),
+            emit: self.emit.clone(),
+            grid: self.grid.clone(),
+            params: self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("params"),
+                size: std::mem::size_of::<EmitParams>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            tables: self.tables.clone(),
+            grid_buf: self.grid_buf.clone(),
+            attr: self.attr.clone(),
+            cells: self.cells.clone(),
+            entries: None,
+            levels: None,
+            control: None,
+            vertices: None,
+            areas: None,
+            dispatches: 0,
+            level_count: 0,
+            triangles: 0,
+            timings: EmitTimings::default(),
+        }
+    }
+
     /// The grid-side host buffers.
     pub fn grid(&self) -> &GridBuffers {
         &self.grid
@@ -236,7 +270,12 @@ impl<'c> GpuEmitter<'c> {
         usage: wgpu::BufferUsages,
     ) -> Result<(), GpuError> {
         let bytes = bytes.max(16).div_ceil(16) * 16;
-        ctx.check_storage(what, bytes)?;
+        ctx.check_storage(what, bytes).map_err(|e| match e {
+            GpuError::TooLarge {
+                what, bytes, limit, ..
+            } => GpuError::FrameTooLarge { what, bytes, limit },
+            e => e,
+        })?;
         if slot.as_ref().is_none_or(|g| g.cap < bytes) {
             let cap = (bytes + bytes / 4)
                 .min(ctx.limits.max_storage_buffer_binding_size)
@@ -405,6 +444,7 @@ impl<'c> GpuEmitter<'c> {
             upload: (t1 - t0).as_secs_f64(),
             count: (t2 - t1).as_secs_f64(),
             emit: (t3 - t2).as_secs_f64(),
+            chunks: 1,
         };
         Ok(())
     }
@@ -463,4 +503,32 @@ impl<'c> GpuEmitter<'c> {
             areas,
         })
     }
+}
+
+/// Runs `frame` on `base` (a fresh fork of it), splitting it into level
+/// ranges while one range's buffers exceed the storage binding limit.
+/// Returns the emitters that hold the chunks' output, in level order, each
+/// with its first level. A single level too large is an error.
+pub fn emit_chunked<'c>(
+    base: &GpuEmitter<'c>,
+    frame: &Frame,
+    write_areas: bool,
+) -> Result<Vec<(GpuEmitter<'c>, u32)>, GpuError> {
+    let mut out = Vec::new();
+    let mut todo = vec![(0usize, frame.levels.len())];
+    while let Some((a, b)) = todo.pop() {
+        let sub = frame.level_range(a, b);
+        let mut e = base.fork();
+        match e.run(&sub, write_areas) {
+            Ok(()) => out.push((e, a as u32)),
+            Err(GpuError::FrameTooLarge { .. }) if b - a > 1 => {
+                let m = (a + b) / 2;
+                // Popped last-in first-out: the lower half first.
+                todo.push((m, b));
+                todo.push((a, m));
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(out)
 }

@@ -24,7 +24,7 @@ use crate::grid::Grid;
 use crate::pipeline::{LevelSpec, PipelineError, SliceRequest, Structure, vertex_property};
 
 use super::context::{GpuContext, GpuError};
-use super::emit::GpuEmitter;
+use super::emit::{GpuEmitter, emit_chunked};
 use super::shaders;
 use super::shared::{ARGS_WORDS, ControlLayout, OutVertex, RenderParams};
 use super::slice::prepare;
@@ -272,7 +272,8 @@ impl Image {
 
 /// Triangles of one (axis or iso, count, property) on the GPU.
 struct Cached<'c> {
-    emitter: GpuEmitter<'c>,
+    /// Level chunks (one unless the frame exceeded a storage binding), in level order.
+    chunks: Vec<GpuEmitter<'c>>,
     /// Slice spacing along the axis (volume), 0 for iso.
     spacing: f64,
     /// Range of the shown values.
@@ -404,7 +405,8 @@ impl<'c> Renderer<'c> {
             + self
                 .cache
                 .values()
-                .map(|c| c.emitter.dispatches)
+                .flat_map(|c| &c.chunks)
+                .map(|e| e.dispatches)
                 .sum::<u64>()
     }
 
@@ -508,18 +510,22 @@ impl<'c> Renderer<'c> {
                     (l[0], l[l.len() - 1])
                 }
             };
-            let mut emitter = GpuEmitter::new(self.ctx, p.grid)?;
-            emitter.run(&p.frame, false)?;
+            let base = GpuEmitter::new(self.ctx, p.grid)?;
+            let chunks = emit_chunked(&base, &p.frame, false)?
+                .into_iter()
+                .map(|c| c.0)
+                .collect();
             // Keep one entry: another axis cone or property replaces it.
             self.evicted_dispatches += self
                 .cache
                 .drain()
-                .map(|(_, c)| c.emitter.dispatches)
+                .flat_map(|(_, c)| c.chunks)
+                .map(|e| e.dispatches)
                 .sum::<u64>();
             self.cache.insert(
                 key.clone(),
                 Cached {
-                    emitter,
+                    chunks,
                     spacing,
                     range,
                 },
@@ -711,29 +717,35 @@ impl<'c> Renderer<'c> {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            let k = c.emitter.level_count;
-            if let (Some(vb), Some(cb), true) = (
-                c.emitter.vertex_buffer(),
-                c.emitter.control_buffer(),
-                c.emitter.triangles > 0,
-            ) {
-                pass.set_pipeline(if o.mode == Mode::Iso {
-                    &self.iso
-                } else {
-                    &self.blend
-                });
-                pass.set_bind_group(0, &bg, &[]);
-                pass.set_vertex_buffer(0, vb.slice(..));
-                // Levels increase along +axis: looking toward +axis, the far
-                // slices are the high ones, so draw in decreasing order.
-                let lay = ControlLayout { k };
-                let first = if d[axis] > 0.0 && o.mode != Mode::Iso {
-                    lay.args_rev()
-                } else {
-                    lay.args_fwd()
-                };
-                debug_assert_eq!(lay.args_rev(), ARGS_WORDS * k);
-                pass.multi_draw_indirect(cb, first as u64 * 4, k);
+            pass.set_pipeline(if o.mode == Mode::Iso {
+                &self.iso
+            } else {
+                &self.blend
+            });
+            pass.set_bind_group(0, &bg, &[]);
+            // Levels increase along +axis: looking toward +axis, the far
+            // slices are the high ones, so draw in decreasing order.
+            let reverse = d[axis] > 0.0 && o.mode != Mode::Iso;
+            let chunks: Vec<&GpuEmitter> = if reverse {
+                c.chunks.iter().rev().collect()
+            } else {
+                c.chunks.iter().collect()
+            };
+            for e in chunks {
+                let k = e.level_count;
+                if let (Some(vb), Some(cb), true) =
+                    (e.vertex_buffer(), e.control_buffer(), e.triangles > 0)
+                {
+                    pass.set_vertex_buffer(0, vb.slice(..));
+                    let lay = ControlLayout { k };
+                    let first = if reverse {
+                        lay.args_rev()
+                    } else {
+                        lay.args_fwd()
+                    };
+                    debug_assert_eq!(lay.args_rev(), ARGS_WORDS * k);
+                    pass.multi_draw_indirect(cb, first as u64 * 4, k);
+                }
             }
         }
         let bpr = (w * 16).div_ceil(256) * 256;

@@ -15,7 +15,7 @@ use crate::pipeline::{LevelSpec, PipelineError, SliceRequest, SliceResult, Struc
 use crate::sweep::{CellGraph, LevelStats};
 
 use super::context::{GpuContext, GpuError};
-use super::emit::{EmitTimings, GpuEmitter};
+use super::emit::{EmitTimings, GpuEmitter, emit_chunked};
 use super::tables::{Frame, GridBuffers, sweep_frame};
 
 /// Errors of the GPU slicing path.
@@ -171,18 +171,32 @@ pub fn slice_on(
     req: &SliceRequest,
 ) -> Result<(SliceResult, EmitTimings), GpuSliceError> {
     let p = prepare(grid, s, req)?;
-    let (out, timings) = match em {
+    let (stats, timings) = match em {
         Emitter::Gpu(ctx) => {
-            let mut e = GpuEmitter::new(ctx, p.grid)?;
-            e.run(&p.frame, true)?;
-            (e.read_output(true)?, e.timings)
+            let base = GpuEmitter::new(ctx, p.grid)?;
+            let chunks = emit_chunked(&base, &p.frame, true)?;
+            let mut stats = Vec::with_capacity(p.frame.levels.len());
+            let mut t = EmitTimings {
+                chunks: chunks.len(),
+                ..Default::default()
+            };
+            for (i, (e, a)) in chunks.iter().enumerate() {
+                let b = chunks
+                    .get(i + 1)
+                    .map_or(p.frame.levels.len(), |c| c.1 as usize);
+                let sub = p.frame.level_range(*a as usize, b);
+                stats.extend(e.read_output(true)?.stats(&sub));
+                t.upload += e.timings.upload;
+                t.count += e.timings.count;
+                t.emit += e.timings.emit;
+            }
+            (stats, t)
         }
-        Emitter::Twin => (
-            super::twin::run(&p.grid, &p.frame, true),
-            EmitTimings::default(),
-        ),
+        Emitter::Twin => {
+            let out = super::twin::run(&p.grid, &p.frame, true);
+            (out.stats(&p.frame), EmitTimings::default())
+        }
     };
-    let stats = out.stats(&p.frame);
     Ok((
         SliceResult {
             level_values: p.level_values,

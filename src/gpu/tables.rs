@@ -176,6 +176,29 @@ pub struct Frame {
     pub visited: Vec<u64>,
 }
 
+impl Frame {
+    /// The levels `a..b` as a frame of their own (levels renumbered from 0).
+    pub fn level_range(&self, a: usize, b: usize) -> Frame {
+        let lo = self.entries.partition_point(|e| (e.level as usize) < a);
+        let hi = self.entries.partition_point(|e| (e.level as usize) < b);
+        Frame {
+            levels: self.levels[a..b].to_vec(),
+            entries: self.entries[lo..hi]
+                .iter()
+                .map(|e| Entry {
+                    slot: e.slot,
+                    level: e.level - a as u32,
+                })
+                .collect(),
+            visited: self
+                .visited
+                .get(a..b)
+                .map(<[u64]>::to_vec)
+                .unwrap_or_default(),
+        }
+    }
+}
+
 /// Runs the CPU sweep (`threads` spatial blocks) and collects per level the
 /// intersected cells, in block order. The sweep emits its own polygons as
 /// it goes (the [`Sweeper`] has no emission-free mode); they are dropped
