@@ -171,7 +171,7 @@ fn render_and_bench_run() {
     ]);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     let rows = v["rows"].as_array().unwrap();
-    assert!(rows.len() >= 3);
+    assert!(rows.len() >= 4);
     let cuts: Vec<_> = rows.iter().map(|r| r["cut_cells"].clone()).collect();
     assert!(
         cuts.windows(2).all(|w| w[0] == w[1]),

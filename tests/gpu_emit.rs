@@ -223,3 +223,40 @@ fn empty_frame_is_fine() {
     let out = e.read_output(true).unwrap();
     assert_eq!(out.args(1).vertex_count, 0);
 }
+
+#[test]
+fn span_space_binning_finds_the_sweep_cells() {
+    for (name, grid, field, k) in cases() {
+        let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+        let p = prepare(&grid, &s, &req(field.clone(), k, 1, false)).unwrap();
+        let mut binned = twin::bin(&p.grid, &p.frame.levels);
+        let mut swept = p.frame.entries.clone();
+        binned.sort_by_key(|e| (e.level, e.slot));
+        swept.sort_by_key(|e| (e.level, e.slot));
+        assert!(
+            binned == swept,
+            "{name}: span-space cells differ from the sweep's"
+        );
+    }
+}
+
+#[test]
+fn gpu_span_space_equals_the_swept_frame() {
+    let Some(ctx) = gpu_common::gpu("gpu_span_space_equals_the_swept_frame") else {
+        return;
+    };
+    for (name, grid, field, k) in cases() {
+        let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+        let p = prepare(&grid, &s, &req(field.clone(), k, 1, false)).unwrap();
+        let tw = twin::run(&p.grid, &p.frame, false);
+        let mut e = GpuEmitter::new(ctx, p.grid.clone()).unwrap();
+        let n = e.run_span(&p.frame.levels, false).unwrap();
+        assert_eq!(n as usize, p.frame.entries.len(), "{name}: entries");
+        let g = e.read_output(false).unwrap();
+        for lv in 0..k as u32 {
+            assert_eq!(g.args(lv), tw.args(lv), "{name}: level {lv}");
+            assert_eq!(g.polygons(lv), tw.polygons(lv), "{name}: level {lv}");
+            assert_same(&name, lv, &tw.canonical_level(lv), &g.canonical_level(lv));
+        }
+    }
+}

@@ -31,6 +31,7 @@ fn every_wgsl_file_is_used() {
         shaders::COUNT,
         shaders::SCAN,
         shaders::EMIT,
+        shaders::BIN,
         shaders::RENDER,
     ];
     for f in files {
@@ -75,7 +76,7 @@ fn rust_layouts() -> Vec<Layout> {
                 hex_offsets_hi,
                 tables,
                 triangle_capacity,
-                _pad0,
+                live_count,
                 _pad1,
                 _pad2
             ]

@@ -15,8 +15,8 @@ use super::shaders;
 use super::shared::{ControlLayout, EmitParams, OutVertex};
 use super::tables::{Frame, GridBuffers, dispatch_size, emit_params};
 
-/// Storage buffers bound by the compute passes (bindings 1..=9).
-pub const STORAGE_BINDINGS: u32 = 9;
+/// Storage buffers bound by the compute passes (bindings 1..=10).
+pub const STORAGE_BINDINGS: u32 = 10;
 
 /// Seconds spent in the phases of the last frame.
 #[derive(Clone, Copy, Debug, Default)]
@@ -44,6 +44,9 @@ pub struct GpuEmitter<'c> {
     count: wgpu::ComputePipeline,
     scan: wgpu::ComputePipeline,
     emit: wgpu::ComputePipeline,
+    bin_count: wgpu::ComputePipeline,
+    bin_fill: wgpu::ComputePipeline,
+    live: wgpu::Buffer,
     grid: std::sync::Arc<GridBuffers>,
     params: wgpu::Buffer,
     tables: wgpu::Buffer,
@@ -152,7 +155,7 @@ impl<'c> GpuEmitter<'c> {
             count: None,
         }];
         for b in 1..=STORAGE_BINDINGS {
-            entries.push(storage_entry(b, !matches!(b, 6..=8)));
+            entries.push(storage_entry(b, !matches!(b, 5..=8)));
         }
         let layout = ctx
             .device
@@ -189,7 +192,12 @@ impl<'c> GpuEmitter<'c> {
             shaders::compute_source(shaders::EMIT, f64d),
             "emit",
         )?;
+        let bin_src = shaders::compute_source(shaders::BIN, f64d);
+        let bin_count = pipeline(ctx, &pl, "bin.wgsl", bin_src.clone(), "bin_count")?;
+        let bin_fill = pipeline(ctx, &pl, "bin.wgsl", bin_src, "bin_fill")?;
+        ctx.check_storage("the live cell list", grid.live.len() as u64 * 4)?;
         let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let live = init_buffer(ctx, "live", bytemuck::cast_slice(&grid.live), st);
         let params = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("params"),
             size: std::mem::size_of::<EmitParams>() as u64,
@@ -207,6 +215,9 @@ impl<'c> GpuEmitter<'c> {
             count,
             scan,
             emit,
+            bin_count,
+            bin_fill,
+            live,
             grid: std::sync::Arc::new(grid),
             params,
             tables,
@@ -234,6 +245,9 @@ impl<'c> GpuEmitter<'c> {
             count: self.count.clone(),
             scan: self.scan.clone(),
             emit: self.emit.clone(),
+            bin_count: self.bin_count.clone(),
+            bin_fill: self.bin_fill.clone(),
+            live: self.live.clone(),
             grid: self.grid.clone(),
             params: self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("params"),
@@ -311,6 +325,7 @@ impl<'c> GpuEmitter<'c> {
             b(&self.vertices),
             b(&self.areas),
             b(&self.levels),
+            self.live.as_entire_binding(),
         ];
         let entries: Vec<wgpu::BindGroupEntry> = bufs
             .into_iter()
@@ -531,4 +546,121 @@ pub fn emit_chunked<'c>(
         }
     }
     Ok(out)
+}
+
+impl GpuEmitter<'_> {
+    /// The GPU-only span-space frame (DESIGN §6): bins every live cell into
+    /// the levels it spans on the GPU (`wgsl/bin.wgsl`), then counts, scans
+    /// and emits as [`GpuEmitter::run`]. No CPU sweep; returns the number
+    /// of (cell, level) entries. `timings.upload` covers the binning.
+    pub fn run_span(&mut self, levels: &[f32], write_areas: bool) -> Result<u32, GpuError> {
+        let ctx = self.ctx;
+        let t0 = Instant::now();
+        let k = levels.len() as u32;
+        let lay = ControlLayout { k };
+        let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        Self::ensure(
+            ctx,
+            &mut self.entries,
+            "the frame's (cell, level) entries",
+            8,
+            st,
+        )?;
+        Self::ensure(ctx, &mut self.levels, "the level values", k as u64 * 4, st)?;
+        Self::ensure(
+            ctx,
+            &mut self.control,
+            "the draw arguments and counters",
+            lay.words() as u64 * 4,
+            st | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_SRC,
+        )?;
+        let vst = st | wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC;
+        Self::ensure(ctx, &mut self.vertices, "the output triangles", 48, vst)?;
+        Self::ensure(
+            ctx,
+            &mut self.areas,
+            "the per-triangle areas",
+            4,
+            st | wgpu::BufferUsages::COPY_SRC,
+        )?;
+        let q = &ctx.queue;
+        if k > 0 {
+            q.write_buffer(
+                &self.levels.as_ref().expect("allocated").buf,
+                0,
+                bytemuck::cast_slice(levels),
+            );
+        }
+        let maxx = ctx.limits.max_compute_workgroups_per_dimension;
+        let live_groups = dispatch_size(self.grid.live.len() as u32, maxx);
+        let empty = Frame {
+            levels: levels.to_vec(),
+            ..Default::default()
+        };
+        let mut p = emit_params(&self.grid, &empty, 0, write_areas, live_groups.0);
+        p.live_count = self.grid.live.len() as u32;
+        q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
+        let control = self.control.as_ref().expect("allocated").buf.clone();
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&control, 0, None);
+        let bg = self.bind_group();
+        self.dispatch(&mut enc, &bg, &self.bin_count.clone(), live_groups);
+        q.submit([enc.finish()]);
+        let n = self.read_words(&control, lay.bin_total() as u64 * 4, 1)?[0];
+        Self::ensure(
+            ctx,
+            &mut self.entries,
+            "the frame's (cell, level) entries",
+            n as u64 * 8,
+            st,
+        )?;
+        p.entry_count = n;
+        q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
+        let bg = self.bind_group();
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        self.dispatch(&mut enc, &bg, &self.bin_fill.clone(), live_groups);
+        q.submit([enc.finish()]);
+        let t1 = Instant::now();
+        // Count, scan and emit over the binned entries.
+        let groups = dispatch_size(n, maxx);
+        p.row_width = groups.0 * super::shared::WORKGROUP;
+        q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        self.dispatch(&mut enc, &bg, &self.count.clone(), groups);
+        self.dispatch(&mut enc, &bg, &self.scan.clone(), (1, 1));
+        q.submit([enc.finish()]);
+        let total = self.read_words(&control, lay.total() as u64 * 4, 1)?[0];
+        let t2 = Instant::now();
+        Self::ensure(
+            ctx,
+            &mut self.vertices,
+            "the output triangles",
+            total as u64 * 48,
+            vst,
+        )?;
+        Self::ensure(
+            ctx,
+            &mut self.areas,
+            "the per-triangle areas",
+            if write_areas { total as u64 * 4 } else { 4 },
+            st | wgpu::BufferUsages::COPY_SRC,
+        )?;
+        p.triangle_capacity = total;
+        q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
+        let bg = self.bind_group();
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        self.dispatch(&mut enc, &bg, &self.emit.clone(), groups);
+        q.submit([enc.finish()]);
+        ctx.wait()?;
+        let t3 = Instant::now();
+        self.level_count = k;
+        self.triangles = total;
+        self.timings = EmitTimings {
+            upload: (t1 - t0).as_secs_f64(),
+            count: (t2 - t1).as_secs_f64(),
+            emit: (t3 - t2).as_secs_f64(),
+            chunks: 1,
+        };
+        Ok(n)
+    }
 }

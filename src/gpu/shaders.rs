@@ -11,6 +11,8 @@ pub const COUNT: &str = include_str!("../../wgsl/count.wgsl");
 pub const SCAN: &str = include_str!("../../wgsl/scan.wgsl");
 /// Emit pass.
 pub const EMIT: &str = include_str!("../../wgsl/emit.wgsl");
+/// Span-space binning passes (GPU-only variant).
+pub const BIN: &str = include_str!("../../wgsl/bin.wgsl");
 /// Render pass (volume, slices, iso).
 pub const RENDER: &str = include_str!("../../wgsl/render.wgsl");
 
@@ -33,6 +35,7 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("count.wgsl", compute_source(COUNT, true)),
         ("scan.wgsl", compute_source(SCAN, true)),
         ("emit.wgsl", compute_source(EMIT, true)),
+        ("bin.wgsl", compute_source(BIN, true)),
         ("count.wgsl (f32 decider)", compute_source(COUNT, false)),
         ("emit.wgsl (f32 decider)", compute_source(EMIT, false)),
         ("render.wgsl", render_source()),

@@ -36,8 +36,8 @@ pub struct EmitParams {
     pub tables: TableSections,
     /// Capacity of `out_vertices` in triangles (emission never writes past it).
     pub triangle_capacity: u32,
-    /// Padding to a multiple of 16 bytes.
-    pub _pad0: u32,
+    /// Span-space passes: live cells in the `live` buffer.
+    pub live_count: u32,
     /// Padding.
     pub _pad1: u32,
     /// Padding.
@@ -166,6 +166,14 @@ impl ControlLayout {
     /// Word of the total triangle count (scan pass).
     pub fn total(&self) -> u32 {
         self.base() + self.k
+    }
+    /// Word of the span-space entry total (bin count pass).
+    pub fn bin_total(&self) -> u32 {
+        self.total() + 1
+    }
+    /// Word of the span-space entry cursor (bin fill pass).
+    pub fn bin_cursor(&self) -> u32 {
+        self.total() + 2
     }
     /// Total words.
     pub fn words(&self) -> u32 {

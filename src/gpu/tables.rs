@@ -99,6 +99,8 @@ pub struct GridBuffers {
     pub attr: Vec<f32>,
     /// CGraph: per slot (meta id, first vertex word), then vertex ids.
     pub cells: Vec<u32>,
+    /// The live slots (read by the span-space passes only).
+    pub live: Vec<u32>,
 }
 
 impl GridBuffers {
@@ -110,10 +112,14 @@ impl GridBuffers {
             .enumerate()
             .map(|(v, p)| [p[0], p[1], p[2], f.phi(v as u32)])
             .collect();
+        let live = (0..g.slot_count() as u32)
+            .filter(|&s| g.is_live(s))
+            .collect();
         GridBuffers {
             tables,
             sections,
             grid,
+            live,
             attr: attr.map(<[f32]>::to_vec).unwrap_or_default(),
             ..Default::default()
         }
@@ -160,7 +166,8 @@ impl GridBuffers {
 
     /// Bytes of the grid-side buffers.
     pub fn bytes(&self) -> usize {
-        (self.tables.len() + self.attr.len() + self.cells.len()) * 4 + self.grid.len() * 16
+        (self.tables.len() + self.attr.len() + self.cells.len() + self.live.len()) * 4
+            + self.grid.len() * 16
     }
 }
 

@@ -228,3 +228,47 @@ pub fn run(g: &GridBuffers, frame: &Frame, write_areas: bool) -> FrameOutput {
 fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
+
+/// The twin of `wgsl/bin.wgsl`: every live cell binned into the levels it
+/// spans (`lo < t ≤ hi`), in live-slot order then level order (the GPU
+/// writes the same set in another order).
+pub fn bin(g: &GridBuffers, levels: &[f32]) -> Vec<Entry> {
+    let p = super::tables::emit_params(g, &Frame::default(), 0, false, 1);
+    let tw = Twin { p: &p, g };
+    let mut out = Vec::new();
+    for &slot in &g.live {
+        let (lo, hi) = tw.span_of(slot);
+        let a = levels.partition_point(|&t| t <= lo);
+        let b = levels.partition_point(|&t| t <= hi);
+        out.extend((a..b).map(|k| Entry {
+            slot,
+            level: k as u32,
+        }));
+    }
+    out
+}
+
+impl Twin<'_> {
+    /// φ extremes of the cell in `slot` (`span` of `wgsl/bin.wgsl`).
+    fn span_of(&self, slot: u32) -> (f32, f32) {
+        let mut c = Cell {
+            ids: [0; 12],
+            phi: [0.0; 12],
+        };
+        // The same load as cell_variant; the level value does not matter.
+        let e = Entry { slot, level: 0 };
+        let _ = self.cell_variant(e, 0.0, &mut c);
+        let nv = if self.p.structured == 1 {
+            8
+        } else {
+            self.meta(self.g.cells[2 * slot as usize]).nv as usize
+        };
+        let mut lo = c.phi[0];
+        let mut hi = c.phi[0];
+        for &x in &c.phi[1..nv] {
+            lo = lo.min(x);
+            hi = hi.max(x);
+        }
+        (lo, hi)
+    }
+}

@@ -9,11 +9,13 @@
 @group(0) @binding(3) var<storage, read> attr: array<f32>;
 // CGraph: per slot (meta id, first vertex word), then the vertex ids.
 @group(0) @binding(4) var<storage, read> cells: array<u32>;
-@group(0) @binding(5) var<storage, read> entries: array<Entry>;
+@group(0) @binding(5) var<storage, read_write> entries: array<Entry>;
 @group(0) @binding(6) var<storage, read_write> control: array<atomic<u32>>;
 @group(0) @binding(7) var<storage, read_write> out_vertices: array<OutVertex>;
 @group(0) @binding(8) var<storage, read_write> out_areas: array<f32>;
 @group(0) @binding(9) var<storage, read> levels: array<f32>;
+// Span-space passes: the live slots.
+@group(0) @binding(10) var<storage, read> live: array<u32>;
 
 // Control buffer layout (src/gpu/shared.rs ControlLayout).
 fn ctl_args_rev() -> u32 { return ARGS_WORDS * params.level_count; }
@@ -22,6 +24,8 @@ fn ctl_poly_count() -> u32 { return ctl_tri_count() + params.level_count; }
 fn ctl_cursor() -> u32 { return ctl_poly_count() + params.level_count; }
 fn ctl_base() -> u32 { return ctl_cursor() + params.level_count; }
 fn ctl_total() -> u32 { return ctl_base() + params.level_count; }
+fn ctl_bin_total() -> u32 { return ctl_total() + 1u; }
+fn ctl_bin_cursor() -> u32 { return ctl_total() + 2u; }
 
 // The current cell: global vertex ids and φ in local order.
 var<private> c_ids: array<u32, 12>;
@@ -128,30 +132,39 @@ fn decide_faces(mi: MetaInfo, amb: u32, t: f32) -> u32 {
     return outcome;
 }
 
-// Loads the cell of entry `e` into c_ids / c_phi and returns (global
-// variant, meta id) for level value t.
-fn cell_variant(e: Entry, t: f32) -> vec2<u32> {
+// Loads the vertex ids and φ of the cell in `slot` into c_ids / c_phi;
+// returns (meta id, vertex count).
+fn load_cell(slot: u32) -> vec2<u32> {
     var m = params.hex_meta;
     var nv = 8u;
     if params.structured == 1u {
-        let v0 = e.slot - params.slab;
+        let v0 = slot - params.slab;
         for (var i = 0u; i < 4u; i++) {
             c_ids[i] = v0 + params.hex_offsets_lo[i];
             c_ids[i + 4u] = v0 + params.hex_offsets_hi[i];
         }
     } else {
-        m = cells[2u * e.slot];
-        let start = cells[2u * e.slot + 1u];
+        m = cells[2u * slot];
+        let start = cells[2u * slot + 1u];
         nv = load_meta(m).nv;
         for (var i = 0u; i < nv; i++) {
             c_ids[i] = cells[start + i];
         }
     }
-    var code = 0u;
     for (var i = 0u; i < nv; i++) {
-        let p = grid[c_ids[i]].w;
-        c_phi[i] = p;
-        if p >= t {
+        c_phi[i] = grid[c_ids[i]].w;
+    }
+    return vec2<u32>(m, nv);
+}
+
+// Loads the cell of entry `e` and returns (global variant, meta id) for
+// level value t.
+fn cell_variant(e: Entry, t: f32) -> vec2<u32> {
+    let mn = load_cell(e.slot);
+    let m = mn.x;
+    var code = 0u;
+    for (var i = 0u; i < mn.y; i++) {
+        if c_phi[i] >= t {
             code |= 1u << i;
         }
     }

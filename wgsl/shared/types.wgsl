@@ -25,7 +25,7 @@ struct EmitParams {
     hex_offsets_hi: vec4<u32>,
     tables: TableSections,
     triangle_capacity: u32,
-    _pad0: u32,
+    live_count: u32,
     _pad1: u32,
     _pad2: u32,
 }
