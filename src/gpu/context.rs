@@ -11,7 +11,7 @@ use thiserror::Error;
 pub enum GpuError {
     /// No adapter at all (or none matching `--adapter`).
     #[error(
-        "no GPU adapter{}: found [{}]. Install a Vulkan driver; without a GPU, Mesa's software rasteriser works (Debian/Ubuntu: `apt install mesa-vulkan-drivers`), or use `--device cpu`",
+        "no GPU adapter{}: found [{}]. Install a Vulkan driver; without a GPU, Mesa's software rasteriser works (Debian/Ubuntu: `apt install mesa-vulkan-drivers`), or, for `slice` and `bench`, `--device cpu`",
         .wanted.as_ref().map(|w| format!(" matching '{w}'")).unwrap_or_default(),
         .available.join(", ")
     )]
