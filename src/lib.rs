@@ -14,6 +14,7 @@ pub mod cgraph;
 pub mod extract;
 pub mod field;
 pub mod generate;
+pub mod gpu;
 pub mod grid;
 pub mod io;
 pub mod mesh;

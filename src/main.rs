@@ -1,4 +1,6 @@
-//! The `stratasweep` command line: info, slice, generate, bench.
+//! The `stratasweep` command line: info, slice, generate, bench, render.
+
+mod gpu_cmd;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -42,8 +44,10 @@ enum Cmd {
     /// Write a synthetic grid.
     #[command(subcommand)]
     Generate(GenCmd),
-    /// Benchmark the sweep against the brute-force reference.
+    /// Benchmark the sweep against the brute-force reference (or, with --device, CPU against GPU emission).
     Bench(BenchArgs),
+    /// Volume-render (or draw isosurfaces of) a grid on the GPU into a PNG.
+    Render(gpu_cmd::RenderArgs),
 }
 
 #[derive(Args)]
@@ -134,6 +138,12 @@ struct SliceArgs {
     /// Statistics JSON.
     #[arg(long)]
     stats: Option<PathBuf>,
+    /// Polygon generation: cpu, gpu (CPU sweep, GPU emission; statistics only), auto (gpu if an adapter exists).
+    #[arg(long, value_enum, default_value = "cpu")]
+    device: gpu_cmd::DeviceArg,
+    /// GPU adapter name (substring); `WGPU_BACKEND` picks backends.
+    #[arg(long)]
+    adapter: Option<String>,
 }
 
 #[derive(Subcommand)]
@@ -192,6 +202,12 @@ struct BenchArgs {
     /// Print JSON.
     #[arg(long)]
     json: bool,
+    /// Compare polygon generation paths instead: cpu (1 and all threads) and/or gpu.
+    #[arg(long, value_delimiter = ',')]
+    device: Option<Vec<String>>,
+    /// GPU adapter name (substring).
+    #[arg(long)]
+    adapter: Option<String>,
 }
 
 fn main() {
@@ -209,6 +225,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Slice(a) => cmd_slice(a, quiet),
         Cmd::Generate(g) => cmd_generate(g, quiet),
         Cmd::Bench(a) => cmd_bench(a, quiet),
+        Cmd::Render(a) => gpu_cmd::cmd_render(a, quiet),
     }
 }
 
@@ -598,9 +615,25 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads)
         .build()?;
-    let r = pool
-        .install(|| slice(&grid, &s, &req, &inc))
-        .with_context(|| format!("cannot slice {name}"))?;
+    let device = match (a.device, &a.output, a.structure) {
+        (gpu_cmd::DeviceArg::Gpu, Some(_), _) => {
+            bail!("-o needs --device cpu: the GPU path gives statistics and draws, not mesh files")
+        }
+        (gpu_cmd::DeviceArg::Gpu, _, StructureArg::Bruteforce) => {
+            bail!("--structure bruteforce runs on the CPU only")
+        }
+        (_, Some(_), _) | (_, _, StructureArg::Bruteforce) => gpu_cmd::DeviceArg::Cpu,
+        (d, None, _) => d,
+    };
+    let gpu = pool
+        .install(|| gpu_cmd::slice_gpu(device, &a.adapter, &grid, &s, &req, quiet))
+        .with_context(|| format!("cannot slice {name} on the GPU"))?;
+    let r = match gpu {
+        Some(r) => r,
+        None => pool
+            .install(|| slice(&grid, &s, &req, &inc))
+            .with_context(|| format!("cannot slice {name}"))?,
+    };
     pb.finish_and_clear();
     let stats = stats_json(&r, &s, &grid, load_s, build_s, &name, &field);
     if let Some(out) = &a.output {
@@ -705,6 +738,9 @@ fn timed(repeat: usize, mut f: impl FnMut() -> Result<SliceResult>) -> Result<(f
 fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
     if let Some(sizes) = &a.law {
         return bench_law(sizes, &a, quiet);
+    }
+    if let Some(devices) = &a.device {
+        return gpu_cmd::cmd_bench_devices(&a, devices, quiet);
     }
     let field = parse_axis(&a.axis)?;
     let (grid, name, load_s) = load(&a.input, quiet)?;

@@ -1,0 +1,18 @@
+//! The GPU path (DESIGN §5–§6): the cell graphs and meta-cell tables in
+//! storage buffers, WGSL compute passes that turn the CPU sweep's per-level
+//! active cells into triangles and indirect draw arguments, a CPU twin of
+//! those passes, and slice-based volume rendering.
+//!
+//! Nothing outside this module imports wgpu. [`shared`] holds every struct
+//! shared with WGSL; [`tables`] builds the host images of the buffers that
+//! both the GPU ([`emit`]) and the twin ([`twin`]) read.
+
+pub mod context;
+pub mod emit;
+pub mod frame;
+pub mod render;
+pub mod shaders;
+pub mod shared;
+pub mod slice;
+pub mod tables;
+pub mod twin;

@@ -1,0 +1,215 @@
+//! `slice --device gpu`: the pipeline's field binding and level placement
+//! (as [`crate::pipeline::slice`]), the CPU sweep for the per-level active
+//! cells, then emission on the GPU (or by the twin) and statistics from its
+//! counters.
+
+use std::time::Instant;
+
+use thiserror::Error;
+
+use crate::field::{AxisField, FieldSpec, PlaneField, ScalarField, VertexField};
+use crate::field::{levels_by_count, local_levels};
+use crate::grid::Grid;
+use crate::pipeline::vertex_property;
+use crate::pipeline::{LevelSpec, PipelineError, SliceRequest, SliceResult, Structure, Timings};
+use crate::sweep::{CellGraph, LevelStats};
+
+use super::context::{GpuContext, GpuError};
+use super::emit::{EmitTimings, GpuEmitter, emit_chunked};
+use super::tables::{Frame, GridBuffers, sweep_frame};
+
+/// Errors of the GPU slicing path.
+#[derive(Debug, Error)]
+pub enum GpuSliceError {
+    /// The pipeline refused the request.
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
+    /// The GPU failed.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
+/// Everything a frame needs, prepared on the CPU.
+pub struct Prepared {
+    /// Grid-side buffers (field bound).
+    pub grid: GridBuffers,
+    /// The frame: level values and the sweep's active cells.
+    pub frame: Frame,
+    /// World level values.
+    pub level_values: Vec<f64>,
+    /// Name of the interpolated attribute.
+    pub attribute_name: String,
+    /// The CPU sweep's own per-level statistics.
+    pub cpu_stats: Vec<LevelStats>,
+    /// Seconds of the sweep (which also emits on the CPU).
+    pub sweep_s: f64,
+}
+
+fn live_range<G: CellGraph, F: ScalarField>(g: &G, f: &F) -> Option<(f32, f32)> {
+    let mut ids = [0u32; crate::metacell::MAX_META_VERTICES];
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for s in 0..g.slot_count() as u32 {
+        if g.is_live(s) {
+            let (_, n) = g.cell(s, &mut ids);
+            for &v in &ids[..n] {
+                let p = f.phi(v);
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
+/// Binds the field as [`crate::pipeline::slice`] does, places the levels,
+/// runs the CPU sweep for the active cells and builds the buffers.
+pub fn prepare(grid: &Grid, s: &Structure, req: &SliceRequest) -> Result<Prepared, PipelineError> {
+    let attr_name = req.attribute.clone().or_else(|| match &req.field {
+        FieldSpec::Property(p) => Some(p.clone()),
+        _ => grid.point_data.first().map(|p| p.name.clone()),
+    });
+    let attribute = match &attr_name {
+        Some(n) => Some(vertex_property(grid, s, n)?),
+        None => None,
+    };
+    let field_values = match &req.field {
+        FieldSpec::Property(n) => Some(vertex_property(grid, s, n)?),
+        _ => None,
+    };
+    let offset = req.field.world_offset(grid.origin());
+    let axis_slot = req.field.axis_slot();
+    let attribute = attribute.as_deref();
+    macro_rules! go {
+        ($g:expr, $build:path) => {{
+            let g = $g;
+            let pos = g.positions();
+            match (&req.field, &field_values) {
+                (FieldSpec::Property(_), Some(v)) => finish(
+                    g,
+                    &VertexField { values: v },
+                    None,
+                    offset,
+                    req,
+                    attribute,
+                    $build,
+                ),
+                (FieldSpec::Axis { axis, negative }, _) => {
+                    let sign = if *negative { -1.0 } else { 1.0 };
+                    let f = AxisField {
+                        axis: *axis,
+                        sign,
+                        positions: pos,
+                    };
+                    finish(g, &f, axis_slot, offset, req, attribute, $build)
+                }
+                _ => {
+                    let n = req.field.normal().expect("planar field");
+                    let f = PlaneField {
+                        normal: n.map(|c| c as f32),
+                        positions: pos,
+                    };
+                    finish(g, &f, axis_slot, offset, req, attribute, $build)
+                }
+            }
+        }};
+    }
+    let mut p = match s {
+        Structure::SCGraph(g) => go!(g, GridBuffers::scgraph),
+        Structure::CGraph(g) => go!(g, GridBuffers::cgraph),
+    }?;
+    p.attribute_name = attr_name.unwrap_or_else(|| "level_value".into());
+    Ok(p)
+}
+
+fn finish<G: CellGraph, F: ScalarField>(
+    g: &G,
+    f: &F,
+    axis_slot: Option<usize>,
+    world_offset: f64,
+    req: &SliceRequest,
+    attribute: Option<&[f32]>,
+    build: impl Fn(&G, &F, Option<&[f32]>) -> GridBuffers,
+) -> Result<Prepared, PipelineError> {
+    let (lo, hi) = live_range(g, f).ok_or(PipelineError::NoLiveCells)?;
+    let world = match &req.levels {
+        LevelSpec::Count(k) => {
+            if lo == hi {
+                return Err(PipelineError::ConstantField(lo as f64 + world_offset));
+            }
+            levels_by_count(lo as f64 + world_offset, hi as f64 + world_offset, *k)
+        }
+        LevelSpec::Values(v) => v.clone(),
+    };
+    let levels = local_levels(&world, world_offset)?;
+    let t = Instant::now();
+    let (frame, cpu_stats) = sweep_frame(g, f, axis_slot, &levels, req.threads);
+    let sweep_s = t.elapsed().as_secs_f64();
+    Ok(Prepared {
+        grid: build(g, f, attribute),
+        frame,
+        level_values: world,
+        attribute_name: String::new(),
+        cpu_stats,
+        sweep_s,
+    })
+}
+
+/// Where the emission of [`slice_on`] runs.
+pub enum Emitter<'a> {
+    /// The GPU.
+    Gpu(&'a GpuContext),
+    /// The CPU twin of the compute passes.
+    Twin,
+}
+
+/// Slices with GPU (or twin) emission and returns the pipeline's result
+/// type, with statistics from the emitted output (no mesh).
+pub fn slice_on(
+    em: Emitter,
+    grid: &Grid,
+    s: &Structure,
+    req: &SliceRequest,
+) -> Result<(SliceResult, EmitTimings), GpuSliceError> {
+    let p = prepare(grid, s, req)?;
+    let (stats, timings) = match em {
+        Emitter::Gpu(ctx) => {
+            let base = GpuEmitter::new(ctx, p.grid)?;
+            let chunks = emit_chunked(&base, &p.frame, true)?;
+            let mut stats = Vec::with_capacity(p.frame.levels.len());
+            let mut t = EmitTimings {
+                chunks: chunks.len(),
+                ..Default::default()
+            };
+            for (i, (e, a)) in chunks.iter().enumerate() {
+                let b = chunks
+                    .get(i + 1)
+                    .map_or(p.frame.levels.len(), |c| c.1 as usize);
+                let sub = p.frame.level_range(*a as usize, b);
+                stats.extend(e.read_output(true)?.stats(&sub));
+                t.upload += e.timings.upload;
+                t.count += e.timings.count;
+                t.emit += e.timings.emit;
+            }
+            (stats, t)
+        }
+        Emitter::Twin => {
+            let out = super::twin::run(&p.grid, &p.frame, true);
+            (out.stats(&p.frame), EmitTimings::default())
+        }
+    };
+    Ok((
+        SliceResult {
+            level_values: p.level_values,
+            stats,
+            mesh: None,
+            minima: 0,
+            sweep_state_bytes: 0,
+            timings: Timings {
+                sweep: p.sweep_s,
+                ..Default::default()
+            },
+            attribute_name: p.attribute_name,
+        },
+        timings,
+    ))
+}

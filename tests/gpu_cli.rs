@@ -1,0 +1,243 @@
+//! The GPU side of the binary: `slice --device gpu|auto` writes the same
+//! statistics as the CPU path, `render` writes a PNG, `bench --device`
+//! prints its rows, and bad options are clear errors.
+
+mod gpu_common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_stratasweep"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("stratasweep-gpu-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+fn run(args: &[&str]) -> (bool, String, String) {
+    let o = bin().args(args).arg("--quiet").output().unwrap();
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into(),
+        String::from_utf8_lossy(&o.stderr).into(),
+    )
+}
+
+fn run_ok(args: &[&str]) -> String {
+    let (ok, out, err) = run(args);
+    assert!(ok, "{args:?} failed: {err}");
+    out
+}
+
+fn json(p: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+fn grid(tag: &str) -> PathBuf {
+    let g = tmp(&format!("w-{tag}.vts"));
+    if !g.exists() {
+        run_ok(&[
+            "generate",
+            "warped",
+            "--dims",
+            "14,12,10",
+            "-o",
+            g.to_str().unwrap(),
+        ]);
+    }
+    g
+}
+
+fn same_stats(a: &serde_json::Value, b: &serde_json::Value) {
+    let (sa, sb) = (
+        a["slices"].as_array().unwrap(),
+        b["slices"].as_array().unwrap(),
+    );
+    assert_eq!(sa.len(), sb.len());
+    for (x, y) in sa.iter().zip(sb) {
+        for k in [
+            "index",
+            "value",
+            "cells",
+            "visited",
+            "polygons",
+            "triangles",
+        ] {
+            assert_eq!(x[k], y[k], "{k}");
+        }
+        let (p, q) = (x["area"].as_f64().unwrap(), y["area"].as_f64().unwrap());
+        assert!((p - q).abs() <= 1e-5 * p.abs(), "area {p} vs {q}");
+    }
+}
+
+#[test]
+fn slice_stats_are_the_same_on_every_device() {
+    let g = grid("stats");
+    let g = g.to_str().unwrap();
+    for (i, extra) in [
+        vec!["--axis", "z", "--count", "20"],
+        vec!["--property", "f", "--values", "0.2:0.8:0.15"],
+    ]
+    .iter()
+    .enumerate()
+    {
+        let cpu = tmp(&format!("cpu{i}.json"));
+        let mut a = vec!["slice", g];
+        a.extend(extra);
+        let with = |dev: &str, out: &Path| {
+            let mut v = a.clone();
+            v.extend(["--device", dev, "--stats", out.to_str().unwrap()]);
+            v.iter().map(|s| s.to_string()).collect::<Vec<_>>()
+        };
+        let args = with("cpu", &cpu);
+        run_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        // auto always works (GPU, or the CPU without an adapter).
+        let auto = tmp(&format!("auto{i}.json"));
+        let args = with("auto", &auto);
+        run_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        same_stats(&json(&cpu), &json(&auto));
+        if gpu_common::gpu("slice --device gpu").is_some() {
+            let gp = tmp(&format!("gpu{i}.json"));
+            let args = with("gpu", &gp);
+            run_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+            same_stats(&json(&cpu), &json(&gp));
+        }
+    }
+}
+
+#[test]
+fn render_and_bench_run() {
+    if gpu_common::gpu("render_and_bench_run").is_none() {
+        return;
+    }
+    let g = grid("render");
+    let g = g.to_str().unwrap();
+    let png = tmp("r.png");
+    run_ok(&[
+        "render",
+        g,
+        "-o",
+        png.to_str().unwrap(),
+        "--size",
+        "64x48",
+        "--slices",
+        "30",
+        "--background",
+        "transparent",
+        "--transfer",
+        "magma",
+        "--projection",
+        "perspective",
+    ]);
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    let tf = tmp("t.json");
+    std::fs::write(&tf, r#"{"points":[{"value":0,"color":[1,0,0],"opacity":0.1},{"value":1,"color":[0,0,1],"opacity":0.5}]}"#).unwrap();
+    run_ok(&[
+        "render",
+        g,
+        "-o",
+        png.to_str().unwrap(),
+        "--size",
+        "40x40",
+        "--transfer",
+        tf.to_str().unwrap(),
+        "--view-dir",
+        "0,0,-1",
+        "--up",
+        "0,1,0",
+        "--mode",
+        "slices",
+        "--slices",
+        "10",
+    ]);
+    run_ok(&[
+        "render",
+        g,
+        "-o",
+        png.to_str().unwrap(),
+        "--size",
+        "40x40",
+        "--mode",
+        "iso",
+        "--iso",
+        "0.4,0.6",
+    ]);
+    let out = run_ok(&[
+        "bench", g, "--axis", "z", "--count", "20", "--device", "cpu,gpu", "--repeat", "1",
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert!(rows.len() >= 4);
+    let cuts: Vec<_> = rows.iter().map(|r| r["cut_cells"].clone()).collect();
+    assert!(
+        cuts.windows(2).all(|w| w[0] == w[1]),
+        "rows disagree on cut cells: {cuts:?}"
+    );
+    let tris: Vec<_> = rows.iter().map(|r| r["triangles"].clone()).collect();
+    assert!(
+        tris.windows(2).all(|w| w[0] == w[1]),
+        "rows disagree on triangles: {tris:?}"
+    );
+    assert!(v["adapter"].is_string());
+}
+
+#[test]
+fn bad_gpu_options_are_clear_errors() {
+    let g = grid("bad");
+    let g = g.to_str().unwrap();
+    let png = tmp("bad.png");
+    let ply = tmp("bad.ply");
+    let p = png.to_str().unwrap();
+    for (args, want) in [
+        (vec!["render", g, "-o", p, "--size", "0x10"], "--size"),
+        (
+            vec!["render", g, "-o", p, "--background", "1,2"],
+            "--background",
+        ),
+        (vec!["render", g, "-o", p, "--mode", "iso"], "--iso"),
+        (
+            vec!["render", g, "-o", p, "--transfer", "/nonexistent.json"],
+            "transfer",
+        ),
+        (
+            vec![
+                "slice",
+                g,
+                "--axis",
+                "z",
+                "--count",
+                "3",
+                "--device",
+                "gpu",
+                "-o",
+                ply.to_str().unwrap(),
+            ],
+            "--device cpu",
+        ),
+        (
+            vec![
+                "slice",
+                g,
+                "--axis",
+                "z",
+                "--count",
+                "3",
+                "--device",
+                "gpu",
+                "--adapter",
+                "no-such-adapter-xyz",
+            ],
+            "mesa-vulkan-drivers",
+        ),
+        (vec!["bench", g, "--device", "tpu"], "--device tpu"),
+    ] {
+        let (ok, _, err) = run(&args);
+        assert!(!ok, "{args:?} should fail");
+        assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+        assert!(err.contains(want), "{args:?}: '{want}' not in: {err}");
+    }
+}

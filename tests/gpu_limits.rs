@@ -1,0 +1,96 @@
+//! Large frames under artificially lowered limits: a frame whose output
+//! exceeds one storage binding is split into level chunks and gives the
+//! same statistics and the same image; a grid over the limit is a clear
+//! error, not a panic.
+
+mod gpu_common;
+
+use stratasweep::field::FieldSpec;
+use stratasweep::generate::warped;
+use stratasweep::gpu::context::{ContextOptions, GpuContext, GpuError};
+use stratasweep::gpu::render::{RenderOptions, Renderer};
+use stratasweep::gpu::slice::{Emitter, GpuSliceError, slice_on};
+use stratasweep::pipeline::{LevelSpec, SliceRequest, Structure, StructureChoice, slice};
+
+fn lowered(binding: u64) -> Option<GpuContext> {
+    let full = gpu_common::gpu("lowered limits")?;
+    let mut limits = full.limits.clone();
+    limits.max_storage_buffer_binding_size = binding;
+    Some(
+        GpuContext::new(&ContextOptions {
+            adapter: Some(full.adapter.get_info().name),
+            limits: Some(limits),
+        })
+        .unwrap(),
+    )
+}
+
+fn req(k: usize) -> SliceRequest {
+    SliceRequest {
+        field: FieldSpec::Axis {
+            axis: 2,
+            negative: false,
+        },
+        levels: LevelSpec::Count(k),
+        attribute: None,
+        threads: 1,
+        brute_force: false,
+        collect_mesh: false,
+    }
+}
+
+#[test]
+fn frames_over_the_binding_limit_are_chunked_by_levels() {
+    let Some(small) = lowered(256 * 1024) else {
+        return;
+    };
+    let grid = warped([20, 18, 16], 2);
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let cpu = slice(&grid, &s, &req(30), &|_| {}).unwrap();
+    let (r, t) = slice_on(Emitter::Gpu(&small), &grid, &s, &req(30)).unwrap();
+    let tris: u64 = cpu.stats.iter().map(|x| x.triangles).sum();
+    assert!(tris * 48 > 256 * 1024, "the test must overflow one binding");
+    assert!(t.chunks > 1, "not chunked");
+    eprintln!("{tris} triangles in {} chunks", t.chunks);
+    for (a, b) in cpu.stats.iter().zip(&r.stats) {
+        assert_eq!(
+            (a.cells, a.polygons, a.triangles),
+            (b.cells, b.polygons, b.triangles)
+        );
+        assert!((a.area - b.area).abs() <= 1e-5 * a.area);
+    }
+    // The same image from chunked and unchunked slices.
+    let full = gpu_common::gpu("chunked render").unwrap();
+    let o = RenderOptions {
+        size: (64, 48),
+        slices: 30,
+        view_dir: [0.2, 0.3, -1.0],
+        ..Default::default()
+    };
+    let a = Renderer::new(full).unwrap().render(&grid, &s, &o).unwrap();
+    let b = Renderer::new(&small)
+        .unwrap()
+        .render(&grid, &s, &o)
+        .unwrap();
+    for (p, q) in a.rgba8().iter().zip(b.rgba8()) {
+        assert!((*p as i32 - q as i32).abs() <= 1, "chunked image differs");
+    }
+}
+
+#[test]
+fn a_grid_over_the_limit_is_a_clear_error() {
+    let Some(small) = lowered(8 * 1024) else {
+        return;
+    };
+    let grid = warped([20, 18, 16], 2);
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let e = match slice_on(Emitter::Gpu(&small), &grid, &s, &req(5)) {
+        Err(GpuSliceError::Gpu(e @ GpuError::TooLarge { .. })) => e,
+        other => panic!("expected TooLarge, got {:?}", other.map(|_| ())),
+    };
+    let msg = e.to_string();
+    assert!(
+        msg.contains("grid vertices") && msg.contains("--device cpu"),
+        "{msg}"
+    );
+}

@@ -1,0 +1,205 @@
+//! Rendering with analytic expectations: a uniform box viewed
+//! orthographically reaches alpha 1 − (1 − a)^(L/U) at the image centre (L
+//! the chord through the box), for 50, 200 and 800 slices and 0°, 30°, 60°
+//! off-axis; an empty transfer function gives the background; two
+//! half-boxes composite in the right order from both sides; a second view in
+//! the same axis cone dispatches no compute.
+
+mod gpu_common;
+
+use stratasweep::generate::warped;
+use stratasweep::gpu::render::{Mode, RenderOptions, Renderer, Transfer};
+use stratasweep::grid::{Grid, Property, Topology};
+use stratasweep::pipeline::{Structure, StructureChoice};
+
+/// Half thickness of the box along z.
+const H: f64 = 0.5;
+/// Half width along x, chosen so that at 60° the centre ray crosses exactly
+/// 0.4·K slices along x (its ends fall midway between slices).
+const W: f64 = 50.0 * 0.5 * 1.732_050_807_568_877_2 / 20.0;
+
+/// A box [−W, W] × [−2, 2] × [−H, H] with point properties `one` = 1 and `z`.
+fn box_grid() -> Grid {
+    let dims = [9usize, 5, 5];
+    let mut points = Vec::new();
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let f = |n: usize, d: usize| n as f64 / (d - 1) as f64 * 2.0 - 1.0;
+                points.push([W * f(i, dims[0]), 2.0 * f(j, dims[1]), H * f(k, dims[2])]);
+            }
+        }
+    }
+    let z = points.iter().map(|p| p[2]).collect();
+    Grid {
+        point_data: vec![
+            Property::scalar("one", vec![1.0; points.len()]),
+            Property::scalar("z", z),
+        ],
+        points,
+        topology: Topology::Structured { dims },
+        cell_data: Vec::new(),
+    }
+}
+
+fn flat(a: f32) -> Transfer {
+    Transfer::from_json(&format!(
+        r#"{{"points":[{{"value":0,"color":[1,0.5,0.25],"opacity":{a}}},{{"value":2,"color":[1,0.5,0.25],"opacity":{a}}}]}}"#
+    ))
+    .unwrap()
+}
+
+fn opts(property: &str, transfer: Transfer, view: [f64; 3], slices: usize) -> RenderOptions {
+    RenderOptions {
+        property: Some(property.into()),
+        slices,
+        view_dir: view,
+        up: Some([0.0, 1.0, 0.0]),
+        perspective: false,
+        transfer: Some(transfer),
+        unit_distance: Some(1.0),
+        background: None,
+        size: (65, 65),
+        mode: Mode::Volume,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn uniform_box_reaches_the_analytic_alpha() {
+    let Some(ctx) = gpu_common::gpu("uniform_box_reaches_the_analytic_alpha") else {
+        return;
+    };
+    let grid = box_grid();
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let mut r = Renderer::new(ctx).unwrap();
+    let a = 0.3f64;
+    for slices in [50, 200, 800] {
+        for deg in [0.0f64, 30.0, 60.0] {
+            let t = deg.to_radians();
+            let view = [t.sin(), 0.0, -t.cos()];
+            let img = r
+                .render(&grid, &s, &opts("one", flat(a as f32), view, slices))
+                .unwrap();
+            let chord = 2.0 * H / t.cos();
+            let want = 1.0 - (1.0 - a).powf(chord / 1.0);
+            let got = img.pixel(32, 32)[3] as f64;
+            eprintln!("{slices} slices, {deg}°: alpha {got:.5}, analytic {want:.5}");
+            assert!(
+                (got - want).abs() <= 2.0 / 255.0,
+                "{slices} slices at {deg}°: alpha {got}, analytic {want}"
+            );
+            // Straight PNG colour is the transfer colour.
+            let rgba = img.rgba8();
+            let c = &rgba[(32 * 65 + 32) * 4..][..4];
+            assert!(
+                (c[0] as i32 - 255).abs() <= 1 && (c[1] as i32 - 128).abs() <= 1,
+                "{c:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn empty_transfer_gives_the_background() {
+    let Some(ctx) = gpu_common::gpu("empty_transfer_gives_the_background") else {
+        return;
+    };
+    let grid = box_grid();
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let mut r = Renderer::new(ctx).unwrap();
+    let empty = Transfer::from_json(r#"{"points":[]}"#).unwrap();
+    let mut o = opts("one", empty, [0.2, 0.1, -1.0], 64);
+    o.background = Some([0.2, 0.4, 0.6, 1.0]);
+    let img = r.render(&grid, &s, &o).unwrap();
+    let bg = [51u8, 102, 153, 255];
+    for px in img.rgba8().chunks_exact(4) {
+        assert_eq!(px, bg);
+    }
+}
+
+#[test]
+fn half_boxes_composite_in_order_from_both_sides() {
+    let Some(ctx) = gpu_common::gpu("half_boxes_composite_in_order_from_both_sides") else {
+        return;
+    };
+    let grid = box_grid();
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let mut r = Renderer::new(ctx).unwrap();
+    // z < 0 red, z > 0 blue, both nearly opaque over half the thickness.
+    let t = Transfer::from_json(
+        r#"{"points":[{"value":-1,"color":[1,0,0],"opacity":0.95},{"value":-0.01,"color":[1,0,0],"opacity":0.95},
+                      {"value":0.01,"color":[0,0,1],"opacity":0.95},{"value":1,"color":[0,0,1],"opacity":0.95}]}"#,
+    )
+    .unwrap();
+    for (view, near_is_blue) in [
+        ([0.0, 0.0, -1.0], true),
+        ([0.0, 0.0, 1.0], false),
+        ([0.3, 0.2, -1.0], true),
+        ([-0.3, 0.1, 1.0], false),
+    ] {
+        let mut o = opts("z", t.clone(), view, 100);
+        o.unit_distance = Some(0.05);
+        o.up = Some([0.0, 1.0, 0.0]);
+        let img = r.render(&grid, &s, &o).unwrap();
+        let [red, _, blue, alpha] = img.pixel(32, 32);
+        eprintln!("view {view:?}: red {red:.3} blue {blue:.3} alpha {alpha:.3}");
+        assert!(alpha > 0.99);
+        if near_is_blue {
+            assert!(
+                blue > 0.9 && red < 0.1,
+                "view {view:?}: red {red} blue {blue}"
+            );
+        } else {
+            assert!(
+                red > 0.9 && blue < 0.1,
+                "view {view:?}: red {red} blue {blue}"
+            );
+        }
+    }
+}
+
+#[test]
+fn same_axis_cone_renders_without_dispatch() {
+    let Some(ctx) = gpu_common::gpu("same_axis_cone_renders_without_dispatch") else {
+        return;
+    };
+    let grid = warped([12, 10, 8], 5);
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let mut r = Renderer::new(ctx).unwrap();
+    let mut o = RenderOptions {
+        size: (48, 40),
+        slices: 40,
+        view_dir: [0.1, 0.05, -1.0],
+        ..Default::default()
+    };
+    let a = r.render(&grid, &s, &o).unwrap();
+    let n = r.dispatches();
+    assert!(n > 0);
+    o.view_dir = [-0.3, 0.2, -1.0];
+    let b = r.render(&grid, &s, &o).unwrap();
+    assert_eq!(
+        r.dispatches(),
+        n,
+        "another view in the z cone dispatched compute"
+    );
+    o.view_dir = [0.2, 0.1, 1.0];
+    r.render(&grid, &s, &o).unwrap();
+    assert_eq!(
+        r.dispatches(),
+        n,
+        "the opposite z direction reuses the same slices"
+    );
+    assert_ne!(a.rgba8(), b.rgba8());
+    o.view_dir = [1.0, 0.1, 0.2];
+    r.render(&grid, &s, &o).unwrap();
+    assert!(r.dispatches() > n, "a new axis must slice again");
+    // Iso mode: opaque pixels over a white background.
+    o.mode = Mode::Iso;
+    o.iso = vec![0.3, 0.6];
+    o.background = None;
+    let img = r.render(&grid, &s, &o).unwrap();
+    let opaque = img.premultiplied.iter().filter(|p| p[3] > 0.999).count();
+    assert!(opaque > 20, "iso: {opaque} opaque pixels");
+    assert!(img.png().unwrap().starts_with(b"\x89PNG"));
+}

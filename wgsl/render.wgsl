@@ -1,0 +1,58 @@
+// Render pass: the emitted triangles (OutVertex) drawn with indirect draws.
+// Volume mode: transfer-function colour with opacity corrected for the
+// slice spacing and the angle between the ray and the slicing axis,
+// premultiplied for "over" blending. Slices mode: opacity as is. Iso mode:
+// opaque, lit with the facet normal.
+
+@group(0) @binding(0) var<uniform> rp: RenderParams;
+// Transfer function: LUT_SIZE premultiplied-free RGBA entries over
+// [value_lo, value_hi], linearly interpolated and clamped.
+@group(0) @binding(1) var<storage, read> lut: array<vec4<f32>>;
+
+const LUT_SIZE: u32 = 256u;
+
+struct VsOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) value: f32,
+}
+
+@vertex
+fn vs(@location(0) pos: vec3<f32>, @location(1) value: f32) -> VsOut {
+    var o: VsOut;
+    o.clip = rp.view_proj * vec4<f32>(pos, 1.0);
+    o.world = pos;
+    o.value = value;
+    return o;
+}
+
+fn transfer(v: f32) -> vec4<f32> {
+    let span = rp.value_hi - rp.value_lo;
+    var x = 0.0;
+    if span > 0.0 {
+        x = clamp((v - rp.value_lo) / span, 0.0, 1.0) * f32(LUT_SIZE - 1u);
+    }
+    let i = min(u32(floor(x)), LUT_SIZE - 2u);
+    let f = x - f32(i);
+    return mix(lut[i], lut[i + 1u], f);
+}
+
+@fragment
+fn fs(in: VsOut) -> @location(0) vec4<f32> {
+    let c = transfer(in.value);
+    var ray = rp.view_dir.xyz;
+    if rp.perspective == 1u {
+        ray = normalize(in.world - rp.eye.xyz);
+    }
+    if rp.mode == 2u {
+        let n = normalize(cross(dpdx(in.world), dpdy(in.world)));
+        let shade = 0.2 + 0.8 * abs(dot(n, ray));
+        return vec4<f32>(c.rgb * shade, 1.0);
+    }
+    var a = clamp(c.a, 0.0, 1.0);
+    if rp.mode == 0u {
+        let cosv = max(abs(dot(ray, rp.axis.xyz)), 1e-3);
+        a = 1.0 - pow(1.0 - a, rp.spacing_over_unit / cosv);
+    }
+    return vec4<f32>(c.rgb * a, a);
+}
