@@ -30,6 +30,7 @@ fn cut_cells<G: CellGraph>(g: &G, levels: &[f32]) -> u64 {
     let ctx = EmitContext {
         positions: g.positions(),
         attribute: None,
+        cells_only: false,
     };
     let mut sw = Sweeper::new(g, 1);
     sw.prepare_minima(&f, Some(4));
@@ -89,6 +90,7 @@ fn bench_stages(c: &mut Criterion) {
         let ctx = EmitContext {
             positions: &s.positions,
             attribute: None,
+            cells_only: false,
         };
         let mut g = c.benchmark_group("sweep");
         g.throughput(Throughput::Elements(cut));
@@ -106,6 +108,7 @@ fn bench_stages(c: &mut Criterion) {
         let ctxc = EmitContext {
             positions: &cg.positions,
             attribute: None,
+            cells_only: false,
         };
         let mut swc = Sweeper::new(&cg, 1);
         swc.prepare_minima(&fc, Some(4));

@@ -157,7 +157,8 @@ pub struct LevelMesh {
     pub offsets: Vec<u32>,
     /// Vertex indices of the polygons.
     pub indices: Vec<u32>,
-    /// Source cell (structure slot) of each polygon.
+    /// Source cell (structure slot) of each polygon (of each cut cell when
+    /// [`EmitContext::cells_only`]).
     pub cells: Vec<u32>,
     /// Number of intersected cells emitted.
     pub cut_cells: u32,
@@ -408,6 +409,9 @@ pub struct EmitContext<'a> {
     pub positions: &'a [[f32; 3]],
     /// Attribute interpolated onto the polygons (`None`: the level value).
     pub attribute: Option<&'a [f32]>,
+    /// Record only the cut cells (one `cells` entry each, no polygons):
+    /// for consumers that emit elsewhere, such as the GPU.
+    pub cells_only: bool,
 }
 
 /// Emits the polygons of one intersected cell into `mesh`.
@@ -425,6 +429,11 @@ pub fn emit_cell(
     ctx: &EmitContext,
     mesh: &mut LevelMesh,
 ) {
+    if ctx.cells_only {
+        mesh.cut_cells += 1;
+        mesh.cells.push(slot);
+        return;
+    }
     let outcome = if meta.ambiguous_faces[code] != 0 {
         decide_faces(meta, gids, phi, t, code)
     } else {
@@ -528,7 +537,7 @@ impl LatticeHexTable {
         mesh: &mut LevelMesh,
     ) {
         let s = self.start[code & 255];
-        if s == u16::MAX {
+        if s == u16::MAX || ctx.cells_only {
             emit_cell(meta, gids, phi, t, code, slot, ctx, mesh);
             return;
         }

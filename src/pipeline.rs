@@ -333,6 +333,7 @@ fn run_on<G: CellGraph, F: ScalarField>(
     let ctx = EmitContext {
         positions: g.positions(),
         attribute,
+        cells_only: false,
     };
     let k = levels.len();
     let mut timings = Timings::default();

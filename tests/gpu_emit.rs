@@ -57,8 +57,13 @@ fn cases() -> Vec<(String, Grid, FieldSpec, usize)> {
     ]
 }
 
-/// The CPU sweep's polygons, fan-triangulated, per level.
-fn cpu_triangles(grid: &Grid, s: &Structure, field: &FieldSpec, k: usize) -> Vec<Vec<OutVertex>> {
+/// The CPU sweep's polygons, fan-triangulated, per level, and its stats.
+fn cpu_triangles(
+    grid: &Grid,
+    s: &Structure,
+    field: &FieldSpec,
+    k: usize,
+) -> (Vec<Vec<OutVertex>>, Vec<stratasweep::sweep::LevelStats>) {
     let r = slice(grid, s, &req(field.clone(), k, 1, true), &|_| {}).unwrap();
     let m = r.mesh.unwrap();
     let mut out = vec![Vec::new(); k];
@@ -72,14 +77,14 @@ fn cpu_triangles(grid: &Grid, s: &Structure, field: &FieldSpec, k: usize) -> Vec
             out[m.poly_level[p] as usize].extend([v(ids[0]), v(ids[j]), v(ids[j + 1])]);
         }
     }
-    out
+    (out, r.stats)
 }
 
 #[test]
 fn twin_equals_cpu_sweep_exactly() {
     for (name, grid, field, k) in cases() {
         let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
-        let cpu = cpu_triangles(&grid, &s, &field, k);
+        let (cpu, cpu_stats) = cpu_triangles(&grid, &s, &field, k);
         for threads in [1, 3] {
             let p = prepare(&grid, &s, &req(field.clone(), k, threads, false)).unwrap();
             let out = twin::run(&p.grid, &p.frame, true);
@@ -94,7 +99,12 @@ fn twin_equals_cpu_sweep_exactly() {
                 );
                 assert_eq!(
                     out.polygons(lv) as u64,
-                    p.cpu_stats[lv as usize].polygons,
+                    cpu_stats[lv as usize].polygons,
+                    "{name}"
+                );
+                // The cells-only sweep found the same cut cells.
+                assert_eq!(
+                    p.cpu_stats[lv as usize].cells, cpu_stats[lv as usize].cells,
                     "{name}"
                 );
                 total += a.len();

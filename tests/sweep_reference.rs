@@ -43,6 +43,7 @@ fn run_sweep<G: CellGraph, F: ScalarField>(
     let ctx = EmitContext {
         positions: g.positions(),
         attribute: None,
+        cells_only: false,
     };
     let mut sw = Sweeper::new(g, threads);
     sw.prepare_minima(f, axis);
@@ -70,6 +71,7 @@ fn run_brute<G: CellGraph, F: ScalarField>(g: &G, f: &F, levels: &[f32]) -> Leve
     let ctx = EmitContext {
         positions: g.positions(),
         attribute: None,
+        cells_only: false,
     };
     let mut all = vec![Vec::new(); levels.len()];
     let mut mesh = LevelMesh::default();
@@ -286,6 +288,7 @@ fn isosurfaces_inside_the_domain_are_closed_manifolds() {
             let ctx = EmitContext {
                 positions: c.positions(),
                 attribute: None,
+                cells_only: false,
             };
             let mut sw = Sweeper::new(&c, 1);
             sw.prepare_minima(&f, None);

@@ -39,9 +39,10 @@ pub struct Prepared {
     pub level_values: Vec<f64>,
     /// Name of the interpolated attribute.
     pub attribute_name: String,
-    /// The CPU sweep's own per-level statistics.
+    /// The CPU sweep's own per-level statistics (cells and visits; it
+    /// emits no polygons).
     pub cpu_stats: Vec<LevelStats>,
-    /// Seconds of the sweep (which also emits on the CPU).
+    /// Seconds of the sweep (cut cells only, no emission).
     pub sweep_s: f64,
 }
 

@@ -207,9 +207,9 @@ impl Frame {
 }
 
 /// Runs the CPU sweep (`threads` spatial blocks) and collects per level the
-/// intersected cells, in block order. The sweep emits its own polygons as
-/// it goes (the [`Sweeper`] has no emission-free mode); they are dropped
-/// here, only the per-level stats are returned alongside.
+/// intersected cells, in block order. The sweep runs with
+/// [`EmitContext::cells_only`]: it records the cut cells and emits nothing
+/// (the per-level stats returned alongside count cells and visits only).
 pub fn sweep_frame<G: CellGraph, F: ScalarField>(
     g: &G,
     f: &F,
@@ -223,6 +223,7 @@ pub fn sweep_frame<G: CellGraph, F: ScalarField>(
     let ctx = EmitContext {
         positions: g.positions(),
         attribute: None,
+        cells_only: true,
     };
     let blocks = sw.sweep(
         f,
@@ -231,13 +232,8 @@ pub fn sweep_frame<G: CellGraph, F: ScalarField>(
         &ctx,
         || (vec![Vec::<u32>::new(); k], vec![LevelStats::default(); k]),
         |acc, lv, mesh, st| {
-            // A cut cell emits its polygons consecutively and at least one.
-            let list = &mut acc.0[lv];
-            for &c in &mesh.cells {
-                if list.last() != Some(&c) {
-                    list.push(c);
-                }
-            }
+            // Cells-only mode: one entry per cut cell.
+            acc.0[lv].extend_from_slice(&mesh.cells);
             acc.1[lv] = *st;
         },
     );
