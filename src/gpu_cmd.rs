@@ -354,7 +354,7 @@ pub fn cmd_bench_devices(a: &BenchArgs, devices: &[String], quiet: bool) -> Resu
         );
         if let Some(sw) = r.get("sweep_ms") {
             println!(
-                "    sweep {:.3} ms (emits on the CPU too), upload {:.3} ms, count+scan {:.3} ms, emit {:.3} ms; grid upload once {:.3} ms",
+                "    sweep {:.3} ms (cut cells only), upload {:.3} ms, count+scan {:.3} ms, emit {:.3} ms; grid upload once {:.3} ms",
                 sw.as_f64().unwrap_or(0.0),
                 r["upload_ms"].as_f64().unwrap_or(0.0),
                 r["count_scan_ms"].as_f64().unwrap_or(0.0),
