@@ -61,6 +61,8 @@ enum StructureArg {
     Cgraph,
     Scgraph,
     Bruteforce,
+    /// CIEL half-edges (any polyhedral grid).
+    Ciel,
 }
 
 impl From<StructureArg> for StructureChoice {
@@ -70,6 +72,7 @@ impl From<StructureArg> for StructureChoice {
             StructureArg::Cgraph => StructureChoice::CGraph,
             StructureArg::Scgraph => StructureChoice::SCGraph,
             StructureArg::Bruteforce => StructureChoice::BruteForce,
+            StructureArg::Ciel => StructureChoice::Ciel,
         }
     }
 }
@@ -294,8 +297,13 @@ fn memory_json(s: &Structure, grid: &Grid) -> (Value, usize) {
     let prop = grid.points.len() * 4;
     m.insert("property_f32".into(), json!(prop));
     total += prop;
-    // Step stamps (u16 per slot), allocated per sweep.
-    let stamps = s.slot_count() * 2;
+    // Step stamps (u16 per slot; CIEL: u32 per cell), allocated per sweep.
+    let stamps = s.slot_count()
+        * if matches!(s, Structure::Ciel(_)) {
+            4
+        } else {
+            2
+        };
     m.insert("stamps".into(), json!(stamps));
     total += stamps;
     m.insert("total".into(), json!(total));
@@ -338,6 +346,20 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             catalog_json(&g.catalog, &g.meta_counts),
             g.hidden_count,
         ),
+        Structure::Ciel(g) => (g.counts.class_counts, json!([]), g.counts.hidden),
+    };
+    let ciel = match &s {
+        Structure::Ciel(g) => json!({
+            "half_edges": g.half_edges.len(),
+            "bytes_per_half_edge": std::mem::size_of::<stratasweep::ciel::HalfEdge>(),
+            "edges": g.counts.edges,
+            "faces": g.counts.faces,
+            "border_half_edges": g.counts.border_half_edges,
+            "flipped_faces": g.counts.flipped_faces,
+            "non_convex_cells": g.counts.non_convex,
+            "convexity_tolerance": stratasweep::ciel::CONVEXITY_TOLERANCE,
+        }),
+        _ => Value::Null,
     };
     let (mem, total) = memory_json(&s, &grid);
     let nv = grid.points.len();
@@ -372,6 +394,11 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         },
         "timings_s": {"load": load_s, "build": build_s},
     });
+    let mut out = out;
+    if let Structure::Ciel(g) = &s {
+        out["half_edges"] = json!(g.half_edges.len());
+        out["ciel"] = ciel;
+    }
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
@@ -414,6 +441,9 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     );
     for (k, v) in out["memory_bytes"].as_object().unwrap() {
         println!("    {k:<30} {v}");
+    }
+    if !out["ciel"].is_null() {
+        println!("  ciel          {}", out["ciel"]);
     }
     Ok(())
 }
@@ -580,7 +610,7 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
         LevelSpec::Count(k) => *k,
         LevelSpec::Values(v) => v.len(),
     };
-    let blocks = if a.structure == StructureArg::Bruteforce {
+    let blocks = if a.structure == StructureArg::Bruteforce || matches!(s, Structure::Ciel(_)) {
         1
     } else {
         a.threads
