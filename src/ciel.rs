@@ -1022,6 +1022,20 @@ impl Ciel {
         }
     }
 
+    /// The face loops of live cell `c` as stored: oriented outward and
+    /// consistently (global vertex ids), e.g. to write a repaired grid.
+    pub fn faces_of(&self, c: u32) -> Vec<Vec<u32>> {
+        let mut out = Vec::new();
+        let mut face = Vec::new();
+        for h in self.cell_half_edges(c) {
+            face.push(self.org(h));
+            if self.half_edges[h as usize].origin & LAST_IN_FACE != 0 {
+                out.push(std::mem::take(&mut face));
+            }
+        }
+        out
+    }
+
     /// Bytes per part of the structure.
     pub fn bytes(&self) -> Vec<(&'static str, usize)> {
         vec![

@@ -24,3 +24,4 @@ pub mod properties;
 pub mod scgraph;
 pub mod structure;
 pub mod sweep;
+pub mod voronoi;

@@ -153,6 +153,18 @@ enum GenCmd {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// A clipped 3D Voronoi grid of random sites in the unit box: conforming VTK polyhedra with a smooth point property `f` (.vtu).
+    Voronoi {
+        /// Number of cells (sites).
+        #[arg(long)]
+        cells: usize,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output .vtu.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// A conforming mixed tet/pyramid/wedge/hex grid with a noisy point property `f` (.vtu).
     Zoo {
         /// Approximate cell count.
@@ -715,6 +727,25 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
                 bail!("--cells must be between 1 and 200000000");
             }
             let grid = generate::zoo(cells, seed);
+            write_grid(&output, &grid, "vtu", quiet)
+        }
+        GenCmd::Voronoi {
+            cells,
+            seed,
+            output,
+        } => {
+            if cells == 0 || cells > 50_000_000 {
+                bail!("--cells must be between 1 and 50000000");
+            }
+            let t = Instant::now();
+            let grid = stratasweep::voronoi::voronoi(cells, seed);
+            if !quiet {
+                eprintln!(
+                    "voronoi: {cells} cells, {} vertices in {:.2} s",
+                    grid.points.len(),
+                    t.elapsed().as_secs_f64()
+                );
+            }
             write_grid(&output, &grid, "vtu", quiet)
         }
     }
