@@ -1126,7 +1126,7 @@ impl Ciel {
 
     /// Draws the polygons of cell `c` at level `t` into `mesh` (the cell
     /// must be cut: `lo < t ≤ hi`), by turning around its faces.
-    /// `used` is scratch space (reused across calls).
+    /// `scratch` is reused across calls.
     #[inline]
     pub fn draw_cell<F: ScalarField>(
         &self,
@@ -1134,44 +1134,62 @@ impl Ciel {
         c: u32,
         t: f32,
         ctx: &EmitContext,
-        used: &mut Vec<bool>,
+        scratch: &mut DrawScratch,
         mesh: &mut LevelMesh,
     ) {
         let r = self.cell_half_edges(c);
         let s = r.start;
+        let n = (r.end - r.start) as usize;
+        let he = &self.half_edges[r.start as usize..r.end as usize];
+        // Per half-edge (local index): origin φ and the local next in its face.
+        let DrawScratch { used, phi, next } = scratch;
         used.clear();
-        used.resize((r.end - r.start) as usize, false);
+        used.resize(n, false);
+        phi.clear();
+        next.clear();
+        let mut face_start = 0u32;
+        for (i, e) in he.iter().enumerate() {
+            phi.push(f.phi(e.origin & VERTEX_MASK));
+            if e.origin & FIRST_IN_FACE != 0 {
+                face_start = i as u32;
+            }
+            next.push(if e.origin & LAST_IN_FACE != 0 {
+                face_start
+            } else {
+                i as u32 + 1
+            });
+        }
         mesh.cut_cells += 1;
-        let above = |h: u32| f.phi(self.org(h)) >= t;
-        for h in r.clone() {
-            if used[(h - s) as usize] {
+        for h in 0..n {
+            if used[h] {
                 continue;
             }
             // Entry half-edges go from above to below.
-            let hn = self.next_around_face(h);
-            if !above(h) || above(hn) {
+            let (org_above, dst_above) = (phi[h] >= t, phi[next[h] as usize] >= t);
+            if !org_above || dst_above {
                 continue;
             }
             let start = mesh.begin_polygon();
             let mut cur = h;
             let mut corners = 0usize;
             loop {
-                used[(cur - s) as usize] = true;
-                let (a, b) = (self.org(cur), self.dest(cur));
+                used[cur] = true;
+                let nx = next[cur] as usize;
+                let (a, b) = (he[cur].origin & VERTEX_MASK, he[nx].origin & VERTEX_MASK);
                 if corners > 0 && corners.is_multiple_of(32) {
                     // Keeps the weld map within its load limit for long polygons.
                     mesh.reserve_corners(32);
                 }
-                let (fa, fb) = (f.phi(a), f.phi(b));
+                let (fa, fb) = (phi[cur], phi[nx]);
                 if a < b {
                     mesh.corner(a, b, fa, fb, t, ctx);
                 } else {
                     mesh.corner(b, a, fb, fa, t, ctx);
                 }
                 corners += 1;
-                let exit = self.exit_in_face(f, cur, t);
-                let nxt = self.half_edges[exit as usize].mate_face;
-                if nxt == h || corners > (r.end - r.start) as usize {
+                let exit = exit_in_face(he, phi, next, cur, t);
+                let nxt = (he[exit].mate_face - s) as usize;
+                if nxt == h || corners > n {
                     break;
                 }
                 cur = nxt;
@@ -1179,63 +1197,81 @@ impl Ciel {
             mesh.end_polygon(start, c);
         }
     }
+}
 
-    /// The half-edge through which the polygon leaves the face of `cur`
-    /// (a down-crossing half-edge: origin above, destination below).
-    #[inline(always)]
-    fn exit_in_face<F: ScalarField>(&self, f: &F, cur: u32, t: f32) -> u32 {
-        let above = |h: u32| f.phi(self.org(h)) >= t;
-        // Walk forward over the below arc to the next up-crossing.
-        let mut x = self.next_around_face(cur);
-        let mut prev_above = false; // dest(cur) is below
-        let mut first_up = NONE;
-        let mut crossings = 1usize;
-        loop {
-            let xn = self.next_around_face(x);
-            let a_next = above(xn);
-            if a_next != prev_above {
-                crossings += 1;
-                if first_up == NONE {
-                    first_up = x;
-                }
-            }
-            prev_above = a_next;
-            x = xn;
-            if x == cur {
-                break;
-            }
-        }
-        if crossings <= 2 {
-            return first_up;
-        }
-        // Ambiguous face: decide from the face's own values and ids.
-        let mut vals = [0f32; 32];
-        let mut gids = [0u32; 32];
-        let mut k = 0;
-        let mut x = cur;
-        loop {
-            if k < 32 {
-                gids[k] = self.org(x);
-                vals[k] = f.phi(gids[k]);
-                k += 1;
-            }
-            x = self.next_around_face(x);
-            if x == cur {
-                break;
+/// Scratch space of [`Ciel::draw_cell`]: per half-edge of the cell, a
+/// used flag, the origin's φ and the local next-in-face index.
+#[derive(Clone, Debug, Default)]
+pub struct DrawScratch {
+    used: Vec<bool>,
+    phi: Vec<f32>,
+    next: Vec<u32>,
+}
+
+/// The local half-edge through which the polygon leaves the face of `cur`
+/// (an up-crossing half-edge: origin below, destination above; its
+/// `mate_face` enters the next face from above to below).
+#[inline(always)]
+fn exit_in_face(he: &[HalfEdge], phi: &[f32], next: &[u32], cur: usize, t: f32) -> usize {
+    let above = |i: usize| phi[i] >= t;
+    // Walk forward over the below arc to the next up-crossing, counting
+    // the face's crossings.
+    let mut x = next[cur] as usize;
+    let mut prev_above = false; // dest(cur) is below
+    let mut first_up = usize::MAX;
+    let mut crossings = 1usize;
+    loop {
+        let xn = next[x] as usize;
+        let a_next = above(xn);
+        if a_next != prev_above {
+            crossings += 1;
+            if first_up == usize::MAX {
+                first_up = x;
             }
         }
-        if face_above_connected(&vals[..k], &gids[..k], t) {
-            // Above arcs connected: cut off the below arc after cur.
-            first_up
-        } else {
-            // Cut off the above arc that ends at org(cur): walk backward.
-            let mut p = self.prev_around_face(cur);
-            while !above(self.next_around_face(p)) || above(p) {
-                p = self.prev_around_face(p);
+        prev_above = a_next;
+        x = xn;
+        if x == cur {
+            break;
+        }
+    }
+    if crossings <= 2 {
+        return first_up;
+    }
+    // Ambiguous face: decide from the face's own values and ids.
+    let mut vals = [0f32; 32];
+    let mut gids = [0u32; 32];
+    let mut k = 0;
+    let mut x = cur;
+    loop {
+        if k < 32 {
+            gids[k] = he[x].origin & VERTEX_MASK;
+            vals[k] = phi[x];
+            k += 1;
+        }
+        x = next[x] as usize;
+        if x == cur {
+            break;
+        }
+    }
+    if face_above_connected(&vals[..k], &gids[..k], t) {
+        // Above arcs connected: cut off the below arc after cur.
+        first_up
+    } else {
+        // Cut off the above arc that ends at org(cur): walk backward to
+        // the up-crossing before it.
+        let prev = |i: usize| {
+            let mut p = i;
+            while next[p] as usize != i {
+                p = next[p] as usize;
             }
-            // p goes below → above; its mate in the adjacent face goes above → below.
             p
+        };
+        let mut p = prev(cur);
+        while !above(next[p] as usize) || above(p) {
+            p = prev(p);
         }
+        p
     }
 }
 
@@ -1282,7 +1318,7 @@ pub struct CielSweeper<'c> {
     work: Vec<u32>,
     active: Vec<u32>,
     minima: Vec<u32>,
-    used: Vec<bool>,
+    scratch: DrawScratch,
     stamp: u32,
 }
 
@@ -1296,7 +1332,7 @@ impl<'c> CielSweeper<'c> {
             work: Vec::new(),
             active: Vec::new(),
             minima: Vec::new(),
-            used: Vec::new(),
+            scratch: DrawScratch::default(),
             stamp: 0,
         }
     }
@@ -1332,7 +1368,7 @@ impl<'c> CielSweeper<'c> {
         self.cell_stamp.len() * 4
             + self.passed.bytes()
             + (self.work.capacity() + self.active.capacity() + self.minima.capacity()) * 4
-            + self.used.capacity()
+            + self.scratch.used.capacity() * 9
     }
 
     /// Sweeps `levels` (increasing, local frame); calls `on_level` with each
@@ -1384,7 +1420,7 @@ impl<'c> CielSweeper<'c> {
                     let cell = c.cell_of(x);
                     if self.cell_stamp[cell as usize] != self.stamp {
                         self.cell_stamp[cell as usize] = self.stamp;
-                        c.draw_cell(f, cell, t, ctx, &mut self.used, mesh);
+                        c.draw_cell(f, cell, t, ctx, &mut self.scratch, mesh);
                     }
                 });
             }
@@ -1433,12 +1469,12 @@ pub fn brute_force<F: ScalarField>(
             (x, lo, hi)
         })
         .collect();
-    let mut used = Vec::new();
+    let mut scratch = DrawScratch::default();
     for (k, &t) in levels.iter().enumerate() {
         mesh.clear();
         for &(x, lo, hi) in &live {
             if intersects(lo, hi, t) {
-                c.draw_cell(f, x, t, ctx, &mut used, mesh);
+                c.draw_cell(f, x, t, ctx, &mut scratch, mesh);
             }
         }
         let st = LevelStats::of(mesh, live.len() as u64);
