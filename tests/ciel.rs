@@ -794,6 +794,7 @@ fn peer_compare(path: &std::path::Path, g: &Grid, axis: usize, count: usize) {
     );
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let _ = std::fs::remove_file(&json);
     let s = Structure::build(g, StructureChoice::Ciel).unwrap();
     let req = SliceRequest {
         field: FieldSpec::Axis {
