@@ -261,6 +261,13 @@ impl LevelMesh {
         }
         self.indices.push(vi);
     }
+    /// Makes room in the weld map for `n` more corners of the current
+    /// polygon ([`LevelMesh::begin_polygon`] reserves 32): for structures
+    /// whose polygons can be longer (CIEL).
+    #[inline(always)]
+    pub(crate) fn reserve_corners(&mut self, n: usize) {
+        self.weld.reserve(n);
+    }
     /// Closes the polygon begun at `start` (from [`LevelMesh::begin_polygon`])
     /// with source cell `slot`.
     #[inline(always)]

@@ -11,6 +11,7 @@
 
 pub mod bruteforce;
 pub mod cgraph;
+pub mod ciel;
 pub mod extract;
 pub mod field;
 pub mod generate;
@@ -24,3 +25,4 @@ pub mod properties;
 pub mod scgraph;
 pub mod structure;
 pub mod sweep;
+pub mod voronoi;

@@ -65,6 +65,8 @@ enum StructureArg {
     Cgraph,
     Scgraph,
     Bruteforce,
+    /// CIEL half-edges (any polyhedral grid).
+    Ciel,
 }
 
 impl From<StructureArg> for StructureChoice {
@@ -74,6 +76,7 @@ impl From<StructureArg> for StructureChoice {
             StructureArg::Cgraph => StructureChoice::CGraph,
             StructureArg::Scgraph => StructureChoice::SCGraph,
             StructureArg::Bruteforce => StructureChoice::BruteForce,
+            StructureArg::Ciel => StructureChoice::Ciel,
         }
     }
 }
@@ -157,6 +160,18 @@ enum GenCmd {
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Output .vts.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// A clipped 3D Voronoi grid of random sites in the unit box: conforming VTK polyhedra with a smooth point property `f` (.vtu).
+    Voronoi {
+        /// Number of cells (sites).
+        #[arg(long)]
+        cells: usize,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output .vtu.
         #[arg(short, long)]
         output: PathBuf,
     },
@@ -311,8 +326,13 @@ fn memory_json(s: &Structure, grid: &Grid) -> (Value, usize) {
     let prop = grid.points.len() * 4;
     m.insert("property_f32".into(), json!(prop));
     total += prop;
-    // Step stamps (u16 per slot), allocated per sweep.
-    let stamps = s.slot_count() * 2;
+    // Step stamps (u16 per slot; CIEL: u32 per cell), allocated per sweep.
+    let stamps = s.slot_count()
+        * if matches!(s, Structure::Ciel(_)) {
+            4
+        } else {
+            2
+        };
     m.insert("stamps".into(), json!(stamps));
     total += stamps;
     m.insert("total".into(), json!(total));
@@ -355,6 +375,20 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             catalog_json(&g.catalog, &g.meta_counts),
             g.hidden_count,
         ),
+        Structure::Ciel(g) => (g.counts.class_counts, json!([]), g.counts.hidden),
+    };
+    let ciel = match &s {
+        Structure::Ciel(g) => json!({
+            "half_edges": g.half_edges.len(),
+            "bytes_per_half_edge": std::mem::size_of::<stratasweep::ciel::HalfEdge>(),
+            "edges": g.counts.edges,
+            "faces": g.counts.faces,
+            "border_half_edges": g.counts.border_half_edges,
+            "flipped_faces": g.counts.flipped_faces,
+            "non_convex_cells": g.counts.non_convex,
+            "convexity_tolerance": stratasweep::ciel::CONVEXITY_TOLERANCE,
+        }),
+        _ => Value::Null,
     };
     let (mem, total) = memory_json(&s, &grid);
     let nv = grid.points.len();
@@ -389,6 +423,11 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         },
         "timings_s": {"load": load_s, "build": build_s},
     });
+    let mut out = out;
+    if let Structure::Ciel(g) = &s {
+        out["half_edges"] = json!(g.half_edges.len());
+        out["ciel"] = ciel;
+    }
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
@@ -431,6 +470,9 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     );
     for (k, v) in out["memory_bytes"].as_object().unwrap() {
         println!("    {k:<30} {v}");
+    }
+    if !out["ciel"].is_null() {
+        println!("  ciel          {}", out["ciel"]);
     }
     Ok(())
 }
@@ -597,7 +639,7 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
         LevelSpec::Count(k) => *k,
         LevelSpec::Values(v) => v.len(),
     };
-    let blocks = if a.structure == StructureArg::Bruteforce {
+    let blocks = if a.structure == StructureArg::Bruteforce || matches!(s, Structure::Ciel(_)) {
         1
     } else {
         a.threads
@@ -623,6 +665,10 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
             bail!("--structure bruteforce runs on the CPU only")
         }
         (_, Some(_), _) | (_, _, StructureArg::Bruteforce) => gpu_cmd::DeviceArg::Cpu,
+        // The GPU tables cover S-CGraph and CGraph grids; CIEL grids stay on the CPU.
+        (gpu_cmd::DeviceArg::Auto, _, _) if matches!(s, Structure::Ciel(_)) => {
+            gpu_cmd::DeviceArg::Cpu
+        }
         (d, None, _) => d,
     };
     let gpu = pool
@@ -718,6 +764,25 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
                 bail!("--cells must be between 1 and 200000000");
             }
             let grid = generate::zoo(cells, seed);
+            write_grid(&output, &grid, "vtu", quiet)
+        }
+        GenCmd::Voronoi {
+            cells,
+            seed,
+            output,
+        } => {
+            if cells == 0 || cells > 50_000_000 {
+                bail!("--cells must be between 1 and 50000000");
+            }
+            let t = Instant::now();
+            let grid = stratasweep::voronoi::voronoi(cells, seed);
+            if !quiet {
+                eprintln!(
+                    "voronoi: {cells} cells, {} vertices in {:.2} s",
+                    grid.points.len(),
+                    t.elapsed().as_secs_f64()
+                );
+            }
             write_grid(&output, &grid, "vtu", quiet)
         }
     }

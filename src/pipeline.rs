@@ -9,6 +9,7 @@ use thiserror::Error;
 
 use crate::bruteforce::brute_force;
 use crate::cgraph::CGraph;
+use crate::ciel::{Ciel, CielSweeper};
 use crate::extract::{EmitContext, LevelMesh};
 use crate::field::{
     AxisField, FieldSpec, LevelError, PlaneField, ScalarField, VertexField, levels_by_count,
@@ -23,7 +24,8 @@ use crate::sweep::{CellGraph, LevelStats, Sweeper};
 /// Which structure to build (`--structure`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StructureChoice {
-    /// S-CGraph for structured input, CGraph otherwise.
+    /// S-CGraph for structured input, CGraph when every cell fits the
+    /// meta-cell catalog, CIEL otherwise.
     Auto,
     /// The zoo-grid cellular graph.
     CGraph,
@@ -31,6 +33,8 @@ pub enum StructureChoice {
     SCGraph,
     /// The brute-force reference (on the auto structure's cells).
     BruteForce,
+    /// CIEL, the half-edge structure for arbitrary polyhedra.
+    Ciel,
 }
 
 /// A built sweep structure.
@@ -39,6 +43,8 @@ pub enum Structure {
     SCGraph(SCGraph),
     /// CGraph.
     CGraph(CGraph),
+    /// CIEL.
+    Ciel(Ciel),
 }
 
 /// Errors of the pipeline.
@@ -71,6 +77,9 @@ pub enum PipelineError {
     /// No live cell remains.
     #[error("no live cells to slice (all hidden or degenerate)")]
     NoLiveCells,
+    /// The structure cannot be used on this path.
+    #[error("{0}")]
+    Unsupported(String),
 }
 
 impl Structure {
@@ -84,10 +93,20 @@ impl Structure {
                 Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
             }
             StructureChoice::CGraph => Structure::CGraph(CGraph::build(grid, hidden.as_deref())?),
+            StructureChoice::Ciel => {
+                Structure::Ciel(Ciel::build(grid, hidden.as_deref()).map_err(StructureError::from)?)
+            }
             StructureChoice::Auto | StructureChoice::BruteForce if structured => {
                 Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
             }
-            _ => Structure::CGraph(CGraph::build(grid, hidden.as_deref())?),
+            _ => match CGraph::build(grid, hidden.as_deref()) {
+                Ok(g) => Structure::CGraph(g),
+                // A cell the catalog cannot take (large or odd polyhedra): CIEL.
+                Err(StructureError::UnsupportedCell { .. }) => Structure::Ciel(
+                    Ciel::build(grid, hidden.as_deref()).map_err(StructureError::from)?,
+                ),
+                Err(e) => return Err(e.into()),
+            },
         };
         Ok(s)
     }
@@ -97,6 +116,7 @@ impl Structure {
         match self {
             Structure::SCGraph(_) => "scgraph",
             Structure::CGraph(_) => "cgraph",
+            Structure::Ciel(_) => "ciel",
         }
     }
 
@@ -105,6 +125,7 @@ impl Structure {
         match self {
             Structure::SCGraph(s) => s.origin,
             Structure::CGraph(c) => c.origin,
+            Structure::Ciel(c) => c.origin,
         }
     }
 
@@ -113,6 +134,7 @@ impl Structure {
         match self {
             Structure::SCGraph(s) => s.bytes(),
             Structure::CGraph(c) => c.bytes(),
+            Structure::Ciel(c) => c.bytes(),
         }
     }
 
@@ -121,6 +143,7 @@ impl Structure {
         match self {
             Structure::SCGraph(s) => s.live_cells(),
             Structure::CGraph(c) => c.live_cells(),
+            Structure::Ciel(c) => c.live_cells(),
         }
     }
 
@@ -129,6 +152,7 @@ impl Structure {
         match self {
             Structure::SCGraph(s) => s.slot_count(),
             Structure::CGraph(c) => c.slot_count(),
+            Structure::Ciel(c) => c.cell_count(),
         }
     }
 }
@@ -203,6 +227,7 @@ pub fn vertex_property(grid: &Grid, s: &Structure, name: &str) -> Result<Vec<f32
         return Ok(match s {
             Structure::SCGraph(g) => crate::properties::cell_to_vertex(g, &vals, grid.points.len()),
             Structure::CGraph(g) => crate::properties::cell_to_vertex(g, &vals, grid.points.len()),
+            Structure::Ciel(g) => g.cell_to_vertex(&vals),
         });
     }
     Err(PipelineError::NoSuchProperty {
@@ -265,6 +290,7 @@ pub fn slice(
     let planar_phi = match s {
         Structure::SCGraph(g) => phi_of(g.positions()),
         Structure::CGraph(g) => phi_of(g.positions()),
+        Structure::Ciel(g) => phi_of(&g.positions),
     };
     let phi = VertexField {
         values: field_values.as_deref().unwrap_or(&planar_phi),
@@ -278,6 +304,7 @@ pub fn slice(
     let mut r = match s {
         Structure::SCGraph(g) => run!(g),
         Structure::CGraph(g) => run!(g),
+        Structure::Ciel(g) => run_ciel(g, &phi, offset, req, attribute, progress),
     }?;
     r.timings.setup = setup;
     r.timings.field = field_s;
@@ -305,6 +332,101 @@ fn live_range<G: CellGraph, F: ScalarField>(g: &G, f: &F) -> Option<(f32, f32)> 
         }
     }
     (lo <= hi).then_some((lo, hi))
+}
+
+/// World levels from a request, given the local φ range.
+fn place_levels(
+    range: Option<(f32, f32)>,
+    world_offset: f64,
+    spec: &LevelSpec,
+) -> Result<(Vec<f64>, Vec<f32>), PipelineError> {
+    let (lo, hi) = range.ok_or(PipelineError::NoLiveCells)?;
+    let world = match spec {
+        LevelSpec::Count(k) => {
+            if lo == hi {
+                return Err(PipelineError::ConstantField(lo as f64 + world_offset));
+            }
+            levels_by_count(lo as f64 + world_offset, hi as f64 + world_offset, *k)
+        }
+        LevelSpec::Values(v) => v.clone(),
+    };
+    let levels = local_levels(&world, world_offset)?;
+    Ok((world, levels))
+}
+
+/// Polygons of one level mesh as (source cell, corners).
+fn level_pieces(mesh: &LevelMesh) -> Vec<(u32, Vec<(u64, [f32; 3], f32)>)> {
+    (0..mesh.polygon_count())
+        .map(|p| {
+            let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
+            let corners = ids
+                .iter()
+                .map(|&i| {
+                    (
+                        mesh.edge_keys[i as usize],
+                        mesh.positions[i as usize],
+                        mesh.values[i as usize],
+                    )
+                })
+                .collect();
+            (mesh.cells[p], corners)
+        })
+        .collect()
+}
+
+/// [`run_on`] for CIEL: the edge-based sweep (one thread) or the CIEL brute force.
+fn run_ciel<F: ScalarField>(
+    g: &Ciel,
+    f: &F,
+    world_offset: f64,
+    req: &SliceRequest,
+    attribute: Option<&[f32]>,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<SliceResult, PipelineError> {
+    let (world, levels) = place_levels(g.live_range(f), world_offset, &req.levels)?;
+    let ctx = EmitContext {
+        positions: &g.positions,
+        attribute,
+        cells_only: false,
+    };
+    let k = levels.len();
+    let mut timings = Timings::default();
+    let mut stats = vec![LevelStats::default(); k];
+    let mut pieces: Pieces = vec![Vec::new(); k];
+    let mut mesh = LevelMesh::default();
+    let collect = req.collect_mesh;
+    let mut on_level = |lv: usize, m: &LevelMesh, st: &LevelStats| {
+        stats[lv] = *st;
+        if collect {
+            pieces[lv] = level_pieces(m);
+        }
+        progress(1);
+    };
+    let (minima, state) = if req.brute_force {
+        let t = Instant::now();
+        crate::ciel::brute_force(g, f, &levels, &ctx, &mut mesh, &mut on_level);
+        timings.sweep = t.elapsed().as_secs_f64();
+        (0, 0)
+    } else {
+        let mut sw = CielSweeper::new(g);
+        let t = Instant::now();
+        let minima = sw.prepare_minima(f);
+        timings.minima = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        sw.sweep(f, &levels, &ctx, &mut mesh, &mut on_level);
+        timings.sweep = t.elapsed().as_secs_f64();
+        (minima, sw.state_bytes())
+    };
+    let mesh_out = collect.then(|| canonical_mesh(vec![pieces], &world));
+    Ok(SliceResult {
+        level_values: world,
+        stats,
+        mesh: mesh_out,
+        minima,
+        sweep_state_bytes: state + mesh.capacity_bytes(),
+        timings,
+        attribute_name: String::new(),
+    })
 }
 
 /// Per block: per level, polygons as (source cell, corners (edge key, position, value)).
