@@ -139,6 +139,12 @@ fn polyhedron_local_faces(
         faces.push(face);
         p += 1 + n;
     }
+    if consistently_oriented(&faces) {
+        // Already a closed, consistently oriented surface (e.g. corner-point
+        // cells with collapsed edges): keep it; `CGraph::build` flips the
+        // whole cell if its volume comes out negative.
+        return Ok((local, faces));
+    }
     let pt = |l: u8| points[local[l as usize] as usize];
     let mut c = [0.0; 3];
     for &g in &local {
@@ -163,6 +169,24 @@ fn polyhedron_local_faces(
         }
     }
     Ok((local, faces))
+}
+
+/// True when every directed edge of the face loops is used exactly once and
+/// its reverse exactly once (a closed, consistently oriented surface).
+fn consistently_oriented(faces: &[Vec<u8>]) -> bool {
+    let mut directed: Vec<(u8, u8)> = Vec::new();
+    for f in faces {
+        for i in 0..f.len() {
+            directed.push((f[i], f[(i + 1) % f.len()]));
+        }
+    }
+    directed.sort_unstable();
+    if directed.windows(2).any(|w| w[0] == w[1]) {
+        return false;
+    }
+    directed
+        .iter()
+        .all(|&(a, b)| directed.binary_search(&(b, a)).is_ok())
 }
 
 impl CGraph {

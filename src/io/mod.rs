@@ -1,4 +1,5 @@
 //! Readers and writers. The only module (with the binary) that touches files.
 
+pub mod grdecl;
 pub mod vtk_read;
 pub mod writers;
