@@ -48,7 +48,7 @@ enum Cmd {
 
 #[derive(Args)]
 struct GridArg {
-    /// Grid file (.vtk legacy, .vtu, .vts).
+    /// Grid file (.vtk legacy, .vtu, .vts; Eclipse .grdecl, .DATA, .inc, .EGRID).
     grid: Option<PathBuf>,
     /// Use the built-in demo grid (a warped 64³ curvilinear grid carrying the Marschner–Lobb signal `f`).
     #[arg(long, conflicts_with = "grid")]
@@ -213,7 +213,59 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
+    let (g, n, s, _) = load_with_info(input, quiet)?;
+    Ok((g, n, s))
+}
+
+/// True for paths read as Eclipse corner-point input (GRDECL text, decks,
+/// includes, EGRID); VTK files keep their readers.
+fn is_cornerpoint(path: &Path) -> bool {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    !matches!(ext.as_str(), "vtk" | "vtu" | "vts")
+}
+
+/// Reads a corner-point grid (GRDECL, .DATA deck, EGRID) into a zoo grid,
+/// with a JSON summary: per-class counts, bulk volume, skipped keywords.
+fn load_cornerpoint(path: &Path) -> Result<(Grid, Value)> {
     let t = Instant::now();
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    let (cp, extra) = if ext.eq_ignore_ascii_case("egrid") || ext.eq_ignore_ascii_case("fegrid") {
+        let e = io::egrid::read_egrid(path)?;
+        let extra =
+            json!({"format": "egrid", "init": e.init.as_ref().map(|p| p.display().to_string())});
+        (e.grid, extra)
+    } else {
+        let d = io::grdecl::read_grdecl(path)?;
+        let s = t.elapsed().as_secs_f64();
+        let extra = json!({
+            "format": "grdecl", "files": d.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+            "skipped_keywords": d.skipped, "text_bytes": d.bytes, "parse_s": s,
+            "parse_mb_per_s": d.bytes as f64 / s.max(1e-9) / 1e6,
+        });
+        (d.grid, extra)
+    };
+    let read_s = t.elapsed().as_secs_f64();
+    let (grid, rep) = cp.to_grid()?;
+    let mut classes = serde_json::Map::new();
+    for (k, v) in rep.class_counts() {
+        classes.insert(k.into(), json!(v));
+    }
+    let info = json!({
+        "dims": cp.dims, "classes": classes, "vertices": rep.vertices,
+        "bulk_volume": rep.bulk_volume, "mapaxes": cp.mapaxes, "mapunits": cp.mapunits,
+        "gridunit": cp.gridunit, "ijk_right_handed_up": rep.ijk_right_handed_up,
+        "read_s": read_s, "to_grid_s": t.elapsed().as_secs_f64() - read_s, "input": extra,
+    });
+    Ok((grid, info))
+}
+
+fn load_with_info(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64, Option<Value>)> {
+    let t = Instant::now();
+    let mut info = None;
     let (grid, name) = if input.demo {
         (
             generate::warped(DEMO_DIMS, 1),
@@ -227,14 +279,21 @@ fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
             bail!("give a grid file, or --demo for the built-in grid")
         };
         let sp = spinner(quiet, format!("reading {}", path.display()));
-        let g = io::vtk_read::read_vtk(path)
-            .with_context(|| format!("cannot load {}", path.display()))?;
+        let g = if is_cornerpoint(path) {
+            let (g, i) = load_cornerpoint(path)
+                .with_context(|| format!("cannot load {}", path.display()))?;
+            info = Some(i);
+            g
+        } else {
+            io::vtk_read::read_vtk(path)
+                .with_context(|| format!("cannot load {}", path.display()))?
+        };
         sp.finish_and_clear();
         (g, path.display().to_string())
     };
     grid.validate()
         .with_context(|| format!("invalid grid {name}"))?;
-    Ok((grid, name, t.elapsed().as_secs_f64()))
+    Ok((grid, name, t.elapsed().as_secs_f64(), info))
 }
 
 fn spinner(quiet: bool, msg: String) -> ProgressBar {
@@ -303,11 +362,15 @@ fn memory_json(s: &Structure, grid: &Grid) -> (Value, usize) {
 }
 
 fn cmd_info(a: InfoArgs) -> Result<()> {
-    let (grid, name, load_s) = load(&a.input, true)?;
+    let (grid, name, load_s, cp) = load_with_info(&a.input, true)?;
     let t = Instant::now();
     let s = Structure::build(&grid, a.structure.into())
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let build_s = t.elapsed().as_secs_f64();
+    let bulk_volume = match &cp {
+        Some(i) => i["bulk_volume"].as_f64().unwrap_or(0.0),
+        None => live_volume(&s),
+    };
     let mut types = serde_json::Map::new();
     match &grid.topology {
         Topology::Structured { .. } => {
@@ -360,6 +423,8 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         "bytes_per_vertex": total as f64 / nv as f64,
         "bytes_per_cell": total as f64 / nc as f64,
         "timings_s": {"load": load_s, "build": build_s},
+        "bulk_volume": bulk_volume,
+        "cornerpoint": cp,
     });
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out)?);
@@ -375,6 +440,14 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         println!("    {k:<18} {v}");
     }
     println!("  cell classes  {}", out["cell_classes"]);
+    println!("  bulk volume   {bulk_volume}");
+    if let Some(i) = &cp {
+        println!(
+            "  corner-point  dims {} classes {}",
+            i["dims"], i["classes"]
+        );
+        println!("    skipped keywords {}", i["input"]["skipped_keywords"]);
+    }
     println!("  bounds        {lo:?} .. {hi:?}");
     println!(
         "  properties    point {} / cell {}",
@@ -403,6 +476,36 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         println!("    {k:<30} {v}");
     }
     Ok(())
+}
+
+/// Sum of |volume| of the live cells, from their meta-cells (exact for
+/// planar faces), in world units³.
+fn live_volume(s: &Structure) -> f64 {
+    use stratasweep::sweep::CellGraph;
+    fn sum<G: CellGraph>(g: &G) -> f64 {
+        let pos = g.positions();
+        let mut ids = [0u32; stratasweep::metacell::MAX_META_VERTICES];
+        let mut v = 0.0;
+        for c in 0..g.slot_count() as u32 {
+            if g.is_live(c) {
+                let (m, _) = g.cell(c, &mut ids);
+                let p0 = pos[ids[0] as usize];
+                v += g
+                    .catalog()
+                    .get(m)
+                    .signed_volume(&|k| {
+                        let p = pos[ids[k] as usize];
+                        [0, 1, 2].map(|a| (p[a] - p0[a]) as f64)
+                    })
+                    .abs();
+            }
+        }
+        v
+    }
+    match s {
+        Structure::SCGraph(g) => sum(g),
+        Structure::CGraph(g) => sum(g),
+    }
 }
 
 /// Cells per meta-cell id for a grid of `n` hexahedra (S-CGraph).

@@ -834,10 +834,13 @@ impl Parser {
                     match t.kind {
                         Kind::Eof => break,
                         Kind::Slash => break,
-                        _ => {
-                            lx.push_back(t);
-                            skip_record(lx)?;
-                        }
+                        // A record runs to its '/', whatever column its words start in.
+                        _ => loop {
+                            let u = lx.next()?;
+                            if matches!(u.kind, Kind::Eof | Kind::Slash) {
+                                break;
+                            }
+                        },
                     }
                 }
             }
@@ -1045,22 +1048,6 @@ fn repeat_count(s: &[u8]) -> Result<usize, &'static str> {
         return Err("the repeat count is zero");
     }
     Ok(r)
-}
-
-/// Skips one record (up to and including `/`), stopping before a keyword in
-/// column 0 or at the end of the file.
-fn skip_record(lx: &mut Lexer) -> Result<(), GrdeclError> {
-    loop {
-        let t = lx.next()?;
-        match t.kind {
-            Kind::Eof | Kind::Slash => return Ok(()),
-            Kind::Word if t.col0 && is_keyword_like(lx.text(&t)) => {
-                lx.push_back(t);
-                return Ok(());
-            }
-            _ => {}
-        }
-    }
 }
 
 /// Reads a numeric record of exactly `expected` values into `out`.
