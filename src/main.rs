@@ -150,6 +150,21 @@ enum GenCmd {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// A faulted corner-point reservoir (folded layers, faults with throw, pinch-outs, inactive cells, PORO) as GRDECL.
+    Faulted {
+        /// Cells NI,NJ,NK.
+        #[arg(long)]
+        dims: String,
+        /// Number of faults.
+        #[arg(long, default_value_t = 3)]
+        faults: usize,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output .grdecl.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// A conforming mixed tet/pyramid/wedge/hex grid with a noisy point property `f` (.vtu).
     Zoo {
         /// Approximate cell count.
@@ -192,6 +207,10 @@ struct BenchArgs {
     /// Print JSON.
     #[arg(long)]
     json: bool,
+    /// Corner-point input only: time the parse (one core) and the
+    /// conversion to a zoo grid, then stop.
+    #[arg(long)]
+    load_only: bool,
 }
 
 fn main() {
@@ -766,6 +785,35 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
             let grid = generate::warped(d, seed);
             write_grid(&output, &grid, "vts", quiet)
         }
+        GenCmd::Faulted {
+            dims,
+            faults,
+            seed,
+            output,
+        } => {
+            let d = parse_dims(&dims)?;
+            if faults > 1000 {
+                bail!("--faults must be at most 1000");
+            }
+            let g = generate::faulted(d, faults, seed);
+            let sp = spinner(quiet, format!("writing {}", output.display()));
+            let f = std::fs::File::create(&output)
+                .with_context(|| format!("cannot create {}", output.display()))?;
+            let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
+            io::grdecl::write_grdecl(&mut w, &g)
+                .and_then(|_| std::io::Write::flush(&mut w))
+                .with_context(|| format!("cannot write {}", output.display()))?;
+            sp.finish_and_clear();
+            if !quiet {
+                eprintln!(
+                    "wrote {} ({} cells, {} faults)",
+                    output.display(),
+                    g.cell_count(),
+                    faults
+                );
+            }
+            Ok(())
+        }
         GenCmd::Zoo {
             cells,
             seed,
@@ -795,6 +843,9 @@ fn timed(repeat: usize, mut f: impl FnMut() -> Result<SliceResult>) -> Result<(f
 fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
     if let Some(sizes) = &a.law {
         return bench_law(sizes, &a, quiet);
+    }
+    if a.load_only {
+        return bench_load(&a);
     }
     let field = parse_axis(&a.axis)?;
     let (grid, name, load_s) = load(&a.input, quiet)?;
@@ -881,6 +932,83 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// `bench --load-only`: GRDECL parse speed (one thread) and conversion time.
+fn bench_load(a: &BenchArgs) -> Result<()> {
+    let Some(path) = &a.input.grid else {
+        bail!("--load-only needs a corner-point grid file")
+    };
+    if !is_cornerpoint(path) {
+        bail!("--load-only is for corner-point input (.grdecl, .DATA, .EGRID)");
+    }
+    let t = Instant::now();
+    let cpu0 = thread_cpu_ns();
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    let (cp, bytes) = if ext.eq_ignore_ascii_case("egrid") {
+        let n = std::fs::metadata(path)?.len();
+        (io::egrid::read_egrid(path)?.grid, n)
+    } else {
+        let d = io::grdecl::read_grdecl(path)?;
+        (d.grid, d.bytes)
+    };
+    let parse_s = t.elapsed().as_secs_f64();
+    let parse_cpu_s = match (cpu0, thread_cpu_ns()) {
+        (Some(a), Some(b)) => Some((b - a) as f64 * 1e-9),
+        _ => None,
+    };
+    let hwm_parse = peak_rss_bytes();
+    let t = Instant::now();
+    let (grid, rep) = cp.to_grid()?;
+    let grid_s = t.elapsed().as_secs_f64();
+    let arrays = cp.coord.len() * 8
+        + cp.zcorn.len() * 8
+        + cp.actnum.as_ref().map_or(0, |x| x.len())
+        + cp.properties
+            .iter()
+            .map(|p| p.values.len() * 8)
+            .sum::<usize>();
+    let out = json!({
+        "file": path.display().to_string(), "bytes": bytes, "cells": cp.cell_count(),
+        "parse_s": parse_s, "parse_mb_per_s": bytes as f64 / parse_s / 1e6,
+        "array_bytes": arrays, "to_grid_s": grid_s, "output_cells": grid.cell_count(),
+        "vertices": grid.points.len(), "bulk_volume": rep.bulk_volume,
+        "parse_cpu_s": parse_cpu_s, "parse_mb_per_cpu_s": parse_cpu_s.map(|c| bytes as f64 / c / 1e6),
+        "peak_rss_after_parse": hwm_parse, "peak_rss_after_to_grid": peak_rss_bytes(),
+    });
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!(
+            "{}: {} bytes, {} cells; parse {:.3} s = {:.1} MB/s wall (1 thread; {:.1} MB/s per CPU second), arrays {} B, peak RSS after parse {:?} B; to_grid {:.3} s -> {} cells, {} vertices",
+            path.display(),
+            bytes,
+            cp.cell_count(),
+            parse_s,
+            bytes as f64 / parse_s / 1e6,
+            parse_cpu_s.map_or(f64::NAN, |c| bytes as f64 / c / 1e6),
+            arrays,
+            hwm_parse,
+            grid_s,
+            grid.cell_count(),
+            grid.points.len()
+        );
+    }
+    Ok(())
+}
+
+/// CPU time of the calling thread in ns (Linux schedstat), if available.
+fn thread_cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    s.split_whitespace().next()?.parse().ok()
+}
+
+/// The process's peak resident set size (Linux `VmHWM`), if available.
+fn peak_rss_bytes() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let l = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = l.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// Time per level against cut cells over grid sizes, with a least-squares fit.

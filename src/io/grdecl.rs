@@ -332,6 +332,52 @@ impl<'r> Lexer<'r> {
         }
     }
 
+    /// Plain numbers straight from the window into `sink`, until anything
+    /// else (a repeat, a comment, `/`, a word, the window's margin): then
+    /// the general path takes over. Same results as `next` + `parse_number`.
+    #[inline]
+    fn fast_values(&mut self, sink: &mut Sink) {
+        if self.pushed.is_some() || self.in_comment {
+            return;
+        }
+        let end = self.end;
+        let limit = if self.eof {
+            end
+        } else {
+            end.saturating_sub(MAX_TOKEN)
+        };
+        let b = &self.buf[..end];
+        let mut p = self.pos;
+        let mut line = self.line;
+        let mut bol = self.bol;
+        while p < limit {
+            let c = b[p];
+            if c <= b' ' {
+                if c == b'\n' {
+                    line += 1;
+                    bol = true;
+                } else {
+                    bol = false;
+                }
+                p += 1;
+                continue;
+            }
+            let Some((v, len)) = parse_prefix(&b[p..]) else {
+                break;
+            };
+            let q = p + len;
+            if q < end && b[q] > b' ' && b[q] != b'/' {
+                break;
+            }
+            sink.push(v, 1);
+            bol = false;
+            p = q;
+        }
+        self.pos = p;
+        self.line = line;
+        self.bol = bol;
+    }
+
     /// The next token. Tokens stay valid until the next call to `next`.
     fn next(&mut self) -> Result<Tok, GrdeclError> {
         if let Some(t) = self.pushed.take() {
@@ -453,6 +499,20 @@ const POW10: [f64; 23] = [
 /// Returns `None` for anything else; NaN and infinities come back as such
 /// (`nan`, `inf`), for the caller to reject.
 pub fn parse_number(t: &[u8]) -> Option<f64> {
+    match parse_prefix(t) {
+        Some((v, n)) if n == t.len() => Some(v),
+        Some(_) => None,
+        // Not on the fast path (nan, inf, junk, too many digits, a large
+        // exponent): the standard library decides on the whole token.
+        None => parse_slow(t),
+    }
+}
+
+/// The fast path: a number at the start of `t` with at most 19 significant
+/// digits and a decimal exponent within ±22 (exact by Clinger's rule), and
+/// the bytes it used. `None` when the fast path does not apply.
+#[inline(always)]
+fn parse_prefix(t: &[u8]) -> Option<(f64, usize)> {
     let n = t.len();
     let mut i = 0;
     let neg = match t.first() {
@@ -500,7 +560,7 @@ pub fn parse_number(t: &[u8]) -> Option<f64> {
         }
     }
     if !any {
-        return parse_slow(t);
+        return None;
     }
     if i < n && matches!(t[i], b'e' | b'E' | b'd' | b'D') {
         i += 1;
@@ -526,11 +586,8 @@ pub fn parse_number(t: &[u8]) -> Option<f64> {
         }
         exp = exp.saturating_add(if eneg { -e } else { e });
     }
-    if i != n {
-        return None;
-    }
     if digits > 19 || mant >= 1 << 53 || !(-22..=22).contains(&exp) {
-        return parse_slow(t);
+        return None;
     }
     let m = mant as f64;
     let v = if exp >= 0 {
@@ -538,7 +595,7 @@ pub fn parse_number(t: &[u8]) -> Option<f64> {
     } else {
         m / POW10[(-exp) as usize]
     };
-    Some(if neg { -v } else { v })
+    Some((if neg { -v } else { v }, i))
 }
 
 fn parse_slow(t: &[u8]) -> Option<f64> {
@@ -1065,6 +1122,7 @@ fn read_values(
         found: 0,
     };
     loop {
+        lx.fast_values(&mut sink);
         let t = lx.next()?;
         match t.kind {
             Kind::Slash => break,
