@@ -444,6 +444,12 @@ fn sew(
                         if d as usize == c {
                             continue;
                         }
+                        // Cheap filter before sorting face keys: d must hold
+                        // the face's two next-smallest vertices too.
+                        let dv = &verts[voff[d as usize] as usize..voff[d as usize + 1] as usize];
+                        if !dv.contains(&key[1]) || !dv.contains(&key[2]) {
+                            continue;
+                        }
                         let md = catalog.get(metas[d as usize]);
                         for g in &md.faces {
                             if g.len() == k

@@ -381,11 +381,18 @@ fn memory_json(s: &Structure, grid: &Grid) -> (Value, usize) {
 }
 
 fn cmd_info(a: InfoArgs) -> Result<()> {
+    let cpu0 = process_cpu_ns();
     let (grid, name, load_s, cp) = load_with_info(&a.input, true)?;
+    let cpu1 = process_cpu_ns();
     let t = Instant::now();
     let s = Structure::build(&grid, a.structure.into())
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let build_s = t.elapsed().as_secs_f64();
+    let cpu2 = process_cpu_ns();
+    let cpu_s = |a: Option<u64>, b: Option<u64>| match (a, b) {
+        (Some(a), Some(b)) => Some(b.saturating_sub(a) as f64 * 1e-9),
+        _ => None,
+    };
     let bulk_volume = match &cp {
         Some(i) => i["bulk_volume"].as_f64().unwrap_or(0.0),
         None => live_volume(&s),
@@ -442,6 +449,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         "bytes_per_vertex": total as f64 / nv as f64,
         "bytes_per_cell": total as f64 / nc as f64,
         "timings_s": {"load": load_s, "build": build_s},
+        "cpu_s": {"load": cpu_s(cpu0, cpu1), "build": cpu_s(cpu1, cpu2)},
         "bulk_volume": bulk_volume,
         "cornerpoint": cp,
     });
@@ -995,6 +1003,18 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// CPU time of all threads of this process in ns (Linux schedstat, summed
+/// over `/proc/self/task`), if available: robust to other load on the machine.
+fn process_cpu_ns() -> Option<u64> {
+    let mut sum = 0;
+    for t in std::fs::read_dir("/proc/self/task").ok()? {
+        let p = t.ok()?.path().join("schedstat");
+        let s = std::fs::read_to_string(p).ok()?;
+        sum += s.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(sum)
 }
 
 /// CPU time of the calling thread in ns (Linux schedstat), if available.
