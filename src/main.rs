@@ -134,6 +134,48 @@ struct SliceArgs {
     /// Statistics JSON.
     #[arg(long)]
     stats: Option<PathBuf>,
+    /// Where a cell property (--attribute, else --property) is carried:
+    /// `vertices` = volume-weighted average over the cells that really share
+    /// each vertex (never across a fault); `cells` = flat, one value per
+    /// polygon from its source cell (polygon vertices are then not shared).
+    #[arg(long, value_enum, default_value = "vertices")]
+    at: AtArg,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq)]
+enum AtArg {
+    Vertices,
+    Cells,
+}
+
+/// One value per polygon from its source cell: every polygon gets its own
+/// copies of its vertices, all carrying the cell's value.
+fn flatten_by_cell(
+    m: &stratasweep::mesh::PolyMesh,
+    cell_values: &[f64],
+) -> stratasweep::mesh::PolyMesh {
+    let mut out = stratasweep::mesh::PolyMesh {
+        origin: m.origin,
+        property_name: m.property_name.clone(),
+        poly_level: m.poly_level.clone(),
+        level_values: m.level_values.clone(),
+        poly_cell: m.poly_cell.clone(),
+        ..Default::default()
+    };
+    out.poly_offsets.push(0);
+    for p in 0..m.polygon_count() {
+        let v = cell_values
+            .get(m.poly_cell[p] as usize)
+            .copied()
+            .unwrap_or(f64::NAN) as f32;
+        for &i in m.polygon(p) {
+            out.poly_indices.push(out.positions.len() as u32);
+            out.positions.push(m.positions[i as usize]);
+            out.values.push(v);
+        }
+        out.poly_offsets.push(out.poly_indices.len() as u32);
+    }
+    out
 }
 
 #[derive(Subcommand)]
@@ -722,6 +764,18 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     let stats = stats_json(&r, &s, &grid, load_s, build_s, &name, &field);
     if let Some(out) = &a.output {
         let mesh = r.mesh.as_ref().expect("collected");
+        let flat;
+        let mesh = if a.at == AtArg::Cells {
+            let name = a.attribute.clone().or(a.field.property.clone());
+            let Some(p) = name.as_deref().and_then(|n| grid.cell_property(n)) else {
+                bail!("--at cells needs a cell property named by --attribute or --property");
+            };
+            let vals: Vec<f64> = (0..p.len()).map(|i| p.scalar_at(i)).collect();
+            flat = flatten_by_cell(mesh, &vals);
+            &flat
+        } else {
+            mesh
+        };
         let sp = spinner(quiet, format!("writing {}", out.display()));
         match out.extension().and_then(|e| e.to_str()) {
             Some("ply") => io::writers::write_ply(out, mesh)?,

@@ -212,12 +212,19 @@ impl MetaCell {
                     }
                     let mut e = start;
                     let mut len = 0u8;
+                    let at = mc.config.len();
                     while next[e] != u8::MAX {
                         mc.config.push(e as u8);
                         len += 1;
                         let n = next[e] as usize;
                         next[e] = u8::MAX;
                         e = n;
+                    }
+                    if len < 3 {
+                        // Two faces sharing two edges (a pinched corner-point
+                        // cell): the loop is a doubled segment with no area.
+                        mc.config.truncate(at);
+                        continue;
                     }
                     mc.config_size.push(len);
                     mc.loop_start.push(mc.config.len() as u32);

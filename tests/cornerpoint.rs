@@ -248,6 +248,24 @@ fn three_collapsed_pillar_edges() {
     let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
     let Structure::CGraph(cg) = &s else { panic!() };
     assert_eq!(cg.class_counts, [1, 0, 0, 0, 0]);
+    // Planes near the pinched corners cut the two faces that share two
+    // edges: such zero-area two-point loops must not be emitted.
+    for axis in 0..3 {
+        let req = SliceRequest {
+            field: FieldSpec::Axis {
+                axis,
+                negative: false,
+            },
+            levels: LevelSpec::Count(97),
+            attribute: None,
+            threads: 1,
+            brute_force: false,
+            collect_mesh: true,
+        };
+        let m = slice(&grid, &s, &req, &|_| {}).unwrap().mesh.unwrap();
+        assert!(m.polygon_count() > 0);
+        assert!((0..m.polygon_count()).all(|p| m.polygon(p).len() >= 3));
+    }
 }
 
 fn reek(data: &std::path::Path) -> stratasweep::io::grdecl::GrdeclDeck {
@@ -294,6 +312,20 @@ fn reek_grdecl_counts_volume_and_cavalieri() {
         "{:?}",
         cg.class_counts
     );
+    // Every emitted polygon has at least 3 vertices (pinched cells included).
+    let req = SliceRequest {
+        field: FieldSpec::Axis {
+            axis: 2,
+            negative: false,
+        },
+        levels: LevelSpec::Count(50),
+        attribute: Some("PORO".into()),
+        threads: 1,
+        brute_force: false,
+        collect_mesh: true,
+    };
+    let m = slice(&grid, &s, &req, &|_| {}).unwrap().mesh.unwrap();
+    assert!((0..m.polygon_count()).all(|p| m.polygon(p).len() >= 3));
     // Cavalieri: Σ area_k · Δ → bulk volume.
     let mut errs = Vec::new();
     for k in [50, 400] {
