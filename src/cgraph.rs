@@ -445,16 +445,16 @@ fn sew(
                             continue;
                         }
                         // Cheap filter before sorting face keys: d must hold
-                        // the face's two next-smallest vertices too.
+                        // every vertex of the face.
                         let dv = &verts[voff[d as usize] as usize..voff[d as usize + 1] as usize];
-                        if !dv.contains(&key[1]) || !dv.contains(&key[2]) {
+                        if !key[1..k].iter().all(|v| dv.contains(v)) {
                             continue;
                         }
                         let md = catalog.get(metas[d as usize]);
                         for g in &md.faces {
                             if g.len() == k
                                 && face_key(d as usize, g, &mut other) == k
-                                && other[..k] == key[..k]
+                                && other[..k].iter().zip(&key[..k]).all(|(a, b)| a == b)
                             {
                                 return d;
                             }

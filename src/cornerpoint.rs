@@ -390,34 +390,51 @@ impl CornerPointGrid {
         [c[0] + t * (c[3] - c[0]), c[1] + t * (c[4] - c[1]), depth]
     }
 
-    /// World position (MAPAXES applied, z = −depth) of grid coordinates.
-    #[inline]
-    pub fn to_world(&self, p: [f64; 3]) -> [f64; 3] {
+    /// The map transform `[ox, oy, ux, uy, vx, vy]`: origin and unit X and
+    /// Y axes from MAPAXES (identity without MAPAXES).
+    fn transform(&self) -> [f64; 6] {
         match self.mapaxes {
-            None => [p[0], p[1], -p[2]],
+            None => [0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
             Some(m) => {
                 let (ox, oy) = (m[2], m[3]);
                 let (ax, ay) = (m[4] - ox, m[5] - oy);
                 let (bx, by) = (m[0] - ox, m[1] - oy);
                 let la = (ax * ax + ay * ay).sqrt();
                 let lb = (bx * bx + by * by).sqrt();
-                let (ux, uy) = (ax / la, ay / la);
-                let (vx, vy) = (bx / lb, by / lb);
-                [
-                    ox + p[0] * ux + p[1] * vx,
-                    oy + p[0] * uy + p[1] * vy,
-                    -p[2],
-                ]
+                [ox, oy, ax / la, ay / la, bx / lb, by / lb]
             }
         }
     }
 
+    #[inline(always)]
+    fn apply(t: &[f64; 6], p: [f64; 3]) -> [f64; 3] {
+        if t == &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0] {
+            return [p[0], p[1], -p[2]];
+        }
+        [
+            t[0] + p[0] * t[2] + p[1] * t[4],
+            t[1] + p[0] * t[3] + p[1] * t[5],
+            -p[2],
+        ]
+    }
+
+    /// World position (MAPAXES applied, z = −depth) of grid coordinates.
+    #[inline]
+    pub fn to_world(&self, p: [f64; 3]) -> [f64; 3] {
+        Self::apply(&self.transform(), p)
+    }
+
     /// World positions of the 8 corners of cell (i, j, k), corner-point order.
     pub fn cell_corners(&self, i: usize, j: usize, k: usize) -> [[f64; 3]; 8] {
+        self.corners_with(&self.transform(), i, j, k)
+    }
+
+    #[inline]
+    fn corners_with(&self, t: &[f64; 6], i: usize, j: usize, k: usize) -> [[f64; 3]; 8] {
         std::array::from_fn(|c| {
             let (ii, jj) = (c & 1, c >> 1 & 1);
             let z = self.zcorn[self.zcorn_index(i, j, k, c)];
-            self.to_world(self.on_pillar(self.pillar_index(i + ii, j + jj), z))
+            Self::apply(t, self.on_pillar(self.pillar_index(i + ii, j + jj), z))
         })
     }
 
@@ -434,18 +451,34 @@ impl CornerPointGrid {
         self.validate()?;
         let [nx, ny, nz] = self.dims;
         let n = nx * ny * nz;
-        // Pass 1: signed volumes (parallel over layers).
-        let vols: Vec<f64> = (0..n)
+        // Pass 1 (parallel): signed volume, extent and collapse pattern.
+        let tr = self.transform();
+        let per_cell: Vec<(f64, f64, u8)> = (0..n)
             .into_par_iter()
             .map(|c| {
                 if !self.is_active(c) {
-                    return 0.0;
+                    return (0.0, 0.0, 0);
                 }
                 let (i, j, k) = (c % nx, c / nx % ny, c / (nx * ny));
-                self.cell_volume(i, j, k)
+                let corners = self.corners_with(&tr, i, j, k);
+                let mut ext = 0.0f64;
+                for q in &corners {
+                    for a in 0..3 {
+                        ext = ext.max((q[a] - corners[0][a]).abs());
+                    }
+                }
+                let mut m = 0u8;
+                for p in 0..4 {
+                    if self.zcorn[self.zcorn_index(i, j, k, p)]
+                        == self.zcorn[self.zcorn_index(i, j, k, p + 4)]
+                    {
+                        m |= 1 << p;
+                    }
+                }
+                (trilinear_volume(&corners), ext, m)
             })
             .collect();
-        let total: f64 = vols.iter().sum();
+        let total: f64 = per_cell.iter().map(|x| x.0).sum();
         let left = total <= 0.0;
         let order = if left {
             &VTK_ORDER_LEFT
@@ -468,26 +501,11 @@ impl CornerPointGrid {
                 continue;
             }
             rep.active += 1;
-            let (i, j, k) = (c % nx, c / nx % ny, c / (nx * ny));
-            let mut m = 0u8;
-            for p in 0..4 {
-                if self.zcorn[self.zcorn_index(i, j, k, p)]
-                    == self.zcorn[self.zcorn_index(i, j, k, p + 4)]
-                {
-                    m |= 1 << p;
-                }
-            }
+            let (vol, ext, m) = per_cell[c];
             if m != 0 {
                 rep.collapsed += 1;
             }
-            let corners = self.cell_corners(i, j, k);
-            let mut ext = 0.0f64;
-            for q in &corners {
-                for a in 0..3 {
-                    ext = ext.max((q[a] - corners[0][a]).abs());
-                }
-            }
-            let v = vols[c] * sign;
+            let v = vol * sign;
             if matches!(shapes[m as usize], Shape::Flat) || v.abs() <= 1e-12 * ext * ext * ext {
                 rep.zero_volume += 1;
                 continue;
@@ -539,10 +557,11 @@ impl CornerPointGrid {
         if acc >= u32::MAX as usize {
             return Err(CornerPointError::BadDims(self.dims));
         }
+        drop(per_cell);
         let mut points = Vec::with_capacity(acc);
         for (p, d) in per_pillar.iter().enumerate() {
             for &z in d {
-                points.push(self.to_world(self.on_pillar(p, z)));
+                points.push(Self::apply(&tr, self.on_pillar(p, z)));
             }
         }
         rep.vertices = acc;
