@@ -136,6 +136,12 @@ fn polyhedron_local_faces(
         faces.push(face);
         p += 1 + n;
     }
+    if consistently_oriented(&faces) {
+        // Already a closed, consistently oriented surface (e.g. corner-point
+        // cells with collapsed edges): keep it; `CGraph::build` flips the
+        // whole cell if its volume comes out negative.
+        return Ok((local, faces));
+    }
     let pt = |l: u8| points[local[l as usize] as usize];
     let mut c = [0.0; 3];
     for &g in &local {
@@ -160,6 +166,24 @@ fn polyhedron_local_faces(
         }
     }
     Ok((local, faces))
+}
+
+/// True when every directed edge of the face loops is used exactly once and
+/// its reverse exactly once (a closed, consistently oriented surface).
+fn consistently_oriented(faces: &[Vec<u8>]) -> bool {
+    let mut directed: Vec<(u8, u8)> = Vec::new();
+    for f in faces {
+        for i in 0..f.len() {
+            directed.push((f[i], f[(i + 1) % f.len()]));
+        }
+    }
+    directed.sort_unstable();
+    if directed.windows(2).any(|w| w[0] == w[1]) {
+        return false;
+    }
+    directed
+        .iter()
+        .all(|&(a, b)| directed.binary_search(&(b, a)).is_ok())
 }
 
 impl CGraph {
@@ -366,11 +390,17 @@ fn sew(
                         if d as usize == c {
                             continue;
                         }
+                        // Cheap filter before sorting face keys: d must hold
+                        // every vertex of the face.
+                        let dv = &verts[voff[d as usize] as usize..voff[d as usize + 1] as usize];
+                        if !key[1..k].iter().all(|v| dv.contains(v)) {
+                            continue;
+                        }
                         let md = catalog.get(metas[d as usize]);
                         for g in &md.faces {
                             if g.len() == k
                                 && face_key(d as usize, g, &mut other) == k
-                                && other[..k] == key[..k]
+                                && other[..k].iter().zip(&key[..k]).all(|(a, b)| a == b)
                             {
                                 return d;
                             }

@@ -360,3 +360,144 @@ pub fn zoo(cells: usize, seed: u64) -> Grid {
         cell_data: Vec::new(),
     }
 }
+
+/// A synthetic faulted corner-point reservoir of `dims` cells (NI, NJ, NK):
+/// gently folded layers of varying thickness that pinch out (zero-thickness
+/// corners, so wedges and collapsed cells appear), `faults` vertical faults
+/// along cell faces with throws of 5–40 m, inactive cells (a few percent,
+/// plus every cell pinched to zero thickness), slightly inclined pillars, a
+/// MAPAXES to UTM-like coordinates, and a `PORO` field correlated with the
+/// layers (per-layer mean and a lateral trend, plus a little noise).
+///
+/// Depths are rounded to millimetres, as simulators export them, so a GRDECL
+/// round trip is exact. Deterministic in `(dims, faults, seed)`.
+///
+/// # Panics
+/// If any of `dims` is zero.
+pub fn faulted(dims: [usize; 3], faults: usize, seed: u64) -> crate::cornerpoint::CornerPointGrid {
+    let [nx, ny, nz] = dims;
+    assert!(nx > 0 && ny > 0 && nz > 0, "dims must be positive");
+    let mut rng = SplitMix64::new(seed, 0xFA17);
+    let (dx, dy) = (50.0, 50.0);
+    let (lx, ly) = (nx as f64 * dx, ny as f64 * dy);
+    // Pillars: tops at depth 1500, bottoms at 2500, tilted a little.
+    let tilt = [rng.range(-40.0, 40.0), rng.range(-40.0, 40.0)];
+    let mut coord = Vec::with_capacity(6 * (nx + 1) * (ny + 1));
+    for pj in 0..=ny {
+        for pi in 0..=nx {
+            let (x, y) = (pi as f64 * dx, pj as f64 * dy);
+            let s = 0.5 * ((x / lx) + (y / ly));
+            coord.extend_from_slice(&[x, y, 1500.0]);
+            coord.extend_from_slice(&[x + tilt[0] * s, y + tilt[1] * s, 2500.0]);
+        }
+    }
+    // Folding and thickness fields as functions of the pillar position.
+    let (ax, ay) = (rng.range(0.6, 1.6), rng.range(0.6, 1.6));
+    let (phx, phy) = (
+        rng.range(0.0, std::f64::consts::TAU),
+        rng.range(0.0, std::f64::consts::TAU),
+    );
+    let amp = rng.range(20.0, 60.0);
+    let total = 120.0 + 0.5 * nz as f64;
+    let base_t = total / nz as f64;
+    let layer_q: Vec<f64> = (0..nz).map(|_| rng.range(0.0, 1.0)).collect();
+    let layer_f: Vec<[f64; 3]> = (0..nz)
+        .map(|_| {
+            [
+                rng.range(0.5, 3.0),
+                rng.range(0.5, 3.0),
+                rng.range(0.0, std::f64::consts::TAU),
+            ]
+        })
+        .collect();
+    let fold = |x: f64, y: f64| {
+        amp * (std::f64::consts::TAU * ax * x / lx + phx).sin()
+            * (std::f64::consts::TAU * ay * y / ly + phy).cos()
+            + 0.01 * x
+    };
+    // Thickness of layer k at (x, y): may go negative → pinched (0).
+    let thick = |k: usize, x: f64, y: f64| {
+        let [fx, fy, ph] = layer_f[k];
+        let w = (std::f64::consts::TAU * (fx * x / lx + fy * y / ly) + ph).sin();
+        (base_t * (1.0 + 1.3 * w)).max(0.0)
+    };
+    // Faults: lines in pillar-index space; cells on the positive side drop.
+    let flines: Vec<([f64; 3], f64)> = (0..faults)
+        .map(|_| {
+            let ang = rng.range(0.0, std::f64::consts::PI);
+            let (a, b) = (ang.cos(), ang.sin());
+            let (cx, cy) = (
+                rng.range(0.15, 0.85) * nx as f64,
+                rng.range(0.15, 0.85) * ny as f64,
+            );
+            ([a, b, a * cx + b * cy], rng.sign() * rng.range(5.0, 40.0))
+        })
+        .collect();
+    let throw_of = |i: usize, j: usize| -> f64 {
+        flines
+            .iter()
+            .filter(|(l, _)| l[0] * (i as f64 + 0.5) + l[1] * (j as f64 + 0.5) > l[2])
+            .map(|(_, t)| *t)
+            .sum()
+    };
+    // Horizon depths per pillar: h[k][p], k = 0..=nz.
+    let npx = nx + 1;
+    let np = npx * (ny + 1);
+    let mut h = vec![0.0f64; np * (nz + 1)];
+    for p in 0..np {
+        let (x, y) = ((p % npx) as f64 * dx, (p / npx) as f64 * dy);
+        let mut d = 1600.0 + fold(x, y);
+        h[p] = d;
+        for k in 0..nz {
+            d += thick(k, x, y);
+            h[(k + 1) * np + p] = d;
+        }
+    }
+    let round = |v: f64| (v * 1000.0).round() / 1000.0;
+    let mut zcorn = vec![0.0; 8 * nx * ny * nz];
+    let mut actnum = vec![1u8; nx * ny * nz];
+    let mut poro = vec![0.0; nx * ny * nz];
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let t = throw_of(i, j);
+                let c = i + nx * (j + ny * k);
+                let mut pinched = true;
+                for corner in 0..8 {
+                    let (ii, jj, kk) = (corner & 1, corner >> 1 & 1, corner >> 2);
+                    let p = (i + ii) + npx * (j + jj);
+                    let z = (2 * k + kk) * 4 * nx * ny + (2 * j + jj) * 2 * nx + 2 * i + ii;
+                    zcorn[z] = round(h[(k + kk) * np + p] + t);
+                    if kk == 1 && zcorn[z] != zcorn[z - 4 * nx * ny] {
+                        pinched = false;
+                    }
+                }
+                let r = hash_unit(seed, 0xAC7, c as u64);
+                if pinched || r < 0.02 || (i < nx / 8 && j < ny / 8) {
+                    actnum[c] = 0;
+                }
+                let trend = 0.05 * ((i as f64 / nx as f64) - (j as f64 / ny as f64));
+                let noise = 0.02 * (hash_unit(seed, 0x9090, c as u64) - 0.5);
+                poro[c] = (0.08 + 0.22 * layer_q[k] + trend + noise).clamp(0.01, 0.4);
+                poro[c] = (poro[c] * 1e4).round() / 1e4;
+            }
+        }
+    }
+    crate::cornerpoint::CornerPointGrid {
+        dims,
+        coord: coord.into_iter().map(round).collect(),
+        zcorn,
+        actnum: Some(actnum),
+        mapaxes: Some([
+            461_000.0,
+            5_932_000.0,
+            461_000.0,
+            5_931_000.0,
+            462_000.0,
+            5_931_000.0,
+        ]),
+        mapunits: Some("METRES".into()),
+        gridunit: Some("METRES".into()),
+        properties: vec![Property::scalar("PORO", poro)],
+    }
+}

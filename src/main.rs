@@ -52,7 +52,7 @@ enum Cmd {
 
 #[derive(Args)]
 struct GridArg {
-    /// Grid file (.vtk legacy, .vtu, .vts).
+    /// Grid file (.vtk legacy, .vtu, .vts; Eclipse .grdecl, .DATA, .inc, .EGRID).
     grid: Option<PathBuf>,
     /// Use the built-in demo grid (a warped 64³ curvilinear grid carrying the Marschner–Lobb signal `f`).
     #[arg(long, conflicts_with = "grid")]
@@ -147,6 +147,48 @@ struct SliceArgs {
     /// GPU adapter name (substring); `WGPU_BACKEND` picks backends.
     #[arg(long)]
     adapter: Option<String>,
+    /// Where a cell property (--attribute, else --property) is carried:
+    /// `vertices` = volume-weighted average over the cells that really share
+    /// each vertex (never across a fault); `cells` = flat, one value per
+    /// polygon from its source cell (polygon vertices are then not shared).
+    #[arg(long, value_enum, default_value = "vertices")]
+    at: AtArg,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq)]
+enum AtArg {
+    Vertices,
+    Cells,
+}
+
+/// One value per polygon from its source cell: every polygon gets its own
+/// copies of its vertices, all carrying the cell's value.
+fn flatten_by_cell(
+    m: &stratasweep::mesh::PolyMesh,
+    cell_values: &[f64],
+) -> stratasweep::mesh::PolyMesh {
+    let mut out = stratasweep::mesh::PolyMesh {
+        origin: m.origin,
+        property_name: m.property_name.clone(),
+        poly_level: m.poly_level.clone(),
+        level_values: m.level_values.clone(),
+        poly_cell: m.poly_cell.clone(),
+        ..Default::default()
+    };
+    out.poly_offsets.push(0);
+    for p in 0..m.polygon_count() {
+        let v = cell_values
+            .get(m.poly_cell[p] as usize)
+            .copied()
+            .unwrap_or(f64::NAN) as f32;
+        for &i in m.polygon(p) {
+            out.poly_indices.push(out.positions.len() as u32);
+            out.positions.push(m.positions[i as usize]);
+            out.values.push(v);
+        }
+        out.poly_offsets.push(out.poly_indices.len() as u32);
+    }
+    out
 }
 
 #[derive(Subcommand)]
@@ -172,6 +214,21 @@ enum GenCmd {
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Output .vtu.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// A faulted corner-point reservoir (folded layers, faults with throw, pinch-outs, inactive cells, PORO) as GRDECL.
+    Faulted {
+        /// Cells NI,NJ,NK.
+        #[arg(long)]
+        dims: String,
+        /// Number of faults.
+        #[arg(long, default_value_t = 3)]
+        faults: usize,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output .grdecl.
         #[arg(short, long)]
         output: PathBuf,
     },
@@ -223,6 +280,10 @@ struct BenchArgs {
     /// GPU adapter name (substring).
     #[arg(long)]
     adapter: Option<String>,
+    /// Corner-point input only: time the parse (one core) and the
+    /// conversion to a zoo grid, then stop.
+    #[arg(long)]
+    load_only: bool,
 }
 
 fn main() {
@@ -245,7 +306,59 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
+    let (g, n, s, _) = load_with_info(input, quiet)?;
+    Ok((g, n, s))
+}
+
+/// True for paths read as Eclipse corner-point input (GRDECL text, decks,
+/// includes, EGRID); VTK files keep their readers.
+fn is_cornerpoint(path: &Path) -> bool {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    !matches!(ext.as_str(), "vtk" | "vtu" | "vts")
+}
+
+/// Reads a corner-point grid (GRDECL, .DATA deck, EGRID) into a zoo grid,
+/// with a JSON summary: per-class counts, bulk volume, skipped keywords.
+fn load_cornerpoint(path: &Path) -> Result<(Grid, Value)> {
     let t = Instant::now();
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    let (cp, extra) = if ext.eq_ignore_ascii_case("egrid") || ext.eq_ignore_ascii_case("fegrid") {
+        let e = io::egrid::read_egrid(path)?;
+        let extra =
+            json!({"format": "egrid", "init": e.init.as_ref().map(|p| p.display().to_string())});
+        (e.grid, extra)
+    } else {
+        let d = io::grdecl::read_grdecl(path)?;
+        let s = t.elapsed().as_secs_f64();
+        let extra = json!({
+            "format": "grdecl", "files": d.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+            "skipped_keywords": d.skipped, "text_bytes": d.bytes, "parse_s": s,
+            "parse_mb_per_s": d.bytes as f64 / s.max(1e-9) / 1e6,
+        });
+        (d.grid, extra)
+    };
+    let read_s = t.elapsed().as_secs_f64();
+    let (grid, rep) = cp.to_grid()?;
+    let mut classes = serde_json::Map::new();
+    for (k, v) in rep.class_counts() {
+        classes.insert(k.into(), json!(v));
+    }
+    let info = json!({
+        "dims": cp.dims, "classes": classes, "vertices": rep.vertices,
+        "bulk_volume": rep.bulk_volume, "mapaxes": cp.mapaxes, "mapunits": cp.mapunits,
+        "gridunit": cp.gridunit, "ijk_right_handed_up": rep.ijk_right_handed_up,
+        "read_s": read_s, "to_grid_s": t.elapsed().as_secs_f64() - read_s, "input": extra,
+    });
+    Ok((grid, info))
+}
+
+fn load_with_info(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64, Option<Value>)> {
+    let t = Instant::now();
+    let mut info = None;
     let (grid, name) = if input.demo {
         (
             generate::warped(DEMO_DIMS, 1),
@@ -259,14 +372,21 @@ fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
             bail!("give a grid file, or --demo for the built-in grid")
         };
         let sp = spinner(quiet, format!("reading {}", path.display()));
-        let g = io::vtk_read::read_vtk(path)
-            .with_context(|| format!("cannot load {}", path.display()))?;
+        let g = if is_cornerpoint(path) {
+            let (g, i) = load_cornerpoint(path)
+                .with_context(|| format!("cannot load {}", path.display()))?;
+            info = Some(i);
+            g
+        } else {
+            io::vtk_read::read_vtk(path)
+                .with_context(|| format!("cannot load {}", path.display()))?
+        };
         sp.finish_and_clear();
         (g, path.display().to_string())
     };
     grid.validate()
         .with_context(|| format!("invalid grid {name}"))?;
-    Ok((grid, name, t.elapsed().as_secs_f64()))
+    Ok((grid, name, t.elapsed().as_secs_f64(), info))
 }
 
 fn spinner(quiet: bool, msg: String) -> ProgressBar {
@@ -340,11 +460,22 @@ fn memory_json(s: &Structure, grid: &Grid) -> (Value, usize) {
 }
 
 fn cmd_info(a: InfoArgs) -> Result<()> {
-    let (grid, name, load_s) = load(&a.input, true)?;
+    let cpu0 = process_cpu_ns();
+    let (grid, name, load_s, cp) = load_with_info(&a.input, true)?;
+    let cpu1 = process_cpu_ns();
     let t = Instant::now();
     let s = Structure::build(&grid, a.structure.into())
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let build_s = t.elapsed().as_secs_f64();
+    let cpu2 = process_cpu_ns();
+    let cpu_s = |a: Option<u64>, b: Option<u64>| match (a, b) {
+        (Some(a), Some(b)) => Some(b.saturating_sub(a) as f64 * 1e-9),
+        _ => None,
+    };
+    let bulk_volume = match &cp {
+        Some(i) => i["bulk_volume"].as_f64().unwrap_or(0.0),
+        None => live_volume(&s),
+    };
     let mut types = serde_json::Map::new();
     match &grid.topology {
         Topology::Structured { .. } => {
@@ -422,6 +553,9 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             "per_cell": cell_part as f64 / nc as f64,
         },
         "timings_s": {"load": load_s, "build": build_s},
+        "cpu_s": {"load": cpu_s(cpu0, cpu1), "build": cpu_s(cpu1, cpu2)},
+        "bulk_volume": bulk_volume,
+        "cornerpoint": cp,
     });
     let mut out = out;
     if let Structure::Ciel(g) = &s {
@@ -442,6 +576,14 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         println!("    {k:<18} {v}");
     }
     println!("  cell classes  {}", out["cell_classes"]);
+    println!("  bulk volume   {bulk_volume}");
+    if let Some(i) = &cp {
+        println!(
+            "  corner-point  dims {} classes {}",
+            i["dims"], i["classes"]
+        );
+        println!("    skipped keywords {}", i["input"]["skipped_keywords"]);
+    }
     println!("  bounds        {lo:?} .. {hi:?}");
     println!(
         "  properties    point {} / cell {}",
@@ -475,6 +617,40 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         println!("  ciel          {}", out["ciel"]);
     }
     Ok(())
+}
+
+/// Sum of |volume| of the live cells, from their meta-cells (exact for
+/// planar faces), in world units³.
+fn live_volume(s: &Structure) -> f64 {
+    use stratasweep::sweep::CellGraph;
+    fn sum<G: CellGraph>(g: &G) -> f64 {
+        let pos = g.positions();
+        let mut ids = [0u32; stratasweep::metacell::MAX_META_VERTICES];
+        let mut v = 0.0;
+        for c in 0..g.slot_count() as u32 {
+            if g.is_live(c) {
+                let (m, _) = g.cell(c, &mut ids);
+                let p0 = pos[ids[0] as usize];
+                v += g
+                    .catalog()
+                    .get(m)
+                    .signed_volume(&|k| {
+                        let p = pos[ids[k] as usize];
+                        [0, 1, 2].map(|a| (p[a] - p0[a]) as f64)
+                    })
+                    .abs();
+            }
+        }
+        v
+    }
+    match s {
+        Structure::SCGraph(g) => sum(g),
+        Structure::CGraph(g) => sum(g),
+        Structure::Ciel(g) => (0..g.cell_count() as u32)
+            .filter(|&c| g.is_live(c))
+            .map(|c| g.cell_volume(c).abs())
+            .sum(),
+    }
 }
 
 /// Cells per meta-cell id for a grid of `n` hexahedra (S-CGraph).
@@ -684,6 +860,18 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     let stats = stats_json(&r, &s, &grid, load_s, build_s, &name, &field);
     if let Some(out) = &a.output {
         let mesh = r.mesh.as_ref().expect("collected");
+        let flat;
+        let mesh = if a.at == AtArg::Cells {
+            let name = a.attribute.clone().or(a.field.property.clone());
+            let Some(p) = name.as_deref().and_then(|n| grid.cell_property(n)) else {
+                bail!("--at cells needs a cell property named by --attribute or --property");
+            };
+            let vals: Vec<f64> = (0..p.len()).map(|i| p.scalar_at(i)).collect();
+            flat = flatten_by_cell(mesh, &vals);
+            &flat
+        } else {
+            mesh
+        };
         let sp = spinner(quiet, format!("writing {}", out.display()));
         match out.extension().and_then(|e| e.to_str()) {
             Some("ply") => io::writers::write_ply(out, mesh)?,
@@ -755,6 +943,35 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
             let grid = generate::warped(d, seed);
             write_grid(&output, &grid, "vts", quiet)
         }
+        GenCmd::Faulted {
+            dims,
+            faults,
+            seed,
+            output,
+        } => {
+            let d = parse_dims(&dims)?;
+            if faults > 1000 {
+                bail!("--faults must be at most 1000");
+            }
+            let g = generate::faulted(d, faults, seed);
+            let sp = spinner(quiet, format!("writing {}", output.display()));
+            let f = std::fs::File::create(&output)
+                .with_context(|| format!("cannot create {}", output.display()))?;
+            let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
+            io::grdecl::write_grdecl(&mut w, &g)
+                .and_then(|_| std::io::Write::flush(&mut w))
+                .with_context(|| format!("cannot write {}", output.display()))?;
+            sp.finish_and_clear();
+            if !quiet {
+                eprintln!(
+                    "wrote {} ({} cells, {} faults)",
+                    output.display(),
+                    g.cell_count(),
+                    faults
+                );
+            }
+            Ok(())
+        }
         GenCmd::Zoo {
             cells,
             seed,
@@ -806,6 +1023,9 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
     }
     if let Some(devices) = &a.device {
         return gpu_cmd::cmd_bench_devices(&a, devices, quiet);
+    }
+    if a.load_only {
+        return bench_load(&a);
     }
     let field = parse_axis(&a.axis)?;
     let (grid, name, load_s) = load(&a.input, quiet)?;
@@ -892,6 +1112,95 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// `bench --load-only`: GRDECL parse speed (one thread) and conversion time.
+fn bench_load(a: &BenchArgs) -> Result<()> {
+    let Some(path) = &a.input.grid else {
+        bail!("--load-only needs a corner-point grid file")
+    };
+    if !is_cornerpoint(path) {
+        bail!("--load-only is for corner-point input (.grdecl, .DATA, .EGRID)");
+    }
+    let t = Instant::now();
+    let cpu0 = thread_cpu_ns();
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    let (cp, bytes) = if ext.eq_ignore_ascii_case("egrid") {
+        let n = std::fs::metadata(path)?.len();
+        (io::egrid::read_egrid(path)?.grid, n)
+    } else {
+        let d = io::grdecl::read_grdecl(path)?;
+        (d.grid, d.bytes)
+    };
+    let parse_s = t.elapsed().as_secs_f64();
+    let parse_cpu_s = match (cpu0, thread_cpu_ns()) {
+        (Some(a), Some(b)) => Some((b - a) as f64 * 1e-9),
+        _ => None,
+    };
+    let hwm_parse = peak_rss_bytes();
+    let t = Instant::now();
+    let (grid, rep) = cp.to_grid()?;
+    let grid_s = t.elapsed().as_secs_f64();
+    let arrays = cp.coord.len() * 8
+        + cp.zcorn.len() * 8
+        + cp.actnum.as_ref().map_or(0, |x| x.len())
+        + cp.properties
+            .iter()
+            .map(|p| p.values.len() * 8)
+            .sum::<usize>();
+    let out = json!({
+        "file": path.display().to_string(), "bytes": bytes, "cells": cp.cell_count(),
+        "parse_s": parse_s, "parse_mb_per_s": bytes as f64 / parse_s / 1e6,
+        "array_bytes": arrays, "to_grid_s": grid_s, "output_cells": grid.cell_count(),
+        "vertices": grid.points.len(), "bulk_volume": rep.bulk_volume,
+        "parse_cpu_s": parse_cpu_s, "parse_mb_per_cpu_s": parse_cpu_s.map(|c| bytes as f64 / c / 1e6),
+        "peak_rss_after_parse": hwm_parse, "peak_rss_after_to_grid": peak_rss_bytes(),
+    });
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!(
+            "{}: {} bytes, {} cells; parse {:.3} s = {:.1} MB/s wall (1 thread; {:.1} MB/s per CPU second), arrays {} B, peak RSS after parse {:?} B; to_grid {:.3} s -> {} cells, {} vertices",
+            path.display(),
+            bytes,
+            cp.cell_count(),
+            parse_s,
+            bytes as f64 / parse_s / 1e6,
+            parse_cpu_s.map_or(f64::NAN, |c| bytes as f64 / c / 1e6),
+            arrays,
+            hwm_parse,
+            grid_s,
+            grid.cell_count(),
+            grid.points.len()
+        );
+    }
+    Ok(())
+}
+
+/// CPU time of all threads of this process in ns (Linux schedstat, summed
+/// over `/proc/self/task`), if available: robust to other load on the machine.
+fn process_cpu_ns() -> Option<u64> {
+    let mut sum = 0;
+    for t in std::fs::read_dir("/proc/self/task").ok()? {
+        let p = t.ok()?.path().join("schedstat");
+        let s = std::fs::read_to_string(p).ok()?;
+        sum += s.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(sum)
+}
+
+/// CPU time of the calling thread in ns (Linux schedstat), if available.
+fn thread_cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    s.split_whitespace().next()?.parse().ok()
+}
+
+/// The process's peak resident set size (Linux `VmHWM`), if available.
+fn peak_rss_bytes() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let l = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = l.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// Time per level against cut cells over grid sizes, with a least-squares fit.

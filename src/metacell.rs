@@ -212,12 +212,19 @@ impl MetaCell {
                     }
                     let mut e = start;
                     let mut len = 0u8;
+                    let at = mc.config.len();
                     while next[e] != u8::MAX {
                         mc.config.push(e as u8);
                         len += 1;
                         let n = next[e] as usize;
                         next[e] = u8::MAX;
                         e = n;
+                    }
+                    if len < 3 {
+                        // Two faces sharing two edges (a pinched corner-point
+                        // cell): the loop is a doubled segment with no area.
+                        mc.config.truncate(at);
+                        continue;
                     }
                     mc.config_size.push(len);
                     mc.loop_start.push(mc.config.len() as u32);
@@ -456,10 +463,14 @@ impl MetaCell {
     /// by a fan of tetrahedra from the vertex centroid over triangulated faces.
     /// Exact for planar faces; for warped quads it is the volume of the
     /// polyhedron with the faces split into triangles around their centroid.
-    pub fn signed_volume(&self, pos: impl Fn(usize) -> [f64; 3]) -> f64 {
+    pub fn signed_volume<F: Fn(usize) -> [f64; 3] + ?Sized>(&self, pos: &F) -> f64 {
+        // Positions fetched once (same arithmetic as fetching them per use).
+        let mut pts = [[0.0f64; 3]; MAX_META_VERTICES];
+        for (v, p) in pts.iter_mut().enumerate().take(self.nv) {
+            *p = pos(v);
+        }
         let mut c = [0.0; 3];
-        for v in 0..self.nv {
-            let p = pos(v);
+        for p in &pts[..self.nv] {
             for a in 0..3 {
                 c[a] += p[a] / self.nv as f64;
             }
@@ -468,14 +479,14 @@ impl MetaCell {
         for f in &self.faces {
             let mut fc = [0.0; 3];
             for &v in f {
-                let p = pos(v as usize);
+                let p = pts[v as usize];
                 for a in 0..3 {
                     fc[a] += p[a] / f.len() as f64;
                 }
             }
             for i in 0..f.len() {
-                let a = pos(f[i] as usize);
-                let b = pos(f[(i + 1) % f.len()] as usize);
+                let a = pts[f[i] as usize];
+                let b = pts[f[(i + 1) % f.len()] as usize];
                 vol += tet_volume(c, fc, a, b);
             }
         }

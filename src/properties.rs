@@ -19,7 +19,7 @@ pub fn cell_to_vertex<G: CellGraph>(g: &G, cell_values: &[f64], vertex_count: us
         let (m, n) = g.cell(s, &mut ids);
         let meta = g.catalog().get(m);
         let vol = meta
-            .signed_volume(|v| pos[ids[v] as usize].map(f64::from))
+            .signed_volume(&|v| pos[ids[v] as usize].map(f64::from))
             .abs();
         let Some(&val) = cell_values.get(g.source_cell(s) as usize) else {
             continue;

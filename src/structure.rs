@@ -74,7 +74,7 @@ pub fn classify_cell(meta: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellC
         *l = [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]];
         ext = ext.max(l[0].abs()).max(l[1].abs()).max(l[2].abs());
     }
-    let vol = meta.signed_volume(|v| local[v]);
+    let vol = meta.signed_volume(&|v| local[v]);
     if vol.is_nan() || vol.abs() <= 1e-12 * ext * ext * ext {
         CellClass::ZeroVolume
     } else if vol < 0.0 {

@@ -192,3 +192,73 @@ fn bench_reports_figures() {
     assert!(v["speedup_vs_brute_force"].as_f64().unwrap() > 0.0);
     assert!(v["cut_cells"].as_u64().unwrap() > 0);
 }
+
+#[test]
+fn corner_point_generate_info_and_slice() {
+    let g = tmp("faulted.grdecl");
+    let gs = g.to_str().unwrap();
+    run_ok(&[
+        "generate", "faulted", "--dims", "20,15,8", "--faults", "2", "--seed", "4", "-o", gs,
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&run_ok(&["info", "--json", gs])).unwrap();
+    let bv = v["bulk_volume"].as_f64().unwrap();
+    assert!(bv > 0.0);
+    let c = &v["cornerpoint"]["classes"];
+    assert_eq!(
+        c["active"].as_u64().unwrap() + c["inactive"].as_u64().unwrap(),
+        20 * 15 * 8
+    );
+    assert!(c["wedges"].as_u64().unwrap() > 0);
+    assert_eq!(v["cell_properties"][0], "PORO");
+    // Isosurfaces of PORO averaged to vertices, and flat per-cell colours.
+    let o = tmp("poro.vtp");
+    run_ok(&[
+        "slice",
+        gs,
+        "--property",
+        "PORO",
+        "--at",
+        "vertices",
+        "--count",
+        "4",
+        "-o",
+        o.to_str().unwrap(),
+    ]);
+    let o = tmp("flat.ply");
+    run_ok(&[
+        "slice",
+        gs,
+        "--axis",
+        "z",
+        "--count",
+        "10",
+        "--attribute",
+        "PORO",
+        "--at",
+        "cells",
+        "-o",
+        o.to_str().unwrap(),
+    ]);
+    let e = run_err(&[
+        "slice",
+        gs,
+        "--axis",
+        "z",
+        "--count",
+        "10",
+        "--at",
+        "cells",
+        "-o",
+        o.to_str().unwrap(),
+    ]);
+    assert!(e.contains("--at cells needs a cell property"), "{e}");
+    run_ok(&["bench", gs, "--load-only"]);
+    // A bad GRDECL names file, line and keyword.
+    let b = tmp("bad.grdecl");
+    std::fs::write(&b, "SPECGRID\n 1 1 1 /\nZCORN\n 7*1 /\n").unwrap();
+    let e = run_err(&["info", b.to_str().unwrap()]);
+    assert!(
+        e.contains("bad.grdecl:3") && e.contains("ZCORN has 7 values, expected 8"),
+        "{e}"
+    );
+}

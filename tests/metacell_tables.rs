@@ -150,7 +150,7 @@ fn loops_are_oriented_toward_increasing_phi_for_linear_fields() {
     for m in &cat.metas {
         let x = reference_coords(m);
         assert!(
-            m.signed_volume(|v| x[v]) > 0.0,
+            m.signed_volume(&|v| x[v]) > 0.0,
             "{}: reference coords not positive",
             m.name
         );

@@ -1,4 +1,6 @@
 //! Readers and writers. The only module (with the binary) that touches files.
 
+pub mod egrid;
+pub mod grdecl;
 pub mod vtk_read;
 pub mod writers;

@@ -1,0 +1,579 @@
+//! Eclipse binary grids: EGRID (GRIDHEAD, COORD, ZCORN, ACTNUM, MAPAXES)
+//! and, when present beside it, the INIT file's per-cell properties.
+//!
+//! Both are big-endian Fortran unformatted sequential files: every record
+//! is `len (i32 BE) · bytes · len (i32 BE)`. An array is a 16-byte header
+//! record (8-char keyword, i32 count, 4-char type: INTE, REAL, DOUB, LOGI,
+//! CHAR, C0nn, MESS) followed by data records (blocks of at most 1000
+//! numbers or 105 strings; the reader does not rely on the block size).
+//! Only the main grid is read (up to the first ENDGRID); INIT properties
+//! stored for the active cells only are expanded to all cells (0 for
+//! inactive ones, which the corner-point conversion excludes anyway).
+
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+
+use crate::cornerpoint::CornerPointGrid;
+use crate::grid::Property;
+
+/// Errors reading EGRID / INIT files. Offsets are byte offsets in the file.
+#[derive(Debug, Error)]
+pub enum EgridError {
+    /// The file cannot be read.
+    #[error("{file}: {source}")]
+    Io {
+        /// File.
+        file: PathBuf,
+        /// Cause.
+        source: io::Error,
+    },
+    /// A record that runs past the end of the file.
+    #[error(
+        "{file}: record at byte {offset} ({keyword}) is truncated: needs {needed} bytes, {left} left"
+    )]
+    Truncated {
+        /// File.
+        file: PathBuf,
+        /// Offset of the record.
+        offset: usize,
+        /// Keyword being read.
+        keyword: String,
+        /// Bytes needed.
+        needed: usize,
+        /// Bytes left.
+        left: usize,
+    },
+    /// Leading and trailing record markers differ, or a marker is negative.
+    #[error(
+        "{file}: record at byte {offset} ({keyword}): bad Fortran record markers {head} / {tail}"
+    )]
+    BadMarker {
+        /// File.
+        file: PathBuf,
+        /// Offset.
+        offset: usize,
+        /// Keyword being read.
+        keyword: String,
+        /// Leading marker.
+        head: i64,
+        /// Trailing marker.
+        tail: i64,
+    },
+    /// A header record that is not 16 bytes or has an unknown type.
+    #[error("{file}: bad array header at byte {offset}: {why}")]
+    BadHeader {
+        /// File.
+        file: PathBuf,
+        /// Offset.
+        offset: usize,
+        /// What is wrong.
+        why: String,
+    },
+    /// A data record whose size is not a whole number of elements, or too many elements.
+    #[error("{file}: {keyword} at byte {offset}: {why}")]
+    BadData {
+        /// File.
+        file: PathBuf,
+        /// Offset.
+        offset: usize,
+        /// Keyword.
+        keyword: String,
+        /// What is wrong.
+        why: String,
+    },
+    /// A required keyword is missing.
+    #[error("{file}: required keyword {keyword} is missing")]
+    Missing {
+        /// File.
+        file: PathBuf,
+        /// Keyword.
+        keyword: String,
+    },
+    /// An array with the wrong element count or type.
+    #[error("{file}: {keyword} has {found} values of type {kind}, expected {expected}")]
+    Count {
+        /// File.
+        file: PathBuf,
+        /// Keyword.
+        keyword: String,
+        /// Type found.
+        kind: String,
+        /// Expected count.
+        expected: usize,
+        /// Found count.
+        found: usize,
+    },
+    /// Something the reader does not handle (radial grids, ...).
+    #[error("{file}: {why}")]
+    Unsupported {
+        /// File.
+        file: PathBuf,
+        /// What.
+        why: String,
+    },
+}
+
+/// The data of one array.
+#[derive(Clone, Debug, PartialEq)]
+pub enum EclData {
+    /// INTE.
+    Int(Vec<i32>),
+    /// REAL.
+    Real(Vec<f32>),
+    /// DOUB.
+    Double(Vec<f64>),
+    /// LOGI.
+    Logical(Vec<bool>),
+    /// CHAR or C0nn (trailing blanks kept).
+    Char(Vec<String>),
+    /// MESS (no data).
+    Message,
+}
+
+impl EclData {
+    /// Element count.
+    pub fn len(&self) -> usize {
+        match self {
+            EclData::Int(v) => v.len(),
+            EclData::Real(v) => v.len(),
+            EclData::Double(v) => v.len(),
+            EclData::Logical(v) => v.len(),
+            EclData::Char(v) => v.len(),
+            EclData::Message => 0,
+        }
+    }
+    /// True when empty.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Type name as in the file.
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            EclData::Int(_) => "INTE",
+            EclData::Real(_) => "REAL",
+            EclData::Double(_) => "DOUB",
+            EclData::Logical(_) => "LOGI",
+            EclData::Char(_) => "CHAR",
+            EclData::Message => "MESS",
+        }
+    }
+    /// Numeric values as f64 (`None` for strings and messages).
+    pub fn to_f64(&self) -> Option<Vec<f64>> {
+        Some(match self {
+            EclData::Int(v) => v.iter().map(|&x| x as f64).collect(),
+            EclData::Real(v) => v.iter().map(|&x| x as f64).collect(),
+            EclData::Double(v) => v.clone(),
+            EclData::Logical(v) => v.iter().map(|&x| x as u8 as f64).collect(),
+            _ => return None,
+        })
+    }
+}
+
+/// One array: keyword and data.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EclArray {
+    /// Keyword, trailing blanks removed.
+    pub keyword: String,
+    /// Data.
+    pub data: EclData,
+}
+
+/// Iterates over the arrays of an in-memory EGRID/INIT file.
+pub struct ArrayReader<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+    file: PathBuf,
+}
+
+impl<'a> ArrayReader<'a> {
+    /// A reader over `bytes`, naming `file` in errors.
+    pub fn new(bytes: &'a [u8], file: &Path) -> Self {
+        ArrayReader {
+            bytes,
+            pos: 0,
+            file: file.into(),
+        }
+    }
+
+    /// One Fortran record's payload.
+    fn record(&mut self, keyword: &str) -> Result<&'a [u8], EgridError> {
+        let off = self.pos;
+        let left = self.bytes.len() - off;
+        let trunc = |needed: usize| EgridError::Truncated {
+            file: self.file.clone(),
+            offset: off,
+            keyword: keyword.into(),
+            needed,
+            left,
+        };
+        if left < 4 {
+            return Err(trunc(4));
+        }
+        let head = i32::from_be_bytes(self.bytes[off..off + 4].try_into().unwrap_or([0; 4]));
+        if head < 0 {
+            return Err(EgridError::BadMarker {
+                file: self.file.clone(),
+                offset: off,
+                keyword: keyword.into(),
+                head: head as i64,
+                tail: -1,
+            });
+        }
+        let n = head as usize;
+        if left < 8 + n {
+            return Err(trunc(8 + n));
+        }
+        let tail = i32::from_be_bytes(
+            self.bytes[off + 4 + n..off + 8 + n]
+                .try_into()
+                .unwrap_or([0; 4]),
+        );
+        if tail != head {
+            return Err(EgridError::BadMarker {
+                file: self.file.clone(),
+                offset: off,
+                keyword: keyword.into(),
+                head: head as i64,
+                tail: tail as i64,
+            });
+        }
+        self.pos = off + 8 + n;
+        Ok(&self.bytes[off + 4..off + 4 + n])
+    }
+
+    /// The next array, or `None` at the end of the file.
+    pub fn next_array(&mut self) -> Result<Option<EclArray>, EgridError> {
+        if self.pos >= self.bytes.len() {
+            return Ok(None);
+        }
+        let off = self.pos;
+        let h = self.record("array header")?;
+        if h.len() != 16 {
+            return Err(EgridError::BadHeader {
+                file: self.file.clone(),
+                offset: off,
+                why: format!("header record of {} bytes, expected 16", h.len()),
+            });
+        }
+        let keyword = String::from_utf8_lossy(&h[..8]).trim_end().to_string();
+        let count = i32::from_be_bytes(h[8..12].try_into().unwrap_or([0; 4]));
+        let ty = String::from_utf8_lossy(&h[12..16]).to_string();
+        if count < 0 {
+            return Err(EgridError::BadHeader {
+                file: self.file.clone(),
+                offset: off,
+                why: format!("{keyword}: negative count {count}"),
+            });
+        }
+        let count = count as usize;
+        let (size, kind) = match ty.as_str() {
+            "INTE" => (4, 0),
+            "REAL" => (4, 1),
+            "DOUB" => (8, 2),
+            "LOGI" => (4, 3),
+            "CHAR" => (8, 4),
+            "MESS" => (0, 5),
+            t if t.starts_with("C0") && t[2..].parse::<usize>().is_ok_and(|n| n > 0) => {
+                (t[2..].parse::<usize>().unwrap_or(8), 4)
+            }
+            _ => {
+                return Err(EgridError::BadHeader {
+                    file: self.file.clone(),
+                    offset: off,
+                    why: format!("{keyword}: unknown type '{ty}'"),
+                });
+            }
+        };
+        if kind == 5 {
+            return Ok(Some(EclArray {
+                keyword,
+                data: EclData::Message,
+            }));
+        }
+        // The payload can never exceed the bytes left: reject absurd counts
+        // before allocating.
+        if count.saturating_mul(size) > self.bytes.len() - self.pos {
+            return Err(EgridError::Truncated {
+                file: self.file.clone(),
+                offset: self.pos,
+                keyword: keyword.clone(),
+                needed: count.saturating_mul(size),
+                left: self.bytes.len() - self.pos,
+            });
+        }
+        let mut data = match kind {
+            0 => EclData::Int(Vec::with_capacity(count)),
+            1 => EclData::Real(Vec::with_capacity(count)),
+            2 => EclData::Double(Vec::with_capacity(count)),
+            3 => EclData::Logical(Vec::with_capacity(count)),
+            _ => EclData::Char(Vec::with_capacity(count)),
+        };
+        let mut got = 0usize;
+        while got < count {
+            let roff = self.pos;
+            let r = self.record(&keyword)?;
+            if r.is_empty() || r.len() % size != 0 || got + r.len() / size > count {
+                return Err(EgridError::BadData {
+                    file: self.file.clone(),
+                    offset: roff,
+                    keyword,
+                    why: format!(
+                        "data record of {} bytes after {got} of {count} elements of {size} bytes",
+                        r.len()
+                    ),
+                });
+            }
+            let chunks = r.chunks_exact(size);
+            match &mut data {
+                EclData::Int(v) => {
+                    v.extend(chunks.map(|c| i32::from_be_bytes(c.try_into().unwrap_or([0; 4]))))
+                }
+                EclData::Real(v) => {
+                    v.extend(chunks.map(|c| f32::from_be_bytes(c.try_into().unwrap_or([0; 4]))))
+                }
+                EclData::Double(v) => {
+                    v.extend(chunks.map(|c| f64::from_be_bytes(c.try_into().unwrap_or([0; 8]))))
+                }
+                EclData::Logical(v) => v.extend(chunks.map(|c| c != [0, 0, 0, 0])),
+                EclData::Char(v) => {
+                    v.extend(chunks.map(|c| String::from_utf8_lossy(c).trim_end().to_string()))
+                }
+                EclData::Message => {}
+            }
+            got += r.len() / size;
+        }
+        Ok(Some(EclArray { keyword, data }))
+    }
+}
+
+/// Appends one array in EGRID form (header record, then data records of at
+/// most 1000 numbers or 105 strings). For writing test files.
+pub fn write_array(out: &mut impl Write, keyword: &str, data: &EclData) -> io::Result<()> {
+    let record = |out: &mut dyn Write, payload: &[u8]| -> io::Result<()> {
+        let n = (payload.len() as i32).to_be_bytes();
+        out.write_all(&n)?;
+        out.write_all(payload)?;
+        out.write_all(&n)
+    };
+    let mut h = Vec::with_capacity(16);
+    let mut kw = keyword.as_bytes().to_vec();
+    kw.resize(8, b' ');
+    h.extend_from_slice(&kw[..8]);
+    h.extend_from_slice(&(data.len() as i32).to_be_bytes());
+    h.extend_from_slice(data.type_name().as_bytes());
+    record(out, &h)?;
+    let mut buf = Vec::new();
+    macro_rules! blocks {
+        ($v:expr, $per:expr, $enc:expr) => {
+            for chunk in $v.chunks($per) {
+                buf.clear();
+                for x in chunk {
+                    buf.extend_from_slice(&$enc(x));
+                }
+                record(out, &buf)?;
+            }
+        };
+    }
+    match data {
+        EclData::Int(v) => blocks!(v, 1000, |x: &i32| x.to_be_bytes()),
+        EclData::Real(v) => blocks!(v, 1000, |x: &f32| x.to_be_bytes()),
+        EclData::Double(v) => blocks!(v, 1000, |x: &f64| x.to_be_bytes()),
+        EclData::Logical(v) => blocks!(v, 1000, |x: &bool| (if *x { -1i32 } else { 0 })
+            .to_be_bytes()),
+        EclData::Char(v) => blocks!(v, 105, |x: &String| {
+            let mut b = x.as_bytes().to_vec();
+            b.resize(8, b' ');
+            let mut a = [b' '; 8];
+            a.copy_from_slice(&b[..8]);
+            a
+        }),
+        EclData::Message => {}
+    }
+    Ok(())
+}
+
+/// What an EGRID read returns.
+#[derive(Clone, Debug)]
+pub struct EgridFile {
+    /// The grid (with INIT properties when an INIT file was found).
+    pub grid: CornerPointGrid,
+    /// The INIT file read, if any.
+    pub init: Option<PathBuf>,
+}
+
+/// Parses EGRID bytes (main grid only) into a corner-point grid.
+pub fn parse_egrid(bytes: &[u8], file: &Path) -> Result<CornerPointGrid, EgridError> {
+    let mut r = ArrayReader::new(bytes, file);
+    let mut dims = None;
+    let mut coord = None;
+    let mut zcorn = None;
+    let mut actnum = None;
+    let mut mapaxes = None;
+    let mut mapunits = None;
+    let mut gridunit = None;
+    let count_err = |kw: &str, d: &EclData, expected: usize| EgridError::Count {
+        file: file.into(),
+        keyword: kw.into(),
+        kind: d.type_name().into(),
+        expected,
+        found: d.len(),
+    };
+    while let Some(a) = r.next_array()? {
+        match a.keyword.as_str() {
+            "GRIDHEAD" => {
+                let EclData::Int(v) = &a.data else {
+                    return Err(count_err("GRIDHEAD", &a.data, 4));
+                };
+                if v.len() < 4 {
+                    return Err(count_err("GRIDHEAD", &a.data, 4));
+                }
+                if v[0] != 1 {
+                    return Err(EgridError::Unsupported {
+                        file: file.into(),
+                        why: format!("GRIDHEAD grid type {} (only corner-point, 1)", v[0]),
+                    });
+                }
+                if v[1..4].iter().any(|&x| x <= 0)
+                    || (v[1] as u128 + 1) * (v[2] as u128 + 1) * (v[3] as u128) * 8
+                        >= u32::MAX as u128
+                {
+                    return Err(EgridError::Unsupported {
+                        file: file.into(),
+                        why: format!("GRIDHEAD dimensions {:?}", &v[1..4]),
+                    });
+                }
+                dims = Some([v[1] as usize, v[2] as usize, v[3] as usize]);
+            }
+            "COORD" | "ZCORN" | "ACTNUM" | "MAPAXES" => {
+                let Some([nx, ny, nz]) = dims.or((a.keyword == "MAPAXES").then_some([0, 0, 0]))
+                else {
+                    return Err(EgridError::Missing {
+                        file: file.into(),
+                        keyword: format!("GRIDHEAD (before {})", a.keyword),
+                    });
+                };
+                let expected = match a.keyword.as_str() {
+                    "COORD" => 6 * (nx + 1) * (ny + 1),
+                    "ZCORN" => 8 * nx * ny * nz,
+                    "ACTNUM" => nx * ny * nz,
+                    _ => 6,
+                };
+                let numeric = matches!(
+                    a.data,
+                    EclData::Int(_) | EclData::Real(_) | EclData::Double(_)
+                );
+                if a.data.len() != expected || !numeric {
+                    return Err(count_err(&a.keyword, &a.data, expected));
+                }
+                let v = a.data.to_f64().unwrap_or_default();
+                if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                    return Err(EgridError::BadData {
+                        file: file.into(),
+                        offset: r.pos,
+                        keyword: a.keyword.clone(),
+                        why: format!("value {i} is not finite"),
+                    });
+                }
+                match a.keyword.as_str() {
+                    "COORD" => coord = Some(v),
+                    "ZCORN" => zcorn = Some(v),
+                    "ACTNUM" => actnum = Some(v.iter().map(|&x| (x != 0.0) as u8).collect()),
+                    _ => mapaxes = Some([v[0], v[1], v[2], v[3], v[4], v[5]]),
+                }
+            }
+            "MAPUNITS" | "GRIDUNIT" => {
+                if let EclData::Char(s) = &a.data {
+                    let s = s.first().cloned();
+                    if a.keyword == "MAPUNITS" {
+                        mapunits = s;
+                    } else {
+                        gridunit = s;
+                    }
+                }
+            }
+            "ENDGRID" => break,
+            _ => {}
+        }
+    }
+    let missing = |k: &str| EgridError::Missing {
+        file: file.into(),
+        keyword: k.into(),
+    };
+    Ok(CornerPointGrid {
+        dims: dims.ok_or_else(|| missing("GRIDHEAD"))?,
+        coord: coord.ok_or_else(|| missing("COORD"))?,
+        zcorn: zcorn.ok_or_else(|| missing("ZCORN"))?,
+        actnum,
+        mapaxes,
+        mapunits,
+        gridunit,
+        properties: Vec::new(),
+    })
+}
+
+/// Adds the per-cell arrays of INIT bytes to `grid`: arrays of `nx·ny·nz`
+/// values as they are, arrays of one value per active cell expanded (0 for
+/// inactive cells). Returns the names added.
+pub fn add_init_properties(
+    grid: &mut CornerPointGrid,
+    bytes: &[u8],
+    file: &Path,
+) -> Result<Vec<String>, EgridError> {
+    let n = grid.cell_count();
+    let active: Vec<usize> = (0..n).filter(|&c| grid.is_active(c)).collect();
+    let mut r = ArrayReader::new(bytes, file);
+    let mut names = Vec::new();
+    while let Some(a) = r.next_array()? {
+        let Some(v) = a.data.to_f64() else { continue };
+        if matches!(a.data, EclData::Logical(_)) || a.keyword.ends_with("HEAD") {
+            continue;
+        }
+        let full = if v.len() == n {
+            v
+        } else if v.len() == active.len() && !active.is_empty() {
+            let mut full = vec![0.0; n];
+            for (&c, x) in active.iter().zip(v) {
+                full[c] = x;
+            }
+            full
+        } else {
+            continue;
+        };
+        if full.iter().any(|x| !x.is_finite()) {
+            continue;
+        }
+        grid.properties.retain(|p| p.name != a.keyword);
+        grid.properties
+            .push(Property::scalar(a.keyword.clone(), full));
+        names.push(a.keyword);
+    }
+    Ok(names)
+}
+
+/// Reads an EGRID file and, when a file with the same stem and extension
+/// `INIT` (or `init`) sits beside it, its per-cell properties.
+pub fn read_egrid(path: impl AsRef<Path>) -> Result<EgridFile, EgridError> {
+    let path = path.as_ref();
+    let read = |p: &Path| {
+        std::fs::read(p).map_err(|e| EgridError::Io {
+            file: p.into(),
+            source: e,
+        })
+    };
+    let bytes = read(path)?;
+    let mut grid = parse_egrid(&bytes, path)?;
+    drop(bytes);
+    let mut init = None;
+    for ext in ["INIT", "init"] {
+        let p = path.with_extension(ext);
+        if p.is_file() {
+            let b = read(&p)?;
+            add_init_properties(&mut grid, &b, &p)?;
+            init = Some(p);
+            break;
+        }
+    }
+    Ok(EgridFile { grid, init })
+}

@@ -1,0 +1,384 @@
+//! GRDECL tokenizer and reader: syntax, every bad-input error (naming file,
+//! line and keyword), includes, fuzzing, and the writer round trip.
+
+use std::path::{Path, PathBuf};
+
+use proptest::prelude::*;
+use stratasweep::cornerpoint::CornerPointGrid;
+use stratasweep::io::grdecl::{
+    GrdeclDeck, GrdeclError, parse_number, read_grdecl, read_grdecl_from, write_grdecl,
+};
+
+fn parse(text: &str) -> Result<GrdeclDeck, GrdeclError> {
+    read_grdecl_from(text.as_bytes(), Path::new("mem.grdecl"))
+}
+
+/// A 2×1×1 grid with vertical pillars (x = 0, 1, 2; y = 0, 1) and depths 1000..1010.
+fn small(extra: &str) -> String {
+    format!(
+        "SPECGRID\n 2 1 1 1 F /\nCOORD\n\
+         0 0 1000 0 0 1010  1 0 1000 1 0 1010  2 0 1000 2 0 1010\n\
+         0 1 1000 0 1 1010  1 1 1000 1 1 1010  2 1 1000 2 1 1010 /\n\
+         ZCORN\n 8*1000 8*1010 /\n{extra}"
+    )
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("stratasweep-grdecl-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn numbers() {
+    let cases: [(&str, f64); 12] = [
+        ("1", 1.0),
+        ("-2.5", -2.5),
+        (".5", 0.5),
+        ("3.", 3.0),
+        ("1e-3", 1e-3),
+        ("1.0D+03", 1000.0),
+        ("+7", 7.0),
+        ("0.000123", 0.000123),
+        ("1771.831", 1771.831),
+        ("12345678901234567890123", 12345678901234567890123.0),
+        ("0.1234567890123456789012", 0.123_456_789_012_345_68),
+        ("5.0E-310", 5.0e-310),
+    ];
+    for (s, v) in cases {
+        assert_eq!(parse_number(s.as_bytes()), Some(v), "{s}");
+    }
+    for s in ["", "-", "e5", "1e", "1.2.3", "abc", "1*2", "--"] {
+        assert_eq!(parse_number(s.as_bytes()), None, "{s}");
+    }
+    assert!(parse_number(b"nan").unwrap().is_nan());
+}
+
+proptest! {
+    #[test]
+    fn numbers_match_std(x in proptest::num::f64::NORMAL | proptest::num::f64::SUBNORMAL, digits in 0usize..18) {
+        for s in [format!("{x}"), format!("{x:e}"), format!("{x:.digits$}"), format!("{x:.digits$e}")] {
+            prop_assert_eq!(parse_number(s.as_bytes()), s.parse::<f64>().ok(), "{}", s);
+        }
+    }
+}
+
+#[test]
+fn syntax_comments_repeats_defaults_quotes() {
+    let t = "-- a comment line\n\
+             MAPUNITS -- trailing comment\n 'METRES ' /\n\
+             GRIDUNIT\n\"METRES\" ' ' /\n\
+             MAPAXES\n 0 100 0 0 100 0 /\n\
+             DIMENS\n 2 1 1 /\n\
+             SPECGRID\n 2 1 1 1* F /\n\
+             COORD\n 0 0 1000 0 0 1010 1 0 1000 1 0 1010 2 0 1000 2 0 1010\n\
+             0 1 1000 0 1 1010 1 1 1000 1 1 1010 2 1 1000 2 1 1010/\n\
+             ZCORN\n 4*1000 2*1000.0 1000 1.0E3 -- comment in data\n 8*1010 /\n\
+             ACTNUM\n 1* 0 /\n\
+             PORO\n 0.25 0.5/\n\
+             NTG\n 2*1 /\n\
+             FOO\n 1 2 3 /\n\
+             BAR\n 0.1 0.2 /\n";
+    let d = parse(t).unwrap();
+    let g = &d.grid;
+    assert_eq!(g.dims, [2, 1, 1]);
+    assert_eq!(g.zcorn[..8], [1000.0; 8]);
+    assert_eq!(g.zcorn[8..], [1010.0; 8]);
+    assert_eq!(g.actnum.as_deref(), Some(&[1u8, 0][..]));
+    assert_eq!(g.mapunits.as_deref(), Some("METRES"));
+    assert_eq!(g.gridunit.as_deref(), Some("METRES"));
+    assert_eq!(g.mapaxes, Some([0.0, 100.0, 0.0, 0.0, 100.0, 0.0]));
+    let names: Vec<&str> = g.properties.iter().map(|p| p.name.as_str()).collect();
+    // BAR has one record of nx·ny·nz numbers: a property; FOO does not fit.
+    assert_eq!(names, ["PORO", "NTG", "BAR"]);
+    assert_eq!(g.properties[0].values, [0.25, 0.5]);
+    assert_eq!(d.skipped, ["FOO"]);
+}
+
+#[test]
+fn deck_reads_only_the_grid_section_and_reports_skips_once() {
+    let t = format!(
+        "RUNSPEC\nTITLE\n  My model 1 2 3\nDIMENS\n 2 1 1 /\nOIL\nWATER\nSTART\n 1 'JAN' 2000 /\n\
+         TABDIMS\n 1 1 /\nTABDIMS\n 2 2 /\nGRID\nNOECHO\n{}\
+         MULTIPLY\nPORO 2 /\n/\nEQUALS\n 'PORO' 0.3 /\n/\nGDORIENT\nINC INC INC DOWN RIGHT /\n\
+         PORO\n 0.1 0.2 /\nPROPS\nPERMX\n 1 2 3 /\n",
+        small("")
+    );
+    let d = parse(&t).unwrap();
+    assert_eq!(d.grid.properties.len(), 1, "{:?}", d.grid.properties);
+    assert_eq!(d.grid.properties[0].values, [0.1, 0.2]);
+    assert_eq!(
+        d.skipped,
+        ["START", "TABDIMS", "MULTIPLY", "EQUALS", "GDORIENT"]
+    );
+}
+
+#[test]
+fn window_boundaries_do_not_split_tokens() {
+    // Comments and values across the 1 MiB window edge.
+    let mut t = String::from("SPECGRID\n 1 1 1 /\n");
+    while t.len() < (1 << 20) - 7 {
+        t.push_str("-- padding padding padding padding padding\n");
+    }
+    t.push_str(
+        "COORD\n 0 0 0 0 0 1 1 0 0 1 0 1 0 1 0 0 1 1 1 1 0 1 1 1 /\nZCORN\n 4*0 4*1.000000001 /\n",
+    );
+    let d = parse(&t).unwrap();
+    assert_eq!(d.grid.zcorn[7], 1.000000001);
+    let long = format!("{}\n{}", "-".repeat(3 << 20), t);
+    assert!(parse(&long).is_ok());
+}
+
+fn err(text: &str) -> String {
+    let e = parse(text).unwrap_err();
+    e.to_string()
+}
+
+#[test]
+fn bad_inputs_name_file_line_keyword_and_counts() {
+    // Missing SPECGRID.
+    let e = err("COORD\n 1 2 3 /\n");
+    assert!(
+        e.contains("mem.grdecl:1:") && e.contains("COORD") && e.contains("SPECGRID"),
+        "{e}"
+    );
+    let e = err("PORO\n 1 /\n");
+    assert!(e.contains("PORO") && e.contains("SPECGRID"), "{e}");
+    let e = err("-- nothing\n");
+    assert!(e.contains("SPECGRID"), "{e}");
+    // Wrong COORD count.
+    let e = err("SPECGRID\n 2 1 1 /\nCOORD\n 1 2 3 /\n");
+    assert!(
+        e.contains(":3:") && e.contains("COORD") && e.contains("3 values, expected 36"),
+        "{e}"
+    );
+    // Truncated ZCORN (end of file) and ZCORN running into the next keyword.
+    let e = err(&small("").replace("8*1010 /", "8*1010"));
+    assert!(
+        e.contains("ZCORN")
+            && e.contains("truncated")
+            && e.contains("16 values, expected 16")
+            && e.contains("end of file"),
+        "{e}"
+    );
+    let e = err(&small("").replace("8*1010 /", "7*1010\nACTNUM\n 2*1 /"));
+    assert!(
+        e.contains(":8:")
+            && e.contains("ZCORN")
+            && e.contains("15 values, expected 16")
+            && e.contains("keyword ACTNUM"),
+        "{e}"
+    );
+    let e = err(&small("").replace("8*1010 /", "9*1010 /"));
+    assert!(
+        e.contains(":6:") && e.contains("ZCORN has 17 values, expected 16"),
+        "{e}"
+    );
+    // Bad repeats.
+    for (tok, why) in [
+        ("*5", "missing"),
+        ("0*1", "zero"),
+        ("2.5*3", "not a positive integer"),
+        ("3*", "no default"),
+    ] {
+        let e = err(&small("").replace("8*1010 /", &format!("5*1010 {tok} /")));
+        assert!(
+            e.contains(":7:") && e.contains("ZCORN") && e.contains(tok) && e.contains(why),
+            "{tok}: {e}"
+        );
+    }
+    // Non-numeric, NaN, infinity.
+    let e = err(&small("").replace("8*1010 /", "7*1010 abc /"));
+    assert!(
+        e.contains(":7:") && e.contains("ZCORN") && e.contains("'abc' is not a number"),
+        "{e}"
+    );
+    let e = err(&small("").replace("8*1010 /", "7*1010 'x' /"));
+    assert!(e.contains("ZCORN") && e.contains("not a number"), "{e}");
+    let e = err(&small("").replace("8*1010 /", "7*1010 NaN /"));
+    assert!(
+        e.contains(":7:") && e.contains("ZCORN") && e.contains("NaN") && e.contains("not finite"),
+        "{e}"
+    );
+    let e = err(&small("").replace("8*1010 /", "7*1010 2*inf /"));
+    assert!(e.contains("not finite"), "{e}");
+    // Wrong property length.
+    let e = err(&small("PORO\n 0.1 0.2 0.3 /\n"));
+    assert!(
+        e.contains(":8:") && e.contains("PORO has 3 values, expected 2"),
+        "{e}"
+    );
+    // ACTNUM not 0/1.
+    let e = err(&small("ACTNUM\n 1 2 /\n"));
+    assert!(
+        e.contains(":8:") && e.contains("ACTNUM") && e.contains("value 2 at cell 1"),
+        "{e}"
+    );
+    // Bad SPECGRID.
+    let e = err("SPECGRID\n 2 0 1 /\n");
+    assert!(e.contains("SPECGRID") && e.contains(":1:"), "{e}");
+    let e = err("SPECGRID\n 2 1 /\n");
+    assert!(e.contains("SPECGRID has 2 values, expected 3"), "{e}");
+    let e = err("SPECGRID\n 2 1 1 1 T /\n");
+    assert!(e.contains("radial"), "{e}");
+    // Unterminated string.
+    let e = err("MAPUNITS\n 'METRES /\n");
+    assert!(e.contains(":2:") && e.contains("unterminated"), "{e}");
+    // Missing ZCORN.
+    let e = err("SPECGRID\n 1 1 1 /\nCOORD\n 24*0 /\n");
+    assert!(e.contains("ZCORN") && e.contains("missing"), "{e}");
+}
+
+#[test]
+fn includes_relative_quoted_missing_and_cycles() {
+    let d = tmpdir("inc");
+    std::fs::create_dir_all(d.join("sub")).unwrap();
+    std::fs::write(
+        d.join("sub/geom.inc"),
+        small("INCLUDE\n 'props/poro.inc' /\n"),
+    )
+    .unwrap();
+    std::fs::create_dir_all(d.join("sub/props")).unwrap();
+    std::fs::write(d.join("sub/props/poro.inc"), "PORO\n 0.1 0.2 /\n").unwrap();
+    // Unquoted names are allowed when they hold no '/' (which ends a record).
+    std::fs::write(d.join("poro2.inc"), "PORO\n 0.1 0.2 /\n").unwrap();
+    std::fs::write(
+        d.join("main.grdecl"),
+        "INCLUDE\n 'sub/geom.inc' /\nINCLUDE\n poro2.inc /\n",
+    )
+    .unwrap();
+    let g = read_grdecl(d.join("main.grdecl")).unwrap();
+    assert_eq!(g.grid.properties[0].values, [0.1, 0.2]);
+    assert_eq!(g.files.len(), 4);
+    // Fallback: an include path whose directories do not exist, found by file name.
+    std::fs::write(
+        d.join("sub/deck.DATA"),
+        "INCLUDE\n '../include/grid/geom.inc' /\n",
+    )
+    .unwrap();
+    assert!(read_grdecl(d.join("sub/deck.DATA")).is_ok());
+    // Missing include.
+    std::fs::write(
+        d.join("missing.grdecl"),
+        "-- x\n\nINCLUDE\n 'nowhere.inc' /\n",
+    )
+    .unwrap();
+    let e = read_grdecl(d.join("missing.grdecl"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("missing.grdecl:3:") && e.contains("INCLUDE") && e.contains("nowhere.inc"),
+        "{e}"
+    );
+    // Cycle a -> b -> a.
+    std::fs::write(d.join("a.inc"), "INCLUDE\n 'b.inc' /\n").unwrap();
+    std::fs::write(d.join("b.inc"), "\nINCLUDE\n 'a.inc' /\n").unwrap();
+    let e = read_grdecl(d.join("a.inc")).unwrap_err().to_string();
+    assert!(
+        e.contains("b.inc:2:") && e.contains("INCLUDE") && e.contains("cycle"),
+        "{e}"
+    );
+    // Self include.
+    std::fs::write(d.join("self.inc"), "INCLUDE\n self.inc /\n").unwrap();
+    assert!(
+        read_grdecl(d.join("self.inc"))
+            .unwrap_err()
+            .to_string()
+            .contains("cycle")
+    );
+    // Errors inside an include name the included file and its line.
+    std::fs::write(d.join("bad.inc"), "\n\nPORO\n 1 2 3 /\n").unwrap();
+    std::fs::write(d.join("top.grdecl"), small("INCLUDE\n bad.inc /\n")).unwrap();
+    let e = read_grdecl(d.join("top.grdecl")).unwrap_err().to_string();
+    assert!(e.contains("bad.inc:3:") && e.contains("PORO"), "{e}");
+    let e = read_grdecl(d.join("no-such-file.grdecl"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no-such-file.grdecl"), "{e}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn writer_round_trips() {
+    let g = CornerPointGrid {
+        dims: [2, 1, 1],
+        coord: vec![
+            0.0, 0.0, 1000.0, 0.1, 0.0, 1010.0, 1.0, 0.0, 1000.0, 1.0, 0.0, 1010.0, 2.0, 0.0,
+            1000.0, 2.0, 0.0, 1010.0, 0.0, 1.0, 1000.0, 0.0, 1.0, 1010.0, 1.0, 1.0, 1000.0, 1.0,
+            1.0, 1010.0, 2.0, 1.0, 1000.0, 2.0, 1.0, 1010.0,
+        ],
+        zcorn: (0..16)
+            .map(|i| 1000.0 + (i / 8) as f64 * 10.0 + 0.001 * (i % 3) as f64)
+            .collect(),
+        actnum: Some(vec![1, 0]),
+        mapaxes: Some([1.5, 10.25, 1.5, 0.0, 11.0, 0.0]),
+        mapunits: Some("METRES".into()),
+        gridunit: Some("METRES".into()),
+        properties: vec![stratasweep::grid::Property::scalar(
+            "PORO",
+            vec![0.1, 1.0 / 3.0],
+        )],
+    };
+    let mut buf = Vec::new();
+    write_grdecl(&mut buf, &g).unwrap();
+    let back = read_grdecl_from(&buf[..], Path::new("w.grdecl"))
+        .unwrap()
+        .grid;
+    assert_eq!(back, g);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(400))]
+    /// Random bytes and random mutations of a valid file never panic.
+    #[test]
+    fn fuzz_random_text_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
+        let _ = read_grdecl_from(&bytes[..], Path::new("fuzz.grdecl"));
+    }
+
+    #[test]
+    fn fuzz_mutated_grid_never_panics(pos in 0usize..400, len in 0usize..8, ins in proptest::collection::vec(
+        prop_oneof![Just(b'*'), Just(b'/'), Just(b'\''), Just(b'-'), Just(b' '), Just(b'\n'), Just(b'0'), Just(b'9'), Just(b'.'), Just(b'e'), Just(b'A')], 0..6)) {
+        let mut t = small("ACTNUM\n 2*1 /\nPORO\n 0.1 0.2 /\nMAPAXES\n 0 1 0 0 1 0 /\n").into_bytes();
+        let p = pos.min(t.len());
+        let e = (p + len).min(t.len());
+        t.splice(p..e, ins);
+        if let Ok(d) = read_grdecl_from(&t[..], Path::new("fuzz.grdecl")) {
+            // Whatever parses must convert (or fail) without panicking.
+            let _ = d.grid.to_grid();
+        }
+    }
+}
+
+/// Inputs found by the fuzzers above (or written as their likely cousins), kept as regressions.
+#[test]
+fn fuzz_regressions() {
+    for t in [
+        "SPECGRID\n 99999999999999999999 1 1 /\n",
+        "SPECGRID\n 100000 100000 100000 /\n",
+        "SPECGRID\n 1 1 1 /\nZCORN\n 999999999999999*1 /\n",
+        "SPECGRID\n 1 1 1 /\nACTNUM\n 99999999999999999999*1 /\n",
+        "SPECGRID\n 1 1 1 /\nFOO\n 99999999999*1 /\n",
+        "'",
+        "\"abc",
+        "/ / /",
+        "--",
+        "TITLE",
+        "INCLUDE\n",
+        "INCLUDE\n /",
+        "MAPAXES\n 1 2 /",
+        "SPECGRID\n 1 1 1 /\nCOORD\n 24*0 /\nZCORN\n 8*0 /\nMAPAXES\n 0 0 0 0 0 0 /\n",
+        "SPECGRID\n 1 1 1 /\nCOORD\n 24*0 /\nZCORN\n 8*0 /\n",
+        "SPECGRID\n 1* 1 1 /\n",
+        "SPECGRID\n 1 1 1 3*1 /\n",
+        "SPECGRID\n 1 1 1 /\nDIMENS\n 2 1 1 /\n",
+    ] {
+        if let Ok(d) = parse(t) {
+            let _ = d.grid.to_grid();
+        }
+    }
+    // A degenerate grid converts to an error or an empty grid, never a panic.
+    let d = parse("SPECGRID\n 1 1 1 /\nCOORD\n 24*0 /\nZCORN\n 8*0 /\n").unwrap();
+    let (g, r) = d.grid.to_grid().unwrap();
+    assert_eq!((g.cell_count(), r.zero_volume), (0, 1));
+}
