@@ -203,3 +203,104 @@ fn same_axis_cone_renders_without_dispatch() {
     assert!(opaque > 20, "iso: {opaque} opaque pixels");
     assert!(img.png().unwrap().starts_with(b"\x89PNG"));
 }
+
+/// [`box_grid`] with cell property `half`: 0 on the cells with x < 0 (red)
+/// and 1 on those with x > 0 (blue); the boundary is the grid plane x = 0.
+fn half_cell_grid() -> Grid {
+    let mut g = box_grid();
+    let (ni, nj, nk) = (8, 4, 4);
+    let v = (0..ni * nj * nk)
+        .map(|c| if c % ni < ni / 2 { 0.0 } else { 1.0 })
+        .collect();
+    g.cell_data.push(Property::scalar("half", v));
+    g
+}
+
+fn red_blue() -> Transfer {
+    Transfer::from_json(
+        r#"{"points":[{"value":0,"color":[1,0,0],"opacity":0.6},{"value":1,"color":[0,0,1],"opacity":0.6}]}"#,
+    )
+    .unwrap()
+}
+
+/// A cell property colours each polygon flat with its own cell's value:
+/// looking down −z at the two halves, every covered pixel is pure red
+/// (x < 0) or pure blue (x > 0), never a mix, and the columns follow the
+/// analytic framing (the box fills the image height up to the margin).
+/// The same values averaged to the vertices do give mixed colours.
+#[test]
+fn cell_property_gives_flat_colour_per_polygon() {
+    let Some(ctx) = gpu_common::gpu("cell_property_gives_flat_colour_per_polygon") else {
+        return;
+    };
+    let mut grid = half_cell_grid();
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let (w, h) = (80u32, 40u32);
+    // Orthographic window: the box is 2W × 4 across, the image aspect 2,
+    // so the height limits: half-height 2·margin, half-width twice that.
+    let hh = 2.0 * stratasweep::gpu::render::FRAME_MARGIN as f64;
+    let hw = hh * w as f64 / h as f64;
+    let world = |x: u32, y: u32| {
+        (
+            ((x as f64 + 0.5) / w as f64 * 2.0 - 1.0) * hw,
+            (1.0 - (y as f64 + 0.5) / h as f64 * 2.0) * hh,
+        )
+    };
+    let px_w = 2.0 * hw / w as f64;
+    let mut r = Renderer::new(ctx).unwrap();
+    for mode in [Mode::Slices, Mode::Volume] {
+        let mut o = opts("half", red_blue(), [0.0, 0.0, -1.0], 40);
+        o.size = (w, h);
+        o.mode = mode;
+        let img = r.render(&grid, &s, &o).unwrap();
+        let rgba = img.rgba8();
+        let (mut red, mut blue) = (0, 0);
+        for y in 0..h {
+            for x in 0..w {
+                let p = &rgba[((y * w + x) * 4) as usize..][..4];
+                let (wx, wy) = world(x, y);
+                let inside = wx.abs() < W - px_w && wy.abs() < 2.0 - px_w;
+                let outside = wx.abs() > W + px_w || wy.abs() > 2.0 + px_w;
+                if p[3] > 0 {
+                    // Straight colour: pure red or pure blue, nothing between.
+                    assert!(
+                        p[..3] == [255, 0, 0] || p[..3] == [0, 0, 255],
+                        "{mode:?}: pixel ({x}, {y}) = {p:?} mixes the cells' colours"
+                    );
+                }
+                if inside {
+                    assert!(p[3] > 128, "{mode:?}: ({x}, {y}) inside the box is empty");
+                    let want = if wx < 0.0 { [255, 0, 0] } else { [0, 0, 255] };
+                    assert_eq!(p[..3], want, "{mode:?}: pixel ({x}, {y}) at x = {wx:.3}");
+                    if wx < 0.0 { red += 1 } else { blue += 1 }
+                }
+                if outside {
+                    assert_eq!(p[3], 0, "{mode:?}: ({x}, {y}) outside the box is covered");
+                }
+            }
+        }
+        eprintln!("{mode:?}: {red} red and {blue} blue pixels inside");
+        assert_eq!(red, blue, "{mode:?}: the boundary is not at x = 0");
+        assert!(red > 200);
+    }
+    // Averaged to the vertices, the same values blend across the boundary.
+    let avg = stratasweep::pipeline::vertex_property(&grid, &s, "half").unwrap();
+    grid.point_data.push(Property::scalar(
+        "avg",
+        avg.iter().map(|&v| v as f64).collect(),
+    ));
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let mut o = opts("avg", red_blue(), [0.0, 0.0, -1.0], 40);
+    o.size = (w, h);
+    o.mode = Mode::Slices;
+    let img = r.render(&grid, &s, &o).unwrap();
+    let mixed = img
+        .rgba8()
+        .chunks_exact(4)
+        .filter(|p| p[3] > 0 && p[0] > 20 && p[2] > 20)
+        .count();
+    assert!(
+        mixed > 20,
+        "averaged values should blend ({mixed} mixed pixels)"
+    );
+}

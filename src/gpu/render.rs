@@ -25,9 +25,11 @@ use crate::pipeline::{LevelSpec, PipelineError, SliceRequest, Structure, vertex_
 
 use super::context::{GpuContext, GpuError};
 use super::emit::{GpuEmitter, emit_chunked};
+use super::gradient::vertex_gradients;
 use super::shaders;
 use super::shared::{ARGS_WORDS, ControlLayout, OutVertex, RenderParams};
 use super::slice::prepare;
+use super::tables::slot_values;
 
 /// Entries of the transfer-function lookup table (`LUT_SIZE` in `wgsl/render.wgsl`).
 pub const LUT_SIZE: usize = 256;
@@ -347,20 +349,35 @@ impl<'c> Renderer<'c> {
                 immediate_size: 0,
             });
         let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32];
+        let normal_attrs = wgpu::vertex_attr_array![2 => Float32x3];
+        let vertices = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<OutVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &attrs,
+        };
+        // The emit pass's normals: one vec4<f32> per corner.
+        let normals = wgpu::VertexBufferLayout {
+            array_stride: 16,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &normal_attrs,
+        };
+        let slice_buffers = [Some(vertices.clone())];
+        let iso_buffers = [Some(vertices), Some(normals)];
         let make = |blend: Option<wgpu::BlendState>, depth: bool| {
+            let (entry, buffers): (&str, &[Option<wgpu::VertexBufferLayout>]) = if depth {
+                ("vs_iso", &iso_buffers)
+            } else {
+                ("vs", &slice_buffers)
+            };
             ctx.device
                 .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                     label: Some("render"),
                     layout: Some(&pl),
                     vertex: wgpu::VertexState {
                         module: &module,
-                        entry_point: Some("vs"),
+                        entry_point: Some(entry),
                         compilation_options: Default::default(),
-                        buffers: &[Some(wgpu::VertexBufferLayout {
-                            array_stride: std::mem::size_of::<OutVertex>() as u64,
-                            step_mode: wgpu::VertexStepMode::Vertex,
-                            attributes: &attrs,
-                        })],
+                        buffers,
                     },
                     primitive: wgpu::PrimitiveState::default(),
                     depth_stencil: depth.then(|| wgpu::DepthStencilState {
@@ -490,7 +507,25 @@ impl<'c> Renderer<'c> {
                 brute_force: false,
                 collect_mesh: false,
             };
-            let p = prepare(grid, s, &req)?;
+            let mut p = prepare(grid, s, &req)?;
+            // A cell property (no point property of that name) colours
+            // each slice polygon flat with its own cell's value.
+            let cell_values: Option<Vec<f64>> = match &property {
+                Some(n) if o.mode != Mode::Iso && grid.point_property(n).is_none() => grid
+                    .cell_property(n)
+                    .map(|c| (0..c.len()).map(|i| c.scalar_at(i)).collect()),
+                _ => None,
+            };
+            if let Some(v) = &cell_values {
+                p.grid.attr = match s {
+                    Structure::SCGraph(g) => slot_values(g, v),
+                    Structure::CGraph(g) => slot_values(g, v),
+                };
+                p.grid.attr_per_cell = true;
+            }
+            if o.mode == Mode::Iso {
+                p.grid.grad = vertex_gradients(&p.grid);
+            }
             let spacing = match p.level_values.as_slice() {
                 [a, b, ..] => b - a,
                 _ => {
@@ -498,14 +533,19 @@ impl<'c> Renderer<'c> {
                     hi[axis] - lo[axis]
                 }
             };
-            let range = match &property {
-                Some(name) => {
+            let range = match (&property, &cell_values) {
+                (_, Some(v)) => {
+                    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+                    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                    (lo as f32 as f64, hi as f32 as f64)
+                }
+                (Some(name), None) => {
                     let v = vertex_property(grid, s, name)?;
                     let lo = v.iter().copied().fold(f32::INFINITY, f32::min) as f64;
                     let hi = v.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
                     (lo, hi)
                 }
-                None => {
+                (None, None) => {
                     let l = &p.level_values;
                     (l[0], l[l.len() - 1])
                 }
@@ -572,7 +612,6 @@ impl<'c> Renderer<'c> {
             (hi[1] - lo[1]) as f32,
             (hi[2] - lo[2]) as f32,
         );
-        let r = (0.5 * ext.length()).max(1e-6);
         let up = match o.up {
             Some(u) => Vec3::from_array(u.map(|c| c as f32)),
             None if d.z.abs() > 0.99 => Vec3::Y,
@@ -584,34 +623,7 @@ impl<'c> Renderer<'c> {
             ));
         }
         let aspect = w as f32 / h as f32;
-        let (view_proj, eye) = if o.perspective {
-            let fov = 30f32.to_radians();
-            let dist = r / (0.5 * fov).sin();
-            let eye = -d * dist;
-            let view = look_at_rh(eye, Vec3::ZERO, up);
-            let fov_y = if aspect >= 1.0 {
-                fov
-            } else {
-                2.0 * ((0.5 * fov).tan() / aspect).atan()
-            };
-            let proj = perspective_rh(
-                fov_y,
-                aspect,
-                (dist - 1.1 * r).max(1e-3 * r),
-                dist + 1.1 * r,
-            );
-            (proj * view, eye)
-        } else {
-            let eye = -d * (3.0 * r);
-            let view = look_at_rh(eye, Vec3::ZERO, up);
-            let (hw, hh) = if aspect >= 1.0 {
-                (r * aspect, r)
-            } else {
-                (r, r / aspect)
-            };
-            let proj = orthographic_rh(-hw, hw, -hh, hh, 1.5 * r, 4.5 * r);
-            (proj * view, eye)
-        };
+        let (view_proj, eye) = frame_camera(ext, d, up, aspect, o.perspective);
         let mut axis_v = [0f32; 4];
         axis_v[axis] = 1.0;
         let (lut, vlo, vhi) = transfer.lut();
@@ -737,6 +749,16 @@ impl<'c> Renderer<'c> {
                     (e.vertex_buffer(), e.control_buffer(), e.triangles > 0)
                 {
                     pass.set_vertex_buffer(0, vb.slice(..));
+                    if o.mode == Mode::Iso {
+                        match e.normal_buffer() {
+                            Some(nb) if e.has_normals() => pass.set_vertex_buffer(1, nb.slice(..)),
+                            _ => {
+                                return Err(RenderError::Options(
+                                    "iso mode: the slices carry no normals".into(),
+                                ));
+                            }
+                        }
+                    }
                     let lay = ControlLayout { k };
                     let first = if reverse {
                         lay.args_rev()
@@ -811,6 +833,68 @@ impl<'c> Renderer<'c> {
             height: h,
             premultiplied: px,
         })
+    }
+}
+
+/// Margin around the projected bounding box (5 % of its larger half-extent
+/// on each side that limits the fit).
+pub const FRAME_MARGIN: f32 = 1.05;
+
+/// The camera that frames a bounding box of extents `ext` centred on the
+/// origin of the local frame, looking along the unit vector `d` with `up`:
+/// the world → clip matrix and the eye position.
+///
+/// Orthographic: the 8 corners are projected on the view plane and the
+/// window is the smallest one centred on the box that holds them, widened
+/// to the image aspect, times [`FRAME_MARGIN`]. Perspective (30° field of
+/// view across the smaller image side): the eye is placed at the smallest
+/// distance at which every corner projects inside the same window.
+pub fn frame_camera(ext: Vec3, d: Vec3, up: Vec3, aspect: f32, perspective: bool) -> (Mat4, Vec3) {
+    let r = (0.5 * ext.length()).max(1e-6);
+    let s = d.cross(up).normalize();
+    let u = s.cross(d);
+    let corners: Vec<Vec3> = (0..8)
+        .map(|i| {
+            let sign = |b: usize| if i >> b & 1 == 1 { 0.5 } else { -0.5 };
+            ext * Vec3::new(sign(0), sign(1), sign(2))
+        })
+        .collect();
+    let tiny = 1e-6 * r;
+    let hx = corners.iter().map(|c| c.dot(s).abs()).fold(tiny, f32::max);
+    let hy = corners.iter().map(|c| c.dot(u).abs()).fold(tiny, f32::max);
+    let hz = corners.iter().map(|c| c.dot(d).abs()).fold(tiny, f32::max);
+    if perspective {
+        let fov = 30f32.to_radians();
+        let fov_y = if aspect >= 1.0 {
+            fov
+        } else {
+            2.0 * ((0.5 * fov).tan() / aspect).atan()
+        };
+        let ty = (0.5 * fov_y).tan();
+        let tx = ty * aspect;
+        // depth = dist + c·d must reach |c·s|·m / tx and |c·u|·m / ty.
+        let dist = corners
+            .iter()
+            .map(|c| {
+                (c.dot(s).abs() * FRAME_MARGIN / tx).max(c.dot(u).abs() * FRAME_MARGIN / ty)
+                    - c.dot(d)
+            })
+            .fold(1.05 * hz + tiny, f32::max);
+        let eye = -d * dist;
+        let view = look_at_rh(eye, Vec3::ZERO, up);
+        let near = (0.9 * (dist - hz)).max(1e-3 * r);
+        let far = 1.1 * (dist + hz);
+        (perspective_rh(fov_y, aspect, near, far) * view, eye)
+    } else {
+        let eye = -d * (3.0 * r);
+        let view = look_at_rh(eye, Vec3::ZERO, up);
+        let (hw, hh) = if hx > hy * aspect {
+            (hx * FRAME_MARGIN, hx * FRAME_MARGIN / aspect)
+        } else {
+            (hy * FRAME_MARGIN * aspect, hy * FRAME_MARGIN)
+        };
+        let proj = orthographic_rh(-hw, hw, -hh, hh, 1.5 * r, 4.5 * r);
+        (proj * view, eye)
     }
 }
 
