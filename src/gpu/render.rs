@@ -623,7 +623,15 @@ impl<'c> Renderer<'c> {
             ));
         }
         let aspect = w as f32 / h as f32;
-        let (view_proj, eye) = frame_camera(ext, d, up, aspect, o.perspective);
+        let (view_proj, eye) = frame_camera(
+            &grid.points,
+            grid.origin(),
+            ext,
+            d,
+            up,
+            aspect,
+            o.perspective,
+        );
         let mut axis_v = [0f32; 4];
         axis_v[axis] = 1.0;
         let (lut, vlo, vhi) = transfer.lut();
@@ -836,50 +844,117 @@ impl<'c> Renderer<'c> {
     }
 }
 
-/// Margin around the projected bounding box (5 % of its larger half-extent
-/// on each side that limits the fit).
+/// Margin around the projected grid: the window is 5 % wider (or taller)
+/// than the side of the projected points that limits the fit.
 pub const FRAME_MARGIN: f32 = 1.05;
 
-/// The camera that frames a bounding box of extents `ext` centred on the
-/// origin of the local frame, looking along the unit vector `d` with `up`:
-/// the world → clip matrix and the eye position.
+/// Extents of the points in view coordinates: (min, max) along the right
+/// vector `s` and the up vector `u`, and the perspective eye distance that
+/// fits every point in a window of half-slopes `tx`, `ty`.
+fn view_extents(
+    points: &[[f64; 3]],
+    origin: [f64; 3],
+    s: Vec3,
+    u: Vec3,
+    d: Vec3,
+    tx: f32,
+    ty: f32,
+) -> [f32; 5] {
+    use rayon::prelude::*;
+    let init = || {
+        [
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NEG_INFINITY,
+        ]
+    };
+    points
+        .par_iter()
+        .fold(init, |mut acc, p| {
+            let q = Vec3::new(
+                (p[0] - origin[0]) as f32,
+                (p[1] - origin[1]) as f32,
+                (p[2] - origin[2]) as f32,
+            );
+            let (x, y) = (q.dot(s), q.dot(u));
+            acc[0] = acc[0].min(x);
+            acc[1] = acc[1].max(x);
+            acc[2] = acc[2].min(y);
+            acc[3] = acc[3].max(y);
+            // depth = dist + q·d must reach |x|·m / tx and |y|·m / ty.
+            let dist = (x.abs() * FRAME_MARGIN / tx).max(y.abs() * FRAME_MARGIN / ty) - q.dot(d);
+            acc[4] = acc[4].max(dist);
+            acc
+        })
+        .reduce(init, |a, b| {
+            [
+                a[0].min(b[0]),
+                a[1].max(b[1]),
+                a[2].min(b[2]),
+                a[3].max(b[3]),
+                a[4].max(b[4]),
+            ]
+        })
+}
+
+/// The camera that frames a grid tightly: its `points` (world), rebased to
+/// `origin` (the bounding-box centre, the local frame's origin), with
+/// bounding-box extents `ext`, seen along the unit vector `d` with `up`.
+/// Returns the world (local frame) → clip matrix and the eye position.
 ///
-/// Orthographic: the 8 corners are projected on the view plane and the
-/// window is the smallest one centred on the box that holds them, widened
-/// to the image aspect, times [`FRAME_MARGIN`]. Perspective (30° field of
-/// view across the smaller image side): the eye is placed at the smallest
-/// distance at which every corner projects inside the same window.
-pub fn frame_camera(ext: Vec3, d: Vec3, up: Vec3, aspect: f32, perspective: bool) -> (Mat4, Vec3) {
+/// Orthographic: the window is the projected points' extent, centred on
+/// it, widened to the image aspect and enlarged by [`FRAME_MARGIN`] (so a
+/// rotated grid fills the image, not its axis-aligned box). Perspective
+/// (30° field of view across the smaller image side, looking at the
+/// bounding-box centre): the eye is placed at the smallest distance at
+/// which every point projects inside the window. Without points the
+/// bounding box's corners are framed.
+pub fn frame_camera(
+    points: &[[f64; 3]],
+    origin: [f64; 3],
+    ext: Vec3,
+    d: Vec3,
+    up: Vec3,
+    aspect: f32,
+    perspective: bool,
+) -> (Mat4, Vec3) {
     let r = (0.5 * ext.length()).max(1e-6);
     let s = d.cross(up).normalize();
     let u = s.cross(d);
-    let corners: Vec<Vec3> = (0..8)
-        .map(|i| {
-            let sign = |b: usize| if i >> b & 1 == 1 { 0.5 } else { -0.5 };
-            ext * Vec3::new(sign(0), sign(1), sign(2))
-        })
-        .collect();
-    let tiny = 1e-6 * r;
-    let hx = corners.iter().map(|c| c.dot(s).abs()).fold(tiny, f32::max);
-    let hy = corners.iter().map(|c| c.dot(u).abs()).fold(tiny, f32::max);
-    let hz = corners.iter().map(|c| c.dot(d).abs()).fold(tiny, f32::max);
-    if perspective {
-        let fov = 30f32.to_radians();
-        let fov_y = if aspect >= 1.0 {
-            fov
-        } else {
-            2.0 * ((0.5 * fov).tan() / aspect).atan()
-        };
-        let ty = (0.5 * fov_y).tan();
-        let tx = ty * aspect;
-        // depth = dist + c·d must reach |c·s|·m / tx and |c·u|·m / ty.
-        let dist = corners
-            .iter()
-            .map(|c| {
-                (c.dot(s).abs() * FRAME_MARGIN / tx).max(c.dot(u).abs() * FRAME_MARGIN / ty)
-                    - c.dot(d)
+    let fov = 30f32.to_radians();
+    let fov_y = if aspect >= 1.0 {
+        fov
+    } else {
+        2.0 * ((0.5 * fov).tan() / aspect).atan()
+    };
+    let ty = (0.5 * fov_y).tan();
+    let tx = ty * aspect;
+    let corners: Vec<[f64; 3]>;
+    let pts = if points.is_empty() {
+        corners = (0..8)
+            .map(|i| {
+                let sign = |b: usize| if i >> b & 1 == 1 { 0.5 } else { -0.5 };
+                let c = ext * Vec3::new(sign(0), sign(1), sign(2));
+                [0, 1, 2].map(|a| origin[a] + c[a] as f64)
             })
-            .fold(1.05 * hz + tiny, f32::max);
+            .collect();
+        &corners[..]
+    } else {
+        points
+    };
+    let [x0, x1, y0, y1, fit] = view_extents(pts, origin, s, u, d, tx, ty);
+    let tiny = 1e-6 * r;
+    if perspective {
+        // The eye stays outside the bounding sphere's depth.
+        let hz = (0..8)
+            .map(|i| {
+                let sign = |b: usize| if i >> b & 1 == 1 { 0.5 } else { -0.5 };
+                (ext * Vec3::new(sign(0), sign(1), sign(2))).dot(d).abs()
+            })
+            .fold(tiny, f32::max);
+        let dist = fit.max(1.05 * hz + tiny);
         let eye = -d * dist;
         let view = look_at_rh(eye, Vec3::ZERO, up);
         let near = (0.9 * (dist - hz)).max(1e-3 * r);
@@ -888,12 +963,14 @@ pub fn frame_camera(ext: Vec3, d: Vec3, up: Vec3, aspect: f32, perspective: bool
     } else {
         let eye = -d * (3.0 * r);
         let view = look_at_rh(eye, Vec3::ZERO, up);
+        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+        let (hx, hy) = ((0.5 * (x1 - x0)).max(tiny), (0.5 * (y1 - y0)).max(tiny));
         let (hw, hh) = if hx > hy * aspect {
             (hx * FRAME_MARGIN, hx * FRAME_MARGIN / aspect)
         } else {
             (hy * FRAME_MARGIN * aspect, hy * FRAME_MARGIN)
         };
-        let proj = orthographic_rh(-hw, hw, -hh, hh, 1.5 * r, 4.5 * r);
+        let proj = orthographic_rh(cx - hw, cx + hw, cy - hh, cy + hh, 1.5 * r, 4.5 * r);
         (proj * view, eye)
     }
 }
