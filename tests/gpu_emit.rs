@@ -270,3 +270,140 @@ fn gpu_span_space_equals_the_swept_frame() {
         }
     }
 }
+
+/// `grid` with point property `d`, the distance to a point near its centre
+/// (a sphere distance field), that point, and isovalues inside the grid.
+fn with_sphere_field(mut grid: Grid) -> (Grid, [f64; 3], Vec<f64>) {
+    let (lo, hi) = grid.bounds();
+    let o = grid.origin();
+    let c = [
+        o[0] + 0.031 * (hi[0] - lo[0]),
+        o[1] - 0.017 * (hi[1] - lo[1]),
+        o[2] + 0.023 * (hi[2] - lo[2]),
+    ];
+    let half = (0..3)
+        .map(|a| 0.5 * (hi[a] - lo[a]))
+        .fold(f64::MAX, f64::min);
+    let d: Vec<f64> = grid
+        .points
+        .iter()
+        .map(|p| ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt())
+        .collect();
+    grid.point_data
+        .push(stratasweep::grid::Property::scalar("d", d));
+    (grid, c, vec![0.35 * half, 0.6 * half])
+}
+
+/// Iso lighting: on a sphere distance field, the gradient interpolated
+/// along the cut edges (per-cell least squares averaged to the vertices)
+/// points along the analytic gradient (radial direction) at every corner
+/// of the twin's triangles; the GPU writes the same normals as the twin.
+#[test]
+fn interpolated_gradients_follow_the_analytic_normal() {
+    let ctx = gpu_common::gpu("interpolated_gradients_follow_the_analytic_normal");
+    for (name, grid, tol_deg) in [
+        ("warped 16³", warped([16, 16, 16], 4), 4.0),
+        ("zoo", zoo(2000, 5), 20.0),
+    ] {
+        let (grid, c, iso) = with_sphere_field(grid);
+        let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+        let r = SliceRequest {
+            field: FieldSpec::Property("d".into()),
+            levels: LevelSpec::Values(iso.clone()),
+            ..req(FieldSpec::Property("d".into()), 1, 1, false)
+        };
+        let mut p = prepare(&grid, &s, &r).unwrap();
+        p.grid.grad = stratasweep::gpu::gradient::vertex_gradients(&p.grid);
+        let tw = twin::run(&p.grid, &p.frame, false);
+        assert_eq!(tw.normals.len(), tw.vertices.len(), "{name}");
+        let o = grid.origin();
+        let angle = |a: [f64; 3], b: [f64; 3]| {
+            let l = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            let cos = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (l(a) * l(b));
+            cos.clamp(-1.0, 1.0).acos().to_degrees()
+        };
+        let (mut worst, mut sum, mut facet_sum) = (0f64, 0f64, 0f64);
+        for (tri, nrm) in tw.vertices.chunks_exact(3).zip(tw.normals.chunks_exact(3)) {
+            let p: [[f64; 3]; 3] =
+                std::array::from_fn(|k| std::array::from_fn(|i| tri[k].pos[i] as f64));
+            let (u, v) = (
+                [0, 1, 2].map(|i| p[1][i] - p[0][i]),
+                [0, 1, 2].map(|i| p[2][i] - p[0][i]),
+            );
+            let facet = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            for k in 0..3 {
+                let radial: [f64; 3] = std::array::from_fn(|i| p[k][i] + o[i] - c[i]);
+                let n = [0, 1, 2].map(|i| nrm[k][i] as f64);
+                assert!(n.iter().any(|&x| x != 0.0), "{name}: zero normal");
+                let deg = angle(radial, n);
+                worst = worst.max(deg);
+                sum += deg;
+                // Facet normals are unoriented here: the acute angle.
+                let f = angle(radial, facet);
+                facet_sum += f.min(180.0 - f);
+            }
+        }
+        let mean = sum / tw.vertices.len() as f64;
+        let facet_mean = facet_sum / tw.vertices.len() as f64;
+        eprintln!(
+            "{name}: {} corners, angle to the analytic normal: mean {mean:.3}°, max {worst:.3}° \
+             (facet normals: mean {facet_mean:.3}°)",
+            tw.vertices.len()
+        );
+        assert!(
+            worst <= tol_deg,
+            "{name}: worst angle {worst}° > {tol_deg}°"
+        );
+        assert!(mean <= tol_deg / 4.0, "{name}: mean angle {mean}°");
+        assert!(
+            mean < facet_mean,
+            "{name}: the interpolated gradient ({mean}°) is no closer than the facets ({facet_mean}°)"
+        );
+        let Some(ctx) = ctx else {
+            continue;
+        };
+        let mut e = GpuEmitter::new(ctx, p.grid.clone()).unwrap();
+        e.run(&p.frame, false).unwrap();
+        let g = e.read_output(false).unwrap();
+        assert_eq!(g.normals.len(), g.vertices.len(), "{name}");
+        for lv in 0..iso.len() as u32 {
+            let a = tw.canonical_level_with_normals(lv);
+            let b = g.canonical_level_with_normals(lv);
+            assert_eq!(a.len(), b.len(), "{name}: level {lv} triangles");
+            assert_same_n(name, lv, &a, &b);
+        }
+    }
+}
+
+/// [`assert_same`] for corners of any width.
+fn assert_same_n<const N: usize>(
+    name: &str,
+    lv: u32,
+    twin: &[[[f32; N]; 3]],
+    gpu: &[[[f32; N]; 3]],
+) {
+    let key = |t: &[[f32; N]; 3]| {
+        let c = |i: usize| t.iter().map(|v| v[i] as f64).sum::<f64>();
+        (c(0), c(1), c(2))
+    };
+    let mut a: Vec<_> = twin.to_vec();
+    let mut b: Vec<_> = gpu.to_vec();
+    a.sort_by(|x, y| key(x).partial_cmp(&key(y)).unwrap());
+    b.sort_by(|x, y| key(x).partial_cmp(&key(y)).unwrap());
+    let same = |x: &[[f32; N]; 3], y: &[[f32; N]; 3]| {
+        (0..3).all(|c| (0..N).all(|i| close(x[c][i], y[c][i])))
+    };
+    let mut used = vec![false; a.len()];
+    for (i, t) in b.iter().enumerate() {
+        let lo = i.saturating_sub(16);
+        let hi = (i + 17).min(a.len());
+        let j = (lo..hi)
+            .find(|&j| !used[j] && same(&a[j], t))
+            .unwrap_or_else(|| panic!("{name}: level {lv}: GPU corner {t:?} has no twin"));
+        used[j] = true;
+    }
+}

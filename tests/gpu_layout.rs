@@ -77,7 +77,7 @@ fn rust_layouts() -> Vec<Layout> {
                 tables,
                 triangle_capacity,
                 live_count,
-                _pad1,
+                has_gradient,
                 _pad2
             ]
         ),
@@ -147,6 +147,9 @@ fn shared_structs_match_wgsl() {
     let src = shaders::TYPES;
     for (c, v) in [
         ("META_WORDS", META_WORDS),
+        ("ATTR_NONE", ATTR_NONE),
+        ("ATTR_VERTEX", ATTR_VERTEX),
+        ("ATTR_CELL", ATTR_CELL),
         ("ARGS_WORDS", ARGS_WORDS),
         ("WORKGROUP", WORKGROUP),
         ("SCAN_WORKGROUP", SCAN_WORKGROUP),

@@ -1,8 +1,9 @@
 // Render pass: the emitted triangles (OutVertex) drawn with indirect draws.
 // Volume mode: transfer-function colour with opacity corrected for the
 // slice spacing and the angle between the ray and the slicing axis,
-// premultiplied for "over" blending. Slices mode: opacity as is. Iso mode:
-// opaque, lit with the facet normal.
+// premultiplied for "over" blending. Slices mode: opacity as is. Iso mode
+// (vs_iso): opaque, lit with the field's gradient interpolated along the cut
+// edges by the emit pass (a second vertex buffer), then across the triangle.
 
 @group(0) @binding(0) var<uniform> rp: RenderParams;
 // Transfer function: LUT_SIZE premultiplied-free RGBA entries over
@@ -15,15 +16,27 @@ struct VsOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
     @location(1) value: f32,
+    @location(2) normal: vec3<f32>,
 }
 
-@vertex
-fn vs(@location(0) pos: vec3<f32>, @location(1) value: f32) -> VsOut {
+fn vertex_out(pos: vec3<f32>, value: f32, normal: vec3<f32>) -> VsOut {
     var o: VsOut;
     o.clip = rp.view_proj * vec4<f32>(pos, 1.0);
     o.world = pos;
     o.value = value;
+    o.normal = normal;
     return o;
+}
+
+@vertex
+fn vs(@location(0) pos: vec3<f32>, @location(1) value: f32) -> VsOut {
+    return vertex_out(pos, value, vec3<f32>(0.0));
+}
+
+// Iso mode: the per-corner gradient comes from the emit pass's normals.
+@vertex
+fn vs_iso(@location(0) pos: vec3<f32>, @location(1) value: f32, @location(2) normal: vec3<f32>) -> VsOut {
+    return vertex_out(pos, value, normal);
 }
 
 fn transfer(v: f32) -> vec4<f32> {
@@ -45,7 +58,13 @@ fn fs(in: VsOut) -> @location(0) vec4<f32> {
         ray = normalize(in.world - rp.eye.xyz);
     }
     if rp.mode == 2u {
-        let n = normalize(cross(dpdx(in.world), dpdy(in.world)));
+        // The interpolated gradient; the facet normal where it vanishes.
+        var n = cross(dpdx(in.world), dpdy(in.world));
+        if dot(in.normal, in.normal) > 1e-30 {
+            n = in.normal;
+        }
+        n = normalize(n);
+        // Two-sided headlight: ambient + diffuse.
         let shade = 0.2 + 0.8 * abs(dot(n, ray));
         return vec4<f32>(c.rgb * shade, 1.0);
     }

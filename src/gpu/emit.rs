@@ -15,8 +15,11 @@ use super::shaders;
 use super::shared::{ControlLayout, EmitParams, OutVertex};
 use super::tables::{Frame, GridBuffers, dispatch_size, emit_params};
 
-/// Storage buffers bound by the compute passes (bindings 1..=10).
-pub const STORAGE_BINDINGS: u32 = 10;
+/// Storage buffers bound by the compute passes (bindings 1..=12).
+pub const STORAGE_BINDINGS: u32 = 12;
+
+/// Bytes per output triangle in the normals buffer (3 corners × `vec4<f32>`).
+const NORMAL_BYTES_PER_TRIANGLE: u64 = 48;
 
 /// Seconds spent in the phases of the last frame.
 #[derive(Clone, Copy, Debug, Default)]
@@ -53,11 +56,13 @@ pub struct GpuEmitter<'c> {
     grid_buf: wgpu::Buffer,
     attr: wgpu::Buffer,
     cells: wgpu::Buffer,
+    grad: wgpu::Buffer,
     entries: Option<Grow>,
     levels: Option<Grow>,
     control: Option<Grow>,
     vertices: Option<Grow>,
     areas: Option<Grow>,
+    normals: Option<Grow>,
     /// Compute dispatches issued so far (count, scan and emit each count one
     /// per `dispatch_workgroups` call).
     pub dispatches: u64,
@@ -89,7 +94,8 @@ fn init_buffer(
     usage: wgpu::BufferUsages,
 ) -> wgpu::Buffer {
     let mut v = data.to_vec();
-    v.resize(v.len().max(4).div_ceil(4) * 4, 0);
+    // At least one element of the widest array type (`vec4<f32>`).
+    v.resize(v.len().max(16).div_ceil(4) * 4, 0);
     ctx.device
         .create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
@@ -144,6 +150,7 @@ impl<'c> GpuEmitter<'c> {
         ctx.check_storage("the zoo cells", grid.cells.len() as u64 * 4)?;
         ctx.check_storage("the vertex attribute", grid.attr.len() as u64 * 4)?;
         ctx.check_storage("the meta-cell tables", grid.tables.len() as u64 * 4)?;
+        ctx.check_storage("the vertex gradients", grid.grad.len() as u64 * 16)?;
         let mut entries = vec![wgpu::BindGroupLayoutEntry {
             binding: 0,
             visibility: wgpu::ShaderStages::COMPUTE,
@@ -155,7 +162,7 @@ impl<'c> GpuEmitter<'c> {
             count: None,
         }];
         for b in 1..=STORAGE_BINDINGS {
-            entries.push(storage_entry(b, !matches!(b, 5..=8)));
+            entries.push(storage_entry(b, !matches!(b, 5..=8 | 12)));
         }
         let layout = ctx
             .device
@@ -208,6 +215,7 @@ impl<'c> GpuEmitter<'c> {
         let grid_buf = init_buffer(ctx, "grid", bytemuck::cast_slice(&grid.grid), st);
         let attr = init_buffer(ctx, "attr", bytemuck::cast_slice(&grid.attr), st);
         let cells = init_buffer(ctx, "cells", bytemuck::cast_slice(&grid.cells), st);
+        let grad = init_buffer(ctx, "grad", bytemuck::cast_slice(&grid.grad), st);
         ctx.check()?;
         Ok(GpuEmitter {
             ctx,
@@ -224,11 +232,13 @@ impl<'c> GpuEmitter<'c> {
             grid_buf,
             attr,
             cells,
+            grad,
             entries: None,
             levels: None,
             control: None,
             vertices: None,
             areas: None,
+            normals: None,
             dispatches: 0,
             level_count: 0,
             triangles: 0,
@@ -259,11 +269,13 @@ impl<'c> GpuEmitter<'c> {
             grid_buf: self.grid_buf.clone(),
             attr: self.attr.clone(),
             cells: self.cells.clone(),
+            grad: self.grad.clone(),
             entries: None,
             levels: None,
             control: None,
             vertices: None,
             areas: None,
+            normals: None,
             dispatches: 0,
             level_count: 0,
             triangles: 0,
@@ -326,6 +338,8 @@ impl<'c> GpuEmitter<'c> {
             b(&self.areas),
             b(&self.levels),
             self.live.as_entire_binding(),
+            self.grad.as_entire_binding(),
+            b(&self.normals),
         ];
         let entries: Vec<wgpu::BindGroupEntry> = bufs
             .into_iter()
@@ -395,6 +409,7 @@ impl<'c> GpuEmitter<'c> {
             4,
             st | wgpu::BufferUsages::COPY_SRC,
         )?;
+        Self::ensure(ctx, &mut self.normals, "the output normals", 16, vst)?;
         let q = &ctx.queue;
         if !frame.entries.is_empty() {
             q.write_buffer(
@@ -445,6 +460,15 @@ impl<'c> GpuEmitter<'c> {
             if write_areas { total as u64 * 4 } else { 4 },
             st | wgpu::BufferUsages::COPY_SRC,
         )?;
+        if !self.grid.grad.is_empty() {
+            Self::ensure(
+                ctx,
+                &mut self.normals,
+                "the output normals",
+                total as u64 * NORMAL_BYTES_PER_TRIANGLE,
+                vst,
+            )?;
+        }
         p.triangle_capacity = total;
         q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
         let bg = self.bind_group();
@@ -488,6 +512,18 @@ impl<'c> GpuEmitter<'c> {
         self.vertices.as_ref().map(|g| &g.buf)
     }
 
+    /// The normals buffer (one `vec4<f32>` gradient per triangle corner,
+    /// parallel to [`Self::vertex_buffer`]); written only when the grid
+    /// buffers carry gradients.
+    pub fn normal_buffer(&self) -> Option<&wgpu::Buffer> {
+        self.normals.as_ref().map(|g| &g.buf)
+    }
+
+    /// True when the emit pass writes normals (the grid carries gradients).
+    pub fn has_normals(&self) -> bool {
+        !self.grid.grad.is_empty()
+    }
+
     /// The control buffer (draw arguments in both orders, then counters).
     pub fn control_buffer(&self) -> Option<&wgpu::Buffer> {
         self.control.as_ref().map(|g| &g.buf)
@@ -511,11 +547,20 @@ impl<'c> GpuEmitter<'c> {
         } else {
             Vec::new()
         };
+        let normals: Vec<[f32; 4]> = match &self.normals {
+            Some(nb) if self.has_normals() && n > 0 => bytemuck::pod_collect_to_vec(
+                &self
+                    .ctx
+                    .read_buffer(&nb.buf, n * NORMAL_BYTES_PER_TRIANGLE)?,
+            ),
+            _ => Vec::new(),
+        };
         Ok(FrameOutput {
             k: self.level_count,
             control,
             vertices,
             areas,
+            normals,
         })
     }
 }
@@ -583,6 +628,7 @@ impl GpuEmitter<'_> {
             4,
             st | wgpu::BufferUsages::COPY_SRC,
         )?;
+        Self::ensure(ctx, &mut self.normals, "the output normals", 16, vst)?;
         let q = &ctx.queue;
         if k > 0 {
             q.write_buffer(
@@ -645,6 +691,15 @@ impl GpuEmitter<'_> {
             if write_areas { total as u64 * 4 } else { 4 },
             st | wgpu::BufferUsages::COPY_SRC,
         )?;
+        if !self.grid.grad.is_empty() {
+            Self::ensure(
+                ctx,
+                &mut self.normals,
+                "the output normals",
+                total as u64 * NORMAL_BYTES_PER_TRIANGLE,
+                vst,
+            )?;
+        }
         p.triangle_capacity = total;
         q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
         let bg = self.bind_group();

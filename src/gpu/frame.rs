@@ -18,6 +18,10 @@ pub struct FrameOutput {
     pub vertices: Vec<OutVertex>,
     /// Per triangle: its share of its polygon's area (empty unless requested).
     pub areas: Vec<f32>,
+    /// Per triangle corner (parallel to `vertices`): the interpolated
+    /// gradient of the field (xyz, w = 0); empty unless the grid buffers
+    /// carried gradients.
+    pub normals: Vec<[f32; 4]>,
 }
 
 impl FrameOutput {
@@ -46,6 +50,14 @@ impl FrameOutput {
     pub fn level_vertices(&self, lv: u32) -> &[OutVertex] {
         let a = self.args(lv);
         &self.vertices[a.first_vertex as usize..(a.first_vertex + a.vertex_count) as usize]
+    }
+    /// The triangles of level `lv` with each corner's normal appended
+    /// (position, value, normal xyz), in the canonical order of
+    /// [`canonical`] keyed by position and value. Requires normals.
+    pub fn canonical_level_with_normals(&self, lv: u32) -> Vec<[[f32; 7]; 3]> {
+        let a = self.args(lv);
+        let r = a.first_vertex as usize..(a.first_vertex + a.vertex_count) as usize;
+        canonical_with_normals(&self.vertices[r.clone()], &self.normals[r])
     }
     /// The triangles of level `lv` in a canonical order: each rotated to
     /// start at its smallest corner (orientation kept), then sorted.
@@ -94,5 +106,32 @@ pub fn canonical(vertices: &[OutVertex]) -> Vec<[[f32; 4]; 3]> {
         })
         .collect();
     tris.sort_by_key(|t| t.map(|v| key(&v)));
+    tris
+}
+
+/// As [`canonical`], each corner carrying its normal (position, value,
+/// normal xyz); the order keys on position and value only.
+pub fn canonical_with_normals(vertices: &[OutVertex], normals: &[[f32; 4]]) -> Vec<[[f32; 7]; 3]> {
+    let mut tris: Vec<[[f32; 7]; 3]> = vertices
+        .chunks_exact(3)
+        .zip(normals.chunks_exact(3))
+        .map(|(c, n)| {
+            let p: [[f32; 7]; 3] = std::array::from_fn(|i| {
+                [
+                    c[i].pos[0],
+                    c[i].pos[1],
+                    c[i].pos[2],
+                    c[i].value,
+                    n[i][0],
+                    n[i][1],
+                    n[i][2],
+                ]
+            });
+            let k = |v: &[f32; 7]| key(&[v[0], v[1], v[2], v[3]]);
+            let r = (0..3).min_by_key(|&i| k(&p[i])).unwrap_or(0);
+            [p[r], p[(r + 1) % 3], p[(r + 2) % 3]]
+        })
+        .collect();
+    tris.sort_by_key(|t| t.map(|v| key(&[v[0], v[1], v[2], v[3]])));
     tris
 }

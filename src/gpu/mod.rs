@@ -10,6 +10,7 @@
 pub mod context;
 pub mod emit;
 pub mod frame;
+pub mod gradient;
 pub mod render;
 pub mod shaders;
 pub mod shared;

@@ -25,9 +25,11 @@ use crate::pipeline::{LevelSpec, PipelineError, SliceRequest, Structure, vertex_
 
 use super::context::{GpuContext, GpuError};
 use super::emit::{GpuEmitter, emit_chunked};
+use super::gradient::vertex_gradients;
 use super::shaders;
 use super::shared::{ARGS_WORDS, ControlLayout, OutVertex, RenderParams};
 use super::slice::prepare;
+use super::tables::slot_values;
 
 /// Entries of the transfer-function lookup table (`LUT_SIZE` in `wgsl/render.wgsl`).
 pub const LUT_SIZE: usize = 256;
@@ -347,20 +349,35 @@ impl<'c> Renderer<'c> {
                 immediate_size: 0,
             });
         let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32];
+        let normal_attrs = wgpu::vertex_attr_array![2 => Float32x3];
+        let vertices = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<OutVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &attrs,
+        };
+        // The emit pass's normals: one vec4<f32> per corner.
+        let normals = wgpu::VertexBufferLayout {
+            array_stride: 16,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &normal_attrs,
+        };
+        let slice_buffers = [Some(vertices.clone())];
+        let iso_buffers = [Some(vertices), Some(normals)];
         let make = |blend: Option<wgpu::BlendState>, depth: bool| {
+            let (entry, buffers): (&str, &[Option<wgpu::VertexBufferLayout>]) = if depth {
+                ("vs_iso", &iso_buffers)
+            } else {
+                ("vs", &slice_buffers)
+            };
             ctx.device
                 .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                     label: Some("render"),
                     layout: Some(&pl),
                     vertex: wgpu::VertexState {
                         module: &module,
-                        entry_point: Some("vs"),
+                        entry_point: Some(entry),
                         compilation_options: Default::default(),
-                        buffers: &[Some(wgpu::VertexBufferLayout {
-                            array_stride: std::mem::size_of::<OutVertex>() as u64,
-                            step_mode: wgpu::VertexStepMode::Vertex,
-                            attributes: &attrs,
-                        })],
+                        buffers,
                     },
                     primitive: wgpu::PrimitiveState::default(),
                     depth_stencil: depth.then(|| wgpu::DepthStencilState {
@@ -490,7 +507,25 @@ impl<'c> Renderer<'c> {
                 brute_force: false,
                 collect_mesh: false,
             };
-            let p = prepare(grid, s, &req)?;
+            let mut p = prepare(grid, s, &req)?;
+            // A cell property (no point property of that name) colours
+            // each slice polygon flat with its own cell's value.
+            let cell_values: Option<Vec<f64>> = match &property {
+                Some(n) if o.mode != Mode::Iso && grid.point_property(n).is_none() => grid
+                    .cell_property(n)
+                    .map(|c| (0..c.len()).map(|i| c.scalar_at(i)).collect()),
+                _ => None,
+            };
+            if let Some(v) = &cell_values {
+                p.grid.attr = match s {
+                    Structure::SCGraph(g) => slot_values(g, v),
+                    Structure::CGraph(g) => slot_values(g, v),
+                };
+                p.grid.attr_per_cell = true;
+            }
+            if o.mode == Mode::Iso {
+                p.grid.grad = vertex_gradients(&p.grid);
+            }
             let spacing = match p.level_values.as_slice() {
                 [a, b, ..] => b - a,
                 _ => {
@@ -498,14 +533,19 @@ impl<'c> Renderer<'c> {
                     hi[axis] - lo[axis]
                 }
             };
-            let range = match &property {
-                Some(name) => {
+            let range = match (&property, &cell_values) {
+                (_, Some(v)) => {
+                    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+                    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                    (lo as f32 as f64, hi as f32 as f64)
+                }
+                (Some(name), None) => {
                     let v = vertex_property(grid, s, name)?;
                     let lo = v.iter().copied().fold(f32::INFINITY, f32::min) as f64;
                     let hi = v.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
                     (lo, hi)
                 }
-                None => {
+                (None, None) => {
                     let l = &p.level_values;
                     (l[0], l[l.len() - 1])
                 }
@@ -572,7 +612,6 @@ impl<'c> Renderer<'c> {
             (hi[1] - lo[1]) as f32,
             (hi[2] - lo[2]) as f32,
         );
-        let r = (0.5 * ext.length()).max(1e-6);
         let up = match o.up {
             Some(u) => Vec3::from_array(u.map(|c| c as f32)),
             None if d.z.abs() > 0.99 => Vec3::Y,
@@ -584,34 +623,15 @@ impl<'c> Renderer<'c> {
             ));
         }
         let aspect = w as f32 / h as f32;
-        let (view_proj, eye) = if o.perspective {
-            let fov = 30f32.to_radians();
-            let dist = r / (0.5 * fov).sin();
-            let eye = -d * dist;
-            let view = look_at_rh(eye, Vec3::ZERO, up);
-            let fov_y = if aspect >= 1.0 {
-                fov
-            } else {
-                2.0 * ((0.5 * fov).tan() / aspect).atan()
-            };
-            let proj = perspective_rh(
-                fov_y,
-                aspect,
-                (dist - 1.1 * r).max(1e-3 * r),
-                dist + 1.1 * r,
-            );
-            (proj * view, eye)
-        } else {
-            let eye = -d * (3.0 * r);
-            let view = look_at_rh(eye, Vec3::ZERO, up);
-            let (hw, hh) = if aspect >= 1.0 {
-                (r * aspect, r)
-            } else {
-                (r, r / aspect)
-            };
-            let proj = orthographic_rh(-hw, hw, -hh, hh, 1.5 * r, 4.5 * r);
-            (proj * view, eye)
-        };
+        let (view_proj, eye) = frame_camera(
+            &grid.points,
+            grid.origin(),
+            ext,
+            d,
+            up,
+            aspect,
+            o.perspective,
+        );
         let mut axis_v = [0f32; 4];
         axis_v[axis] = 1.0;
         let (lut, vlo, vhi) = transfer.lut();
@@ -737,6 +757,16 @@ impl<'c> Renderer<'c> {
                     (e.vertex_buffer(), e.control_buffer(), e.triangles > 0)
                 {
                     pass.set_vertex_buffer(0, vb.slice(..));
+                    if o.mode == Mode::Iso {
+                        match e.normal_buffer() {
+                            Some(nb) if e.has_normals() => pass.set_vertex_buffer(1, nb.slice(..)),
+                            _ => {
+                                return Err(RenderError::Options(
+                                    "iso mode: the slices carry no normals".into(),
+                                ));
+                            }
+                        }
+                    }
                     let lay = ControlLayout { k };
                     let first = if reverse {
                         lay.args_rev()
@@ -811,6 +841,137 @@ impl<'c> Renderer<'c> {
             height: h,
             premultiplied: px,
         })
+    }
+}
+
+/// Margin around the projected grid: the window is 5 % wider (or taller)
+/// than the side of the projected points that limits the fit.
+pub const FRAME_MARGIN: f32 = 1.05;
+
+/// Extents of the points in view coordinates: (min, max) along the right
+/// vector `s` and the up vector `u`, and the perspective eye distance that
+/// fits every point in a window of half-slopes `tx`, `ty`.
+fn view_extents(
+    points: &[[f64; 3]],
+    origin: [f64; 3],
+    s: Vec3,
+    u: Vec3,
+    d: Vec3,
+    tx: f32,
+    ty: f32,
+) -> [f32; 5] {
+    use rayon::prelude::*;
+    let init = || {
+        [
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NEG_INFINITY,
+        ]
+    };
+    points
+        .par_iter()
+        .fold(init, |mut acc, p| {
+            let q = Vec3::new(
+                (p[0] - origin[0]) as f32,
+                (p[1] - origin[1]) as f32,
+                (p[2] - origin[2]) as f32,
+            );
+            let (x, y) = (q.dot(s), q.dot(u));
+            acc[0] = acc[0].min(x);
+            acc[1] = acc[1].max(x);
+            acc[2] = acc[2].min(y);
+            acc[3] = acc[3].max(y);
+            // depth = dist + q·d must reach |x|·m / tx and |y|·m / ty.
+            let dist = (x.abs() * FRAME_MARGIN / tx).max(y.abs() * FRAME_MARGIN / ty) - q.dot(d);
+            acc[4] = acc[4].max(dist);
+            acc
+        })
+        .reduce(init, |a, b| {
+            [
+                a[0].min(b[0]),
+                a[1].max(b[1]),
+                a[2].min(b[2]),
+                a[3].max(b[3]),
+                a[4].max(b[4]),
+            ]
+        })
+}
+
+/// The camera that frames a grid tightly: its `points` (world), rebased to
+/// `origin` (the bounding-box centre, the local frame's origin), with
+/// bounding-box extents `ext`, seen along the unit vector `d` with `up`.
+/// Returns the world (local frame) → clip matrix and the eye position.
+///
+/// Orthographic: the window is the projected points' extent, centred on
+/// it, widened to the image aspect and enlarged by [`FRAME_MARGIN`] (so a
+/// rotated grid fills the image, not its axis-aligned box). Perspective
+/// (30° field of view across the smaller image side, looking at the
+/// bounding-box centre): the eye is placed at the smallest distance at
+/// which every point projects inside the window. Without points the
+/// bounding box's corners are framed.
+pub fn frame_camera(
+    points: &[[f64; 3]],
+    origin: [f64; 3],
+    ext: Vec3,
+    d: Vec3,
+    up: Vec3,
+    aspect: f32,
+    perspective: bool,
+) -> (Mat4, Vec3) {
+    let r = (0.5 * ext.length()).max(1e-6);
+    let s = d.cross(up).normalize();
+    let u = s.cross(d);
+    let fov = 30f32.to_radians();
+    let fov_y = if aspect >= 1.0 {
+        fov
+    } else {
+        2.0 * ((0.5 * fov).tan() / aspect).atan()
+    };
+    let ty = (0.5 * fov_y).tan();
+    let tx = ty * aspect;
+    let corners: Vec<[f64; 3]>;
+    let pts = if points.is_empty() {
+        corners = (0..8)
+            .map(|i| {
+                let sign = |b: usize| if i >> b & 1 == 1 { 0.5 } else { -0.5 };
+                let c = ext * Vec3::new(sign(0), sign(1), sign(2));
+                [0, 1, 2].map(|a| origin[a] + c[a] as f64)
+            })
+            .collect();
+        &corners[..]
+    } else {
+        points
+    };
+    let [x0, x1, y0, y1, fit] = view_extents(pts, origin, s, u, d, tx, ty);
+    let tiny = 1e-6 * r;
+    if perspective {
+        // The eye stays outside the bounding sphere's depth.
+        let hz = (0..8)
+            .map(|i| {
+                let sign = |b: usize| if i >> b & 1 == 1 { 0.5 } else { -0.5 };
+                (ext * Vec3::new(sign(0), sign(1), sign(2))).dot(d).abs()
+            })
+            .fold(tiny, f32::max);
+        let dist = fit.max(1.05 * hz + tiny);
+        let eye = -d * dist;
+        let view = look_at_rh(eye, Vec3::ZERO, up);
+        let near = (0.9 * (dist - hz)).max(1e-3 * r);
+        let far = 1.1 * (dist + hz);
+        (perspective_rh(fov_y, aspect, near, far) * view, eye)
+    } else {
+        let eye = -d * (3.0 * r);
+        let view = look_at_rh(eye, Vec3::ZERO, up);
+        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+        let (hx, hy) = ((0.5 * (x1 - x0)).max(tiny), (0.5 * (y1 - y0)).max(tiny));
+        let (hw, hh) = if hx > hy * aspect {
+            (hx * FRAME_MARGIN, hx * FRAME_MARGIN / aspect)
+        } else {
+            (hy * FRAME_MARGIN * aspect, hy * FRAME_MARGIN)
+        };
+        let proj = orthographic_rh(cx - hw, cx + hw, cy - hh, cy + hh, 1.5 * r, 4.5 * r);
+        (proj * view, eye)
     }
 }
 

@@ -18,7 +18,10 @@ pub struct EmitParams {
     pub level_count: u32,
     /// 1 for an S-CGraph (implicit hexahedra), 0 for a CGraph (`cells` buffer).
     pub structured: u32,
-    /// 1 when the `attr` buffer holds a vertex attribute, 0 to write the level value.
+    /// What the `attr` buffer holds: [`ATTR_NONE`] (write the level value),
+    /// [`ATTR_VERTEX`] (one value per vertex, interpolated along the cut
+    /// edge) or [`ATTR_CELL`] (one value per slot, written flat on every
+    /// corner of the cell's polygons).
     pub has_attribute: u32,
     /// S-CGraph: `npi · npj` (slot of cell (i, j, k) minus the vertex id of its first vertex).
     pub slab: u32,
@@ -38,11 +41,19 @@ pub struct EmitParams {
     pub triangle_capacity: u32,
     /// Span-space passes: live cells in the `live` buffer.
     pub live_count: u32,
-    /// Padding.
-    pub _pad1: u32,
+    /// 1 when the `grad` buffer holds a gradient per vertex: the emit pass
+    /// then interpolates it along the cut edge into `out_normals`.
+    pub has_gradient: u32,
     /// Padding.
     pub _pad2: u32,
 }
+
+/// [`EmitParams::has_attribute`]: no attribute, write the level value.
+pub const ATTR_NONE: u32 = 0;
+/// [`EmitParams::has_attribute`]: one value per vertex, interpolated.
+pub const ATTR_VERTEX: u32 = 1;
+/// [`EmitParams::has_attribute`]: one value per slot (the cell's own), flat.
+pub const ATTR_CELL: u32 = 2;
 
 /// Start (in `u32`s) of each section of the flat `tables` buffer that holds
 /// the meta-cell catalog (see [`crate::gpu::tables`]).

@@ -10,7 +10,10 @@ use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use crate::scgraph::SCGraph;
 use crate::sweep::{CellGraph, LevelStats, Sweeper};
 
-use super::shared::{EmitParams, Entry, META_WORDS, MetaInfo, TableSections, WORKGROUP};
+use super::shared::{
+    ATTR_CELL, ATTR_NONE, ATTR_VERTEX, EmitParams, Entry, META_WORDS, MetaInfo, TableSections,
+    WORKGROUP,
+};
 
 /// Flattens a catalog into one `u32` buffer with its section starts.
 ///
@@ -95,8 +98,15 @@ pub struct GridBuffers {
     pub sections: TableSections,
     /// Per vertex: rebased position and φ.
     pub grid: Vec<[f32; 4]>,
-    /// Per vertex attribute (empty: write the level value).
+    /// Per vertex attribute, or per slot when [`Self::attr_per_cell`]
+    /// (empty: write the level value).
     pub attr: Vec<f32>,
+    /// `attr` holds one value per slot (a cell property shown flat per
+    /// polygon) rather than one per vertex.
+    pub attr_per_cell: bool,
+    /// Per vertex: the field's gradient (xyz, w = 0) for iso lighting
+    /// (empty: no normals are emitted). See [`super::gradient`].
+    pub grad: Vec<[f32; 4]>,
     /// CGraph: per slot (meta id, first vertex word), then vertex ids.
     pub cells: Vec<u32>,
     /// The live slots (read by the span-space passes only).
@@ -167,7 +177,26 @@ impl GridBuffers {
     /// Bytes of the grid-side buffers.
     pub fn bytes(&self) -> usize {
         (self.tables.len() + self.attr.len() + self.cells.len() + self.live.len()) * 4
-            + self.grid.len() * 16
+            + (self.grid.len() + self.grad.len()) * 16
+    }
+
+    /// Meta id of the cell in a live `slot`, its vertex ids written to
+    /// `ids`, and its vertex count (the load of `wgsl/shared/cell.wgsl`).
+    pub fn cell_vertices(&self, slot: u32, ids: &mut [u32; MAX_META_VERTICES]) -> (u32, usize) {
+        if self.structured {
+            let v0 = slot - self.slab;
+            for (id, o) in ids.iter_mut().zip(self.hex_offsets) {
+                *id = v0 + o;
+            }
+            (self.hex_meta, 8)
+        } else {
+            let m = self.cells[2 * slot as usize];
+            let start = self.cells[2 * slot as usize + 1] as usize;
+            let b = (self.sections.metas + m * META_WORDS) as usize;
+            let nv = self.tables[b] as usize;
+            ids[..nv].copy_from_slice(&self.cells[start..start + nv]);
+            (m, nv)
+        }
     }
 }
 
@@ -277,7 +306,12 @@ pub fn emit_params(
         entry_count: frame.entries.len() as u32,
         level_count: frame.levels.len() as u32,
         structured: g.structured as u32,
-        has_attribute: !g.attr.is_empty() as u32,
+        has_attribute: match (g.attr.is_empty(), g.attr_per_cell) {
+            (true, _) => ATTR_NONE,
+            (false, false) => ATTR_VERTEX,
+            (false, true) => ATTR_CELL,
+        },
+        has_gradient: !g.grad.is_empty() as u32,
         slab: g.slab,
         hex_meta: g.hex_meta,
         write_areas: write_areas as u32,
@@ -288,4 +322,23 @@ pub fn emit_params(
         triangle_capacity: capacity,
         ..Default::default()
     }
+}
+
+/// One value per slot of `g`: the value of the slot's source cell in
+/// `cell_values` (indexed by the input grid's cell id), 0 for dead slots
+/// and cells without a value. Uploaded as the `attr` buffer with
+/// [`GridBuffers::attr_per_cell`], it colours each polygon flat with its
+/// own cell's value.
+pub fn slot_values<G: CellGraph>(g: &G, cell_values: &[f64]) -> Vec<f32> {
+    (0..g.slot_count() as u32)
+        .map(|s| {
+            if g.is_live(s) {
+                cell_values
+                    .get(g.source_cell(s) as usize)
+                    .map_or(0.0, |&v| v as f32)
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }

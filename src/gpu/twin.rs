@@ -7,7 +7,10 @@
 use crate::extract::face_above_connected;
 
 use super::frame::FrameOutput;
-use super::shared::{ControlLayout, DrawArgs, EmitParams, Entry, META_WORDS, MetaInfo, OutVertex};
+use super::shared::{
+    ATTR_CELL, ATTR_VERTEX, ControlLayout, DrawArgs, EmitParams, Entry, META_WORDS, MetaInfo,
+    OutVertex,
+};
 use super::tables::{Frame, GridBuffers};
 
 /// Per-invocation state: the current cell's vertex ids and φ.
@@ -103,8 +106,16 @@ impl Twin<'_> {
             .sum()
     }
 
-    /// `edge_point` of `wgsl/emit.wgsl` (the rule of `extract::push_vertex`).
-    fn edge_point(&self, c: &Cell, mi: &MetaInfo, e: u32, t: f32) -> OutVertex {
+    /// `edge_point` of `wgsl/emit.wgsl` (the rule of `extract::push_vertex`):
+    /// the corner and its interpolated gradient (zero without gradients).
+    fn edge_point(
+        &self,
+        c: &Cell,
+        mi: &MetaInfo,
+        e: u32,
+        t: f32,
+        cell_value: f32,
+    ) -> (OutVertex, [f32; 4]) {
         let packed = self.t(self.p.tables.edges + mi.edge_base + e);
         let (la, lb) = ((packed & 0xffff) as usize, (packed >> 16) as usize);
         let (mut ga, mut gb) = (c.ids[la], c.ids[lb]);
@@ -116,20 +127,33 @@ impl Twin<'_> {
         let s = (t - fa) / (fb - fa);
         let pa = self.g.grid[ga as usize];
         let pb = self.g.grid[gb as usize];
-        let value = if self.p.has_attribute == 1 {
-            let a = &self.g.attr;
-            a[ga as usize] + s * (a[gb as usize] - a[ga as usize])
-        } else {
-            t
+        let value = match self.p.has_attribute {
+            ATTR_VERTEX => {
+                let a = &self.g.attr;
+                a[ga as usize] + s * (a[gb as usize] - a[ga as usize])
+            }
+            ATTR_CELL => cell_value,
+            _ => t,
         };
-        OutVertex {
-            pos: [
-                pa[0] + s * (pb[0] - pa[0]),
-                pa[1] + s * (pb[1] - pa[1]),
-                pa[2] + s * (pb[2] - pa[2]),
-            ],
-            value,
+        let mut n = [0f32; 4];
+        if self.p.has_gradient == 1 {
+            let na = self.g.grad[ga as usize];
+            let nb = self.g.grad[gb as usize];
+            for i in 0..3 {
+                n[i] = na[i] + s * (nb[i] - na[i]);
+            }
         }
+        (
+            OutVertex {
+                pos: [
+                    pa[0] + s * (pb[0] - pa[0]),
+                    pa[1] + s * (pb[1] - pa[1]),
+                    pa[2] + s * (pb[2] - pa[2]),
+                ],
+                value,
+            },
+            n,
+        )
     }
 }
 
@@ -177,6 +201,8 @@ pub fn run(g: &GridBuffers, frame: &Frame, write_areas: bool) -> FrameOutput {
     let tw = Twin { p: &p, g };
     let mut vertices = vec![OutVertex::default(); 3 * base as usize];
     let mut areas = vec![0f32; if write_areas { base as usize } else { 0 }];
+    let with_normals = p.has_gradient == 1;
+    let mut normals = vec![[0f32; 4]; if with_normals { 3 * base as usize } else { 0 }];
     for &e in &frame.entries {
         let t = frame.levels[e.level as usize];
         let (v, m) = tw.cell_variant(e, t, &mut cell);
@@ -184,24 +210,34 @@ pub fn run(g: &GridBuffers, frame: &Frame, write_areas: bool) -> FrameOutput {
         let tris = tw.variant_triangles(v);
         let ci = (lay.cursor() + e.level) as usize;
         let mut tri = control[(lay.base() + e.level) as usize] + control[ci];
+        let cell_value = if p.has_attribute == ATTR_CELL {
+            g.attr[e.slot as usize]
+        } else {
+            0.0
+        };
         control[ci] += tris;
         for l in tw.loops(v) {
             let cs = p.tables.config + tw.t(p.tables.loops + 2 * l);
             let n = tw.t(p.tables.loops + 2 * l + 1);
-            let p0 = tw.edge_point(&cell, &mi, tw.t(cs), t);
-            let mut prev = tw.edge_point(&cell, &mi, tw.t(cs + 1), t);
+            let p0 = tw.edge_point(&cell, &mi, tw.t(cs), t, cell_value);
+            let mut prev = tw.edge_point(&cell, &mi, tw.t(cs + 1), t, cell_value);
             let mut nrm = [0f32; 3];
             let first = tri;
             for j in 2..n {
-                let cur = tw.edge_point(&cell, &mi, tw.t(cs + j), t);
+                let cur = tw.edge_point(&cell, &mi, tw.t(cs + j), t, cell_value);
                 if tri < p.triangle_capacity {
                     let o = 3 * tri as usize;
-                    vertices[o] = p0;
-                    vertices[o + 1] = prev;
-                    vertices[o + 2] = cur;
+                    vertices[o] = p0.0;
+                    vertices[o + 1] = prev.0;
+                    vertices[o + 2] = cur.0;
+                    if with_normals {
+                        normals[o] = p0.1;
+                        normals[o + 1] = prev.1;
+                        normals[o + 2] = cur.1;
+                    }
                 }
-                let u = sub(prev.pos, p0.pos);
-                let w = sub(cur.pos, p0.pos);
+                let u = sub(prev.0.pos, p0.0.pos);
+                let w = sub(cur.0.pos, p0.0.pos);
                 nrm[0] += u[1] * w[2] - u[2] * w[1];
                 nrm[1] += u[2] * w[0] - u[0] * w[2];
                 nrm[2] += u[0] * w[1] - u[1] * w[0];
@@ -222,6 +258,7 @@ pub fn run(g: &GridBuffers, frame: &Frame, write_areas: bool) -> FrameOutput {
         control,
         vertices,
         areas,
+        normals,
     }
 }
 

@@ -6,6 +6,7 @@
 @group(0) @binding(1) var<storage, read> tables: array<u32>;
 // xyz: rebased position, w: φ.
 @group(0) @binding(2) var<storage, read> grid: array<vec4<f32>>;
+// Per vertex (ATTR_VERTEX) or per slot (ATTR_CELL), see EmitParams.
 @group(0) @binding(3) var<storage, read> attr: array<f32>;
 // CGraph: per slot (meta id, first vertex word), then the vertex ids.
 @group(0) @binding(4) var<storage, read> cells: array<u32>;
@@ -16,6 +17,10 @@
 @group(0) @binding(9) var<storage, read> levels: array<f32>;
 // Span-space passes: the live slots.
 @group(0) @binding(10) var<storage, read> live: array<u32>;
+// Iso lighting (has_gradient == 1): per vertex the field's gradient (xyz),
+// and per output corner the gradient interpolated along the cut edge.
+@group(0) @binding(11) var<storage, read> grad: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read_write> out_normals: array<vec4<f32>>;
 
 // Control buffer layout (src/gpu/shared.rs ControlLayout).
 fn ctl_args_rev() -> u32 { return ARGS_WORDS * params.level_count; }

@@ -26,7 +26,7 @@ struct EmitParams {
     tables: TableSections,
     triangle_capacity: u32,
     live_count: u32,
-    _pad1: u32,
+    has_gradient: u32,
     _pad2: u32,
 }
 
@@ -73,6 +73,9 @@ struct RenderParams {
     _pad2: u32,
 }
 
+const ATTR_NONE: u32 = 0u;
+const ATTR_VERTEX: u32 = 1u;
+const ATTR_CELL: u32 = 2u;
 const META_WORDS: u32 = 8u;
 const ARGS_WORDS: u32 = 4u;
 const WORKGROUP: u32 = 64u;
