@@ -40,7 +40,7 @@ struct Entry {
     gen_: u32,
 }
 
-/// Open-addressing map (linear probing, load ≤ 5/8) from a grid edge key to an output vertex index that
+/// Open-addressing map (linear probing, load ≤ 3/8) from a grid edge key to an output vertex index that
 /// keeps its capacity across [`EdgeMap::clear`].
 ///
 /// Key, value and a generation tag share one 16-byte slot, so a lookup
@@ -76,13 +76,9 @@ impl EdgeMap {
 
     #[inline(always)]
     fn slot(&self, key: u64) -> usize {
-        // Locality-preserving: edges of nearby vertices land in nearby
-        // slots (the sweep emits neighbouring cells one after another), so
-        // lookups hit cache lines the previous cells brought in. Two bits
-        // from the edge's id difference separate the edges of one vertex.
-        let (ga, gb) = ((key >> 32) as u32, key as u32);
-        let dir = gb.wrapping_sub(ga).wrapping_mul(0x9E37_79B9) >> 30;
-        ((ga as usize) << 2 | dir as usize) & self.mask
+        // Fibonacci hashing: the top bits of key × 2⁶⁴/φ (a locality-
+        // preserving slot was tried and probed more).
+        ((key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) as usize) & self.mask
     }
 
     #[cold]
@@ -109,7 +105,7 @@ impl EdgeMap {
     /// the next `extra` inserts need no check.
     #[inline(always)]
     pub fn reserve(&mut self, extra: usize) {
-        while (self.len + extra) * 8 > self.entries.len() * 5 {
+        while (self.len + extra) * 8 > self.entries.len() * 3 {
             self.grow();
         }
     }
@@ -118,7 +114,7 @@ impl EdgeMap {
     /// bool tells whether it was inserted. Call [`EdgeMap::reserve`] first.
     #[inline(always)]
     pub(crate) fn get_or_insert(&mut self, key: u64, value_if_new: u32) -> (u32, bool) {
-        debug_assert!((self.len + 1) * 8 <= self.entries.len() * 5);
+        debug_assert!((self.len + 1) * 8 <= self.entries.len() * 3);
         let mask = self.entries.len() - 1;
         let cur = self.gen_;
         let mut s = self.slot(key);

@@ -522,10 +522,6 @@ fn sweep_block_lattice(
             if let Some(&ahead) = work.get(i + PREFETCH_AHEAD) {
                 // The four vertex rows of the cell two entries ahead: φ,
                 // positions and attribute (read when it is cut).
-                let j = (ahead - start) as usize;
-                let dk = lat.deltas[2] as usize;
-                prefetch(stamps, j.wrapping_sub(dk));
-                prefetch(stamps, j + dk);
                 let v = ahead - lat.base;
                 for o in [off[0], off[3], off[4], off[7]] {
                     let r = (v + o) as usize;
