@@ -317,7 +317,7 @@ pub fn slice(
 }
 
 /// φ range over the vertices of live cells.
-fn live_range<G: CellGraph, F: ScalarField>(g: &G, f: &F) -> Option<(f32, f32)> {
+pub fn live_range<G: CellGraph, F: ScalarField>(g: &G, f: &F) -> Option<(f32, f32)> {
     let mut ids = [0u32; crate::metacell::MAX_META_VERTICES];
     let mut lo = f32::INFINITY;
     let mut hi = f32::NEG_INFINITY;
@@ -334,8 +334,8 @@ fn live_range<G: CellGraph, F: ScalarField>(g: &G, f: &F) -> Option<(f32, f32)> 
     (lo <= hi).then_some((lo, hi))
 }
 
-/// World levels from a request, given the local φ range.
-fn place_levels(
+/// World and local levels from a request, given the local φ range.
+pub fn place_levels(
     range: Option<(f32, f32)>,
     world_offset: f64,
     spec: &LevelSpec,

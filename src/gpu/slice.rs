@@ -8,10 +8,9 @@ use std::time::Instant;
 use thiserror::Error;
 
 use crate::field::{AxisField, FieldSpec, PlaneField, ScalarField, VertexField};
-use crate::field::{levels_by_count, local_levels};
 use crate::grid::Grid;
-use crate::pipeline::vertex_property;
-use crate::pipeline::{LevelSpec, PipelineError, SliceRequest, SliceResult, Structure, Timings};
+use crate::pipeline::{PipelineError, SliceRequest, SliceResult, Structure, Timings};
+use crate::pipeline::{live_range, place_levels, vertex_property};
 use crate::sweep::{CellGraph, LevelStats};
 
 use super::context::{GpuContext, GpuError};
@@ -44,22 +43,6 @@ pub struct Prepared {
     pub cpu_stats: Vec<LevelStats>,
     /// Seconds of the sweep (cut cells only, no emission).
     pub sweep_s: f64,
-}
-
-fn live_range<G: CellGraph, F: ScalarField>(g: &G, f: &F) -> Option<(f32, f32)> {
-    let mut ids = [0u32; crate::metacell::MAX_META_VERTICES];
-    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-    for s in 0..g.slot_count() as u32 {
-        if g.is_live(s) {
-            let (_, n) = g.cell(s, &mut ids);
-            for &v in &ids[..n] {
-                let p = f.phi(v);
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-        }
-    }
-    (lo <= hi).then_some((lo, hi))
 }
 
 /// Binds the field as [`crate::pipeline::slice`] does, places the levels,
@@ -136,17 +119,7 @@ fn finish<G: CellGraph, F: ScalarField>(
     attribute: Option<&[f32]>,
     build: impl Fn(&G, &F, Option<&[f32]>) -> GridBuffers,
 ) -> Result<Prepared, PipelineError> {
-    let (lo, hi) = live_range(g, f).ok_or(PipelineError::NoLiveCells)?;
-    let world = match &req.levels {
-        LevelSpec::Count(k) => {
-            if lo == hi {
-                return Err(PipelineError::ConstantField(lo as f64 + world_offset));
-            }
-            levels_by_count(lo as f64 + world_offset, hi as f64 + world_offset, *k)
-        }
-        LevelSpec::Values(v) => v.clone(),
-    };
-    let levels = local_levels(&world, world_offset)?;
+    let (world, levels) = place_levels(live_range(g, f), world_offset, &req.levels)?;
     let t = Instant::now();
     let (frame, cpu_stats) = sweep_frame(g, f, axis_slot, &levels, req.threads);
     let sweep_s = t.elapsed().as_secs_f64();
