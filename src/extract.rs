@@ -30,39 +30,40 @@ pub fn intersects(lo: f32, hi: f32, t: f32) -> bool {
     lo < t && t <= hi
 }
 
-/// One slot of an [`EdgeMap`]: key, value and the generation that wrote it.
+/// One slot of an [`EdgeMap`]: the value and a tag (generation in the high
+/// 16 bits, 16 bits of the key's hash in the low ones).
 #[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(16))]
+#[repr(C, align(8))]
 struct Entry {
-    key: u64,
     val: u32,
-    /// The slot is occupied iff this equals the map's current generation.
-    gen_: u32,
+    tag: u32,
 }
 
-/// Open-addressing map (linear probing, load ≤ 3/8) from a grid edge key to an output vertex index that
-/// keeps its capacity across [`EdgeMap::clear`].
+/// Open-addressing map (linear probing, load ≤ 3/8) from a grid edge key to
+/// an output vertex index that keeps its capacity across [`EdgeMap::clear`].
 ///
-/// Key, value and a generation tag share one 16-byte slot, so a lookup
-/// touches one cache line; clearing bumps the generation instead of
-/// rewriting the table (the table is rewritten once every 2³² − 1 clears).
+/// Slots are 8 bytes: the value and a tag. The full key is not stored: it
+/// is the output vertex's own edge key (`keys[val]`, the `edge_keys` of
+/// the [`LevelMesh`]), compared only when the 16 hash bits in the tag
+/// match. Clearing bumps the 16-bit generation instead of rewriting the
+/// table (rewritten once every 65 535 clears).
 #[derive(Clone, Debug, Default)]
 pub struct EdgeMap {
     entries: Vec<Entry>,
     len: usize,
     mask: usize,
-    /// Current generation (never 0 once the table exists).
+    /// Current generation (1..=65535 once the table exists).
     gen_: u32,
 }
 
 impl EdgeMap {
     /// Removes all entries, keeping the capacity. O(1) (O(capacity) once
-    /// every 2³² − 1 calls).
+    /// every 65 535 calls).
     pub fn clear(&mut self) {
         if self.len > 0 {
             self.len = 0;
-            self.gen_ = self.gen_.wrapping_add(1);
-            if self.gen_ == 0 {
+            self.gen_ += 1;
+            if self.gen_ > 0xFFFF {
                 self.entries.fill(Entry::default());
                 self.gen_ = 1;
             }
@@ -74,65 +75,73 @@ impl EdgeMap {
         self.entries.capacity() * std::mem::size_of::<Entry>()
     }
 
+    /// Fibonacci hash of `key`: slot from the high bits, tag bits below.
     #[inline(always)]
-    fn slot(&self, key: u64) -> usize {
-        // Fibonacci hashing: the top bits of key × 2⁶⁴/φ (a locality-
-        // preserving slot was tried and probed more).
-        ((key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) as usize) & self.mask
+    fn hash(key: u64) -> u64 {
+        key.wrapping_mul(0x9E37_79B9_7F4A_7C15)
     }
 
     #[cold]
-    fn grow(&mut self) {
+    fn grow(&mut self, keys: &[u64]) {
         let cap = (self.entries.len() * 2).max(1024);
         let old = std::mem::replace(&mut self.entries, vec![Entry::default(); cap]);
         let old_gen = self.gen_;
         self.gen_ = 1;
         self.mask = cap - 1;
-        let mask = cap - 1;
-        for e in old.into_iter().filter(|e| e.gen_ == old_gen) {
-            let mut s = self.slot(e.key);
-            while self.entries[s].gen_ == self.gen_ {
-                s = (s + 1) & mask;
+        for e in old.into_iter().filter(|e| e.tag >> 16 == old_gen) {
+            let h = Self::hash(keys[e.val as usize]);
+            let mut s = (h >> 32) as usize & self.mask;
+            while self.entries[s].tag >> 16 == self.gen_ {
+                s = (s + 1) & self.mask;
             }
             self.entries[s] = Entry {
-                gen_: self.gen_,
-                ..e
+                val: e.val,
+                tag: self.gen_ << 16 | (e.tag & 0xFFFF),
             };
         }
     }
 
     /// Makes room for `extra` more entries within the load limit, so that
-    /// the next `extra` inserts need no check.
+    /// the next `extra` inserts need no check; `keys` as in
+    /// [`EdgeMap::get_or_insert`].
     #[inline(always)]
-    pub fn reserve(&mut self, extra: usize) {
+    pub fn reserve(&mut self, extra: usize, keys: &[u64]) {
         while (self.len + extra) * 8 > self.entries.len() * 3 {
-            self.grow();
+            self.grow(keys);
         }
     }
 
     /// Returns the value for `key`, inserting `value_if_new` when absent; the
-    /// bool tells whether it was inserted. Call [`EdgeMap::reserve`] first.
+    /// bool tells whether it was inserted. `keys[v]` must be the key of
+    /// every value `v` inserted since the last clear (the caller appends
+    /// `key` at `value_if_new` after an insert). Call [`EdgeMap::reserve`]
+    /// first.
     #[inline(always)]
-    pub(crate) fn get_or_insert(&mut self, key: u64, value_if_new: u32) -> (u32, bool) {
+    pub(crate) fn get_or_insert(
+        &mut self,
+        key: u64,
+        value_if_new: u32,
+        keys: &[u64],
+    ) -> (u32, bool) {
         debug_assert!((self.len + 1) * 8 <= self.entries.len() * 3);
-        let mask = self.entries.len() - 1;
+        let h = Self::hash(key);
+        let mut s = (h >> 32) as usize & self.mask;
         let cur = self.gen_;
-        let mut s = self.slot(key);
+        let tag = cur << 16 | (h >> 16) as u32 & 0xFFFF;
         loop {
-            let e = &mut self.entries[s];
-            if e.gen_ != cur {
-                *e = Entry {
-                    key,
+            let e = self.entries[s];
+            if e.tag >> 16 != cur {
+                self.entries[s] = Entry {
                     val: value_if_new,
-                    gen_: cur,
+                    tag,
                 };
                 self.len += 1;
                 return (value_if_new, true);
             }
-            if e.key == key {
+            if e.tag == tag && keys[e.val as usize] == key {
                 return (e.val, false);
             }
-            s = (s + 1) & mask;
+            s = (s + 1) & self.mask;
         }
     }
 }
@@ -243,7 +252,7 @@ impl LevelMesh {
     pub(crate) fn begin_polygon(&mut self) -> usize {
         // A polygon has at most one corner per cell edge (≤ 32 for the
         // catalog's cells).
-        self.weld.reserve(32);
+        self.weld.reserve(32, &self.edge_keys);
         self.indices.len()
     }
     /// Adds the polygon corner where level `t` crosses grid edge `ga`–`gb`
@@ -251,7 +260,9 @@ impl LevelMesh {
     #[inline(always)]
     pub(crate) fn corner(&mut self, ga: u32, gb: u32, fa: f32, fb: f32, t: f32, ctx: &EmitContext) {
         let key = (ga as u64) << 32 | gb as u64;
-        let (vi, new) = self.weld.get_or_insert(key, self.positions.len() as u32);
+        let (vi, new) = self
+            .weld
+            .get_or_insert(key, self.positions.len() as u32, &self.edge_keys);
         if new {
             self.push_vertex(key, ga, gb, fa, fb, t, ctx);
         }
@@ -262,7 +273,7 @@ impl LevelMesh {
     /// whose polygons can be longer (CIEL).
     #[inline(always)]
     pub(crate) fn reserve_corners(&mut self, n: usize) {
-        self.weld.reserve(n);
+        self.weld.reserve(n, &self.edge_keys);
     }
     /// Closes the polygon begun at `start` (from [`LevelMesh::begin_polygon`])
     /// with source cell `slot`.
