@@ -531,11 +531,6 @@ impl LatticeHexTable {
         }
     }
 
-    /// Bytes held.
-    pub fn bytes(&self) -> usize {
-        std::mem::size_of::<Self>() + self.start.len() * 2 + self.polys.len()
-    }
-
     /// [`emit_cell`] for a lattice hexahedron (same polygons, same order).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]

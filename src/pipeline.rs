@@ -237,14 +237,15 @@ pub fn vertex_property(grid: &Grid, s: &Structure, name: &str) -> Result<Vec<f32
     })
 }
 
-/// Runs one slicing request on a built structure.
-pub fn slice(
+/// Per-vertex values of a request: the interpolated attribute's name (the
+/// isosurface property, else the first point property) and values, and the
+/// isosurface property's values. Shared by the CPU and GPU paths.
+#[allow(clippy::type_complexity)]
+pub fn request_values(
     grid: &Grid,
     s: &Structure,
     req: &SliceRequest,
-    progress: &(dyn Fn(usize) + Sync),
-) -> Result<SliceResult, PipelineError> {
-    let t0 = Instant::now();
+) -> Result<(Option<String>, Option<Vec<f32>>, Option<Vec<f32>>), PipelineError> {
     let attr_name = req.attribute.clone().or_else(|| match &req.field {
         FieldSpec::Property(p) => Some(p.clone()),
         _ => grid.point_data.first().map(|p| p.name.clone()),
@@ -257,6 +258,18 @@ pub fn slice(
         FieldSpec::Property(n) => Some(vertex_property(grid, s, n)?),
         _ => None,
     };
+    Ok((attr_name, attribute, field_values))
+}
+
+/// Runs one slicing request on a built structure.
+pub fn slice(
+    grid: &Grid,
+    s: &Structure,
+    req: &SliceRequest,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<SliceResult, PipelineError> {
+    let t0 = Instant::now();
+    let (attr_name, attribute, field_values) = request_values(grid, s, req)?;
     let setup = t0.elapsed().as_secs_f64();
     // World value of local φ = 0 (n·origin for planes, 0 for properties).
     let offset = req.field.world_offset(grid.origin());

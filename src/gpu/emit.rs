@@ -429,7 +429,7 @@ impl<'c> GpuEmitter<'c> {
             frame.entries.len() as u32,
             ctx.limits.max_compute_workgroups_per_dimension,
         );
-        let mut p = emit_params(&self.grid, frame, 0, write_areas, groups.0);
+        let p = emit_params(&self.grid, frame, 0, write_areas, groups.0);
         q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
         let control = self.control.as_ref().expect("allocated").buf.clone();
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -440,11 +440,28 @@ impl<'c> GpuEmitter<'c> {
         self.dispatch(&mut enc, &bg, &self.count.clone(), groups);
         self.dispatch(&mut enc, &bg, &self.scan.clone(), (1, 1));
         q.submit([enc.finish()]);
-        let total_word = lay.total() as u64 * 4;
-        let total = {
-            let bytes = self.read_words(&control, total_word, 1)?;
-            bytes[0]
-        };
+        self.size_and_emit(p, groups, &control, lay, write_areas, [t0, t1])?;
+        Ok(())
+    }
+
+    /// After the count and scan passes: reads the frame's triangle total,
+    /// sizes the outputs to it exactly, runs the emit pass and records the
+    /// timings (`times` = start, end of upload).
+    #[allow(clippy::too_many_arguments)]
+    fn size_and_emit(
+        &mut self,
+        mut p: EmitParams,
+        groups: (u32, u32),
+        control: &wgpu::Buffer,
+        lay: ControlLayout,
+        write_areas: bool,
+        times: [Instant; 2],
+    ) -> Result<(), GpuError> {
+        let ctx = self.ctx;
+        let q = &ctx.queue;
+        let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let vst = st | wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC;
+        let total = self.read_words(control, lay.total() as u64 * 4, 1)?[0];
         let t2 = Instant::now();
         Self::ensure(
             ctx,
@@ -477,11 +494,11 @@ impl<'c> GpuEmitter<'c> {
         q.submit([enc.finish()]);
         ctx.wait()?;
         let t3 = Instant::now();
-        self.level_count = k;
+        self.level_count = lay.k;
         self.triangles = total;
         self.timings = EmitTimings {
-            upload: (t1 - t0).as_secs_f64(),
-            count: (t2 - t1).as_secs_f64(),
+            upload: (times[1] - times[0]).as_secs_f64(),
+            count: (t2 - times[1]).as_secs_f64(),
             emit: (t3 - t2).as_secs_f64(),
             chunks: 1,
         };
@@ -675,47 +692,7 @@ impl GpuEmitter<'_> {
         self.dispatch(&mut enc, &bg, &self.count.clone(), groups);
         self.dispatch(&mut enc, &bg, &self.scan.clone(), (1, 1));
         q.submit([enc.finish()]);
-        let total = self.read_words(&control, lay.total() as u64 * 4, 1)?[0];
-        let t2 = Instant::now();
-        Self::ensure(
-            ctx,
-            &mut self.vertices,
-            "the output triangles",
-            total as u64 * 48,
-            vst,
-        )?;
-        Self::ensure(
-            ctx,
-            &mut self.areas,
-            "the per-triangle areas",
-            if write_areas { total as u64 * 4 } else { 4 },
-            st | wgpu::BufferUsages::COPY_SRC,
-        )?;
-        if !self.grid.grad.is_empty() {
-            Self::ensure(
-                ctx,
-                &mut self.normals,
-                "the output normals",
-                total as u64 * NORMAL_BYTES_PER_TRIANGLE,
-                vst,
-            )?;
-        }
-        p.triangle_capacity = total;
-        q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
-        let bg = self.bind_group();
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        self.dispatch(&mut enc, &bg, &self.emit.clone(), groups);
-        q.submit([enc.finish()]);
-        ctx.wait()?;
-        let t3 = Instant::now();
-        self.level_count = k;
-        self.triangles = total;
-        self.timings = EmitTimings {
-            upload: (t1 - t0).as_secs_f64(),
-            count: (t2 - t1).as_secs_f64(),
-            emit: (t3 - t2).as_secs_f64(),
-            chunks: 1,
-        };
+        self.size_and_emit(p, groups, &control, lay, write_areas, [t0, t1])?;
         Ok(n)
     }
 }

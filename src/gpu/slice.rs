@@ -10,7 +10,7 @@ use thiserror::Error;
 use crate::field::{AxisField, FieldSpec, PlaneField, ScalarField, VertexField};
 use crate::grid::Grid;
 use crate::pipeline::{PipelineError, SliceRequest, SliceResult, Structure, Timings};
-use crate::pipeline::{live_range, place_levels, vertex_property};
+use crate::pipeline::{live_range, place_levels, request_values};
 use crate::sweep::{CellGraph, LevelStats};
 
 use super::context::{GpuContext, GpuError};
@@ -48,18 +48,7 @@ pub struct Prepared {
 /// Binds the field as [`crate::pipeline::slice`] does, places the levels,
 /// runs the CPU sweep for the active cells and builds the buffers.
 pub fn prepare(grid: &Grid, s: &Structure, req: &SliceRequest) -> Result<Prepared, PipelineError> {
-    let attr_name = req.attribute.clone().or_else(|| match &req.field {
-        FieldSpec::Property(p) => Some(p.clone()),
-        _ => grid.point_data.first().map(|p| p.name.clone()),
-    });
-    let attribute = match &attr_name {
-        Some(n) => Some(vertex_property(grid, s, n)?),
-        None => None,
-    };
-    let field_values = match &req.field {
-        FieldSpec::Property(n) => Some(vertex_property(grid, s, n)?),
-        _ => None,
-    };
+    let (attr_name, attribute, field_values) = request_values(grid, s, req)?;
     let offset = req.field.world_offset(grid.origin());
     let axis_slot = req.field.axis_slot();
     let attribute = attribute.as_deref();
