@@ -26,7 +26,12 @@ fn compare(
         );
         return;
     };
-    let json = grid_path.with_extension(format!("peer{axis}.json"));
+    // In the temp dir, never beside the grid (real grids sit in shared data).
+    let json = std::env::temp_dir().join(format!(
+        "peer-{}-{}-{axis}.json",
+        std::process::id(),
+        grid_path.file_stem().unwrap().to_string_lossy()
+    ));
     let out = Command::new(&py)
         .arg(&script)
         .arg(grid_path)
@@ -47,6 +52,7 @@ fn compare(
     );
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let _ = std::fs::remove_file(&json);
     let s = Structure::build(grid, StructureChoice::Auto).unwrap();
     let req = SliceRequest {
         field: FieldSpec::Axis {
@@ -93,6 +99,7 @@ fn warped_grid_areas_match_vtk() {
     for axis in 0..3 {
         compare(&p, &g, axis, 25, 1e-5);
     }
+    let _ = std::fs::remove_file(&p);
 }
 
 #[test]
@@ -101,6 +108,7 @@ fn zoo_grid_areas_match_vtk() {
     let p = std::env::temp_dir().join(format!("peer-zoo-{}.vtu", std::process::id()));
     stratasweep::io::writers::write_vtk_xml_grid(&p, &g).unwrap();
     compare(&p, &g, 2, 30, 1e-5);
+    let _ = std::fs::remove_file(&p);
 }
 
 #[test]
