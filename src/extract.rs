@@ -4,18 +4,19 @@
 
 use crate::metacell::MetaCell;
 
-/// Hints the CPU to fetch the cache line holding `s[i]` (no effect when `i`
-/// is out of bounds or on targets without a prefetch instruction).
+/// Hints the CPU to fetch the cache line holding `s[i]` (harmless when `i`
+/// is out of bounds; no effect on targets without a prefetch instruction).
 #[inline(always)]
 pub fn prefetch<T>(s: &[T], i: usize) {
     #[cfg(target_arch = "x86_64")]
-    if i < s.len() {
+    {
         // SAFETY: SSE is part of the x86_64 baseline, so the intrinsic's
-        // target feature is always present; a prefetch never faults and
-        // reads nothing observable, and the address is inside `s`.
+        // target feature is always present. A prefetch never faults and
+        // reads nothing observable, so the address need not be valid: it
+        // is formed with `wrapping_add` (no bounds check, no UB).
         unsafe {
             std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                s.as_ptr().add(i) as *const i8,
+                s.as_ptr().wrapping_add(i) as *const i8,
             );
         }
     }
@@ -109,6 +110,12 @@ impl EdgeMap {
         while (self.len + extra) * 8 > self.entries.len() * 3 {
             self.grow(keys);
         }
+    }
+
+    /// Hints the CPU to fetch the slot where a probe for `key` starts.
+    #[inline(always)]
+    pub(crate) fn prefetch(&self, key: u64) {
+        prefetch(&self.entries, (Self::hash(key) >> 32) as usize & self.mask);
     }
 
     /// Returns the value for `key`, inserting `value_if_new` when absent; the
@@ -267,6 +274,12 @@ impl LevelMesh {
             self.push_vertex(key, ga, gb, fa, fb, t, ctx);
         }
         self.indices.push(vi);
+    }
+    /// Hints the CPU to fetch the weld-map slot of grid edge `ga`–`gb`
+    /// (`ga < gb`) ahead of [`LevelMesh::corner`].
+    #[inline(always)]
+    pub(crate) fn prefetch_corner(&self, ga: u32, gb: u32) {
+        self.weld.prefetch((ga as u64) << 32 | gb as u64);
     }
     /// Makes room in the weld map for `n` more corners of the current
     /// polygon ([`LevelMesh::begin_polygon`] reserves 32): for structures
@@ -528,6 +541,26 @@ impl LatticeHexTable {
             start,
             polys,
             edges,
+        }
+    }
+
+    /// Prefetches the weld-map slots of the corners that [`Self::emit`]
+    /// will look up for this cell (nothing for ambiguous codes).
+    #[inline(always)]
+    pub fn prefetch_corners(&self, gids: &[u32; 8], code: usize, mesh: &LevelMesh) {
+        let s = self.start[code & 255];
+        if s == u16::MAX {
+            return;
+        }
+        let polys = &self.polys[s as usize..];
+        let mut p = 1;
+        for _ in 0..polys[0] {
+            let n = polys[p] as usize;
+            for &e in &polys[p + 1..p + 1 + n] {
+                let (a, b) = self.edges[e as usize];
+                mesh.prefetch_corner(gids[a as usize], gids[b as usize]);
+            }
+            p += 1 + n;
         }
     }
 

@@ -213,6 +213,8 @@ pub struct Block {
     step: Stamp,
     work: Vec<u32>,
     active: Vec<u32>,
+    /// Scratch for [`radix_sort_slots`].
+    sort_scratch: Vec<u32>,
     minima_cache: [Option<Vec<Minimum>>; 6],
     /// The block's reusable output buffer.
     pub mesh: LevelMesh,
@@ -255,7 +257,7 @@ impl Block {
     /// Bytes of sweep state (stamps, queues, minima, output buffer).
     pub fn bytes(&self) -> usize {
         self.stamps.len() * std::mem::size_of::<Stamp>()
-            + (self.work.capacity() + self.active.capacity()) * 4
+            + (self.work.capacity() + self.active.capacity() + self.sort_scratch.capacity()) * 4
             + self
                 .minima_cache
                 .iter()
@@ -286,6 +288,7 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
                 step: 0,
                 work: Vec::new(),
                 active: Vec::new(),
+                sort_scratch: Vec::new(),
                 minima_cache: Default::default(),
                 mesh: LevelMesh::default(),
             })
@@ -519,8 +522,8 @@ fn sweep_block_lattice(
         let mut i = 0;
         while i < work.len() {
             let c = work[i];
-            if let Some(&ahead) = work.get(i + PREFETCH_AHEAD) {
-                // The four vertex rows of the cell two entries ahead: φ,
+            if let Some(&ahead) = work.get(i + 2 * PREFETCH_AHEAD) {
+                // The four vertex rows of the cell four entries ahead: φ,
                 // positions and attribute (read when it is cut).
                 let v = ahead - lat.base;
                 for o in [off[0], off[3], off[4], off[7]] {
@@ -530,6 +533,37 @@ fn sweep_block_lattice(
                     if let Some(a) = ctx.attribute {
                         prefetch(a, r);
                     }
+                }
+                // The stamps of its j and k neighbours (the i ones share
+                // its line), and the φ rows of their far faces.
+                let [_, dj, dk] = lat.deltas;
+                for nb in [ahead - dj, ahead + dj, ahead - dk, ahead + dk] {
+                    prefetch(stamps, nb.wrapping_sub(start) as usize);
+                }
+                for r in [
+                    v.wrapping_sub(dk),
+                    (v + dj).wrapping_sub(dk),
+                    v + 2 * dk,
+                    v + dj + 2 * dk,
+                    v.wrapping_sub(dj),
+                    (v + dk).wrapping_sub(dj),
+                    v + 2 * dj,
+                    v + 2 * dj + dk,
+                ] {
+                    prefetch(phi, r as usize);
+                }
+            }
+            if !ctx.cells_only
+                && let Some(&ahead) = work.get(i + PREFETCH_AHEAD)
+            {
+                // Two entries ahead, its φ rows have arrived: the weld-map
+                // slots of its corners, whose first probe would miss.
+                let v = ahead - lat.base;
+                let fa: [f32; 8] = std::array::from_fn(|q| at(v + off[q]));
+                let code = code8(&fa, t);
+                if code != 0 && code != 255 {
+                    let ids: [u32; 8] = std::array::from_fn(|q| v + off[q]);
+                    lat.table.prefetch_corners(&ids, code, mesh);
                 }
             }
             i += 1;
@@ -545,18 +579,27 @@ fn sweep_block_lattice(
             // The six neighbours, unrolled: stamp every one examined (see
             // `sweep_block`); its lo is the min of the shared face's φ and
             // of its 4 far vertices.
+            //
+            // A neighbour's lo is at most the min of the shared face: when
+            // that is below t_prev the neighbour cannot enter at this step
+            // (lo ≥ t_prev fails), so it is skipped without touching its
+            // stamp or its far vertices; that is the case of every face
+            // behind the front.
             macro_rules! visit {
                 ($nb:expr, $face:expr, $far:expr) => {{
                     let nb: u32 = $nb;
+                    let face = &lat.faces[$face];
+                    let shared = face
+                        .iter()
+                        .fold(f32::INFINITY, |m, &l| fmin(m, f[l as usize]));
                     let j = nb.wrapping_sub(start);
-                    if j < len && stamps[j as usize] < step {
+                    if shared >= t_prev && j < len && stamps[j as usize] < step {
                         stamps[j as usize] = step;
-                        let mut lo_n = f32::INFINITY;
-                        for &l in &lat.faces[$face] {
-                            let l = l as usize;
+                        let mut lo_n = shared;
+                        for &l in face {
                             #[allow(clippy::redundant_closure_call)]
-                            let far: u32 = $far(v0 + off[l]);
-                            lo_n = fmin(lo_n, fmin(f[l], at(far)));
+                            let far: u32 = $far(v0 + off[l as usize]);
+                            lo_n = fmin(lo_n, at(far));
                         }
                         if lo_n >= t_prev && lo_n < t {
                             work.push(nb);
@@ -574,7 +617,43 @@ fn sweep_block_lattice(
         }
         let stats = LevelStats::of(mesh, work.len() as u64);
         on_level(k, mesh, &stats);
+        // The next step visits A_k first, in this order: sorted by slot,
+        // consecutive cells share cache lines of φ, positions and stamps.
+        radix_sort_slots(active, &mut b.sort_scratch, start, len);
         t_prev = t;
+    }
+}
+
+/// Sorts `slots` (all in `start..start + len`) ascending with an LSD radix
+/// sort of 11-bit digits over `slot - start`; `scratch` is reused.
+fn radix_sort_slots(slots: &mut Vec<u32>, scratch: &mut Vec<u32>, start: u32, len: u32) {
+    const BITS: u32 = 11;
+    const RADIX: usize = 1 << BITS;
+    if slots.len() < 2 {
+        return;
+    }
+    let key_bits = 32 - len.saturating_sub(1).leading_zeros();
+    scratch.clear();
+    scratch.resize(slots.len(), 0);
+    let mut shift = 0;
+    while shift < key_bits {
+        let mut count = [0u32; RADIX];
+        for &c in slots.iter() {
+            count[((c - start) >> shift) as usize & (RADIX - 1)] += 1;
+        }
+        let mut sum = 0;
+        for n in count.iter_mut() {
+            let here = *n;
+            *n = sum;
+            sum += here;
+        }
+        for &c in slots.iter() {
+            let d = ((c - start) >> shift) as usize & (RADIX - 1);
+            scratch[count[d] as usize] = c;
+            count[d] += 1;
+        }
+        std::mem::swap(slots, scratch);
+        shift += BITS;
     }
 }
 
@@ -615,4 +694,38 @@ fn code8(f: &[f32; 8], t: f32) -> usize {
     }
     #[cfg(not(target_arch = "x86_64"))]
     code_of(f, t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::radix_sort_slots;
+
+    /// The radix sort against the standard sort: empty, one element,
+    /// duplicates, keys spanning 1, 2 and 3 digits, and a non-zero start.
+    #[test]
+    fn radix_sort_matches_std_sort() {
+        let mut scratch = Vec::new();
+        let mut x = 0x2545_f491_u32;
+        for (n, len, start) in [
+            (0usize, 10u32, 0u32),
+            (1, 10, 5),
+            (100, 7, 3),
+            (5000, 2000, 100),
+            (5000, 3_000_000, 17),
+            (20000, 4_000_000_000, 1),
+        ] {
+            let mut v: Vec<u32> = (0..n)
+                .map(|_| {
+                    x ^= x << 13;
+                    x ^= x >> 17;
+                    x ^= x << 5;
+                    start + x % len
+                })
+                .collect();
+            let mut want = v.clone();
+            want.sort_unstable();
+            radix_sort_slots(&mut v, &mut scratch, start, len);
+            assert_eq!(v, want, "n={n} len={len} start={start}");
+        }
+    }
 }
