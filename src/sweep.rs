@@ -472,6 +472,8 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
         }
         let stats = LevelStats::of(&b.mesh, b.work.len() as u64);
         on_level(k, &b.mesh, &stats);
+        // As in the lattice loop: the next step visits A_k in slot order.
+        radix_sort_slots(&mut b.active, &mut b.sort_scratch, start, len);
         t_prev = t;
     }
 }
