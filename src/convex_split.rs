@@ -93,8 +93,8 @@ pub struct SplitReport {
 pub struct SplitMap {
     /// Per output cell, the input cell it comes from.
     pub source: Vec<u32>,
-    /// Per output cell, true when it is a piece of a split cell.
-    pub is_piece: Vec<bool>,
+    /// Per input cell, true when it was split into pieces.
+    pub is_split: Vec<bool>,
     /// Points of the input grid (new vertices are numbered from here).
     pub input_points: usize,
     /// Cells of the input grid.
@@ -111,7 +111,9 @@ pub struct SplitMap {
 impl SplitMap {
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        self.source.len() * 5 + (self.mean_offsets.len() + self.mean_ids.len()) * 4
+        self.source.len() * 4
+            + self.is_split.len()
+            + (self.mean_offsets.len() + self.mean_ids.len()) * 4
     }
 
     /// Per-vertex values of the split grid from per-vertex values of the
@@ -795,7 +797,6 @@ pub fn split_non_convex(
         ..Default::default()
     };
     let mut source = Vec::with_capacity(n + report.pieces);
-    let mut is_piece = Vec::with_capacity(n + report.pieces);
     let mut next = pieces_of.iter().peekable();
     for c in 0..n {
         if let Some((_, pieces)) = next.next_if(|(s, _)| *s == c) {
@@ -812,7 +813,6 @@ pub fn split_non_convex(
                     out.push(*t, ids);
                 }
                 source.push(c as u32);
-                is_piece.push(true);
             }
         } else {
             let (a, b) = (cells.offsets[c] as usize, cells.offsets[c + 1] as usize);
@@ -822,7 +822,6 @@ pub fn split_non_convex(
             out.face_stream.extend_from_slice(cells.faces_of(c));
             out.face_offsets.push(out.face_stream.len() as u32);
             source.push(c as u32);
-            is_piece.push(false);
         }
     }
     if source.len() >= u32::MAX as usize {
@@ -832,7 +831,7 @@ pub fn split_non_convex(
     all_points.extend_from_slice(&new_points);
     let map = SplitMap {
         source,
-        is_piece,
+        is_split: split,
         input_points: np0,
         input_cells: n,
         mean_offsets,
