@@ -359,10 +359,10 @@ fn pieces_are_positive_and_their_volumes_sum_to_the_cell() {
     }
 }
 
-/// A box of n³ unit cubes given as polyhedra (random face order and
-/// direction), with some interior vertices moved: the cubes around them get
-/// non-planar faces and reflex edges; the others stay convex.
-fn dented_box(n: usize, rng: &mut Rng) -> Grid {
+/// A box of n³ unit cubes given as polyhedra (faces outward, or in random
+/// directions when `flip`), with some interior vertices moved: the cubes
+/// around them get non-planar faces and reflex edges; the others stay convex.
+fn dented_box(n: usize, flip: bool, rng: &mut Rng) -> Grid {
     let np = n + 1;
     let id = |i: usize, j: usize, k: usize| (i + np * (j + np * k)) as u32;
     let mut pts = Vec::new();
@@ -399,7 +399,7 @@ fn dented_box(n: usize, rng: &mut Rng) -> Grid {
                     .map(|f| f.iter().map(|&l| h[l as usize]).collect())
                     .collect();
                 for f in faces.iter_mut() {
-                    if rng.f64() < 0.3 {
+                    if flip && rng.f64() < 0.3 {
                         f.reverse();
                     }
                 }
@@ -445,7 +445,7 @@ fn mixed_grid_ciel_brute_force_and_cgraph_agree_with_the_reference() {
     for seed in 0..4 {
         let mut rng = Rng(seed);
         let n = 4;
-        let g = dented_box(n, &mut rng);
+        let g = dented_box(n, true, &mut rng);
         let s = split_non_convex(&g, None).unwrap().expect("dented cells");
         let nc = s.map.report.non_convex;
         assert!(nc > 0 && nc < n * n * n, "seed {seed}: {nc} non-convex");
@@ -480,7 +480,7 @@ fn mixed_grid_ciel_brute_force_and_cgraph_agree_with_the_reference() {
 
 #[test]
 fn split_output_does_not_depend_on_threads() {
-    let g = dented_box(5, &mut Rng(7));
+    let g = dented_box(5, true, &mut Rng(7));
     let levels: Vec<f64> = (0..7).map(|k| 0.31 + 0.7 * k as f64).collect();
     let s = Structure::build(&g, StructureChoice::Auto).unwrap();
     assert!(s.split().is_some());
@@ -568,7 +568,9 @@ fn areas_match_vtk_on_non_convex_cells() {
     let mut pts = Vec::new();
     let f = stellated(&mut pts, [0.0; 3]);
     cases.push(("stellated", grid_of(pts, &[f]), 2));
-    cases.push(("dented", dented_box(3, &mut Rng(3)), 1));
+    // Outward faces: VTK slices inward-facing polyhedra wrongly (see
+    // ARCHITECTURE, pebi3d).
+    cases.push(("dented", dented_box(3, false, &mut Rng(3)), 1));
     let count = 17;
     for (name, g, axis) in cases {
         let path = dir.join(format!("{name}.vtu"));
