@@ -24,8 +24,11 @@
 //! half-spaces of its faces and triangles) that is strictly (by
 //! [`CONVEXITY_TOLERANCE`] × extent) on the inner side of every base and
 //! triangle: the cell is then star-shaped from `p`, and the pieces are
-//! convex, have positive volumes and tile the cell. A cell with no such
-//! point is an error naming the cell.
+//! convex, have positive volumes and tile the cell. Failing that (thin
+//! slivers between warped faces), `p` is the first vertex of the cell that
+//! is strictly inside every face it is not on, coned over those faces only
+//! (exact for planar faces through `p`). A cell with no such point is an
+//! error naming the cell.
 //!
 //! New vertices (face points, cell points) are appended after the input's
 //! points; their point-property values are the means of the face's or the
@@ -86,6 +89,9 @@ pub struct SplitReport {
     pub kept_faces: usize,
     /// New vertices (face points and cell points).
     pub new_vertices: usize,
+    /// Cells with no interior star point, coned from one of their vertices
+    /// over the faces it is not on (slivers).
+    pub vertex_pulled: usize,
 }
 
 /// How a split grid maps back to its input.
@@ -752,17 +758,35 @@ pub fn split_non_convex(
                 }
             }
         }
-        let Some(apex) = apex else {
-            return Err(SplitError::NotStarShaped {
-                cell: *c,
-                face: best_face.unwrap_or(0),
-            });
+        let p = match apex {
+            Some(apex) => {
+                debug_assert!(elems.iter().all(|(_, e)| cone_volume(e, apex, &cpos) > 0.0));
+                new_points.push(apex);
+                mean_ids.extend_from_slice(&verts);
+                mean_offsets.push(mean_ids.len() as u32);
+                (np0 + new_points.len() - 1) as u32
+            }
+            // No interior point: pull from a vertex that sees every face
+            // it is not on (thin slivers between warped faces).
+            None => match verts.iter().copied().find(|&v| {
+                planes.iter().all(|(fi, pl)| {
+                    faces[*fi].contains(&v)
+                        || matches!(pl, Some((o, nh)) if dot(sub(points[v as usize], *o), *nh) < -tol)
+                })
+            }) {
+                Some(v) => {
+                    report.vertex_pulled += 1;
+                    elems.retain(|(fi, _)| !faces[*fi].contains(&v));
+                    v
+                }
+                None => {
+                    return Err(SplitError::NotStarShaped {
+                        cell: *c,
+                        face: best_face.unwrap_or(0),
+                    });
+                }
+            },
         };
-        debug_assert!(elems.iter().all(|(_, e)| cone_volume(e, apex, &cpos) > 0.0));
-        let p = (np0 + new_points.len()) as u32;
-        new_points.push(apex);
-        mean_ids.extend_from_slice(&verts);
-        mean_offsets.push(mean_ids.len() as u32);
         let mut out = Vec::with_capacity(elems.len());
         for (_, e) in elems {
             out.push(match e {
