@@ -63,7 +63,9 @@ pub enum SplitError {
         face: usize,
     },
     /// A non-planar or non-convex face that cannot be triangulated.
-    #[error("cell {cell}, face {face}: the face cannot be triangulated (self-intersecting or degenerate)")]
+    #[error(
+        "cell {cell}, face {face}: the face cannot be triangulated (self-intersecting or degenerate)"
+    )]
     Face {
         /// Cell id.
         cell: usize,
@@ -413,9 +415,8 @@ fn ear_clip(ids: &[u32], pts: &[P3]) -> Option<Vec<[u32; 3]>> {
     let m = mean(pts.iter().copied());
     let ext = pts.iter().map(|&p| norm(sub(p, m))).fold(0.0, f64::max);
     let tol = CONVEXITY_TOLERANCE * ext * ext;
-    let area2 = |a: usize, b: usize, c: usize| {
-        dot(cross(sub(pts[b], pts[a]), sub(pts[c], pts[a])), nh)
-    };
+    let area2 =
+        |a: usize, b: usize, c: usize| dot(cross(sub(pts[b], pts[a]), sub(pts[c], pts[a])), nh);
     let mut left: Vec<usize> = (0..ids.len()).collect();
     let mut tris = Vec::with_capacity(ids.len() - 2);
     while left.len() > 3 {
@@ -733,7 +734,10 @@ pub fn split_non_convex(
             for j in 1..pts.len() - 1 {
                 let w = dot(sub(pts[0], vm), cross(sub(pts[j], vm), sub(pts[j + 1], vm))) / 6.0;
                 vol += w;
-                acc = add(acc, scale(add(add(add(pts[0], pts[j]), pts[j + 1]), vm), w / 4.0));
+                acc = add(
+                    acc,
+                    scale(add(add(add(pts[0], pts[j]), pts[j + 1]), vm), w / 4.0),
+                );
             }
         }
         let centroid = scale(acc, 1.0 / vol);
@@ -841,7 +845,8 @@ pub fn split_non_convex(
         } else {
             let (a, b) = (cells.offsets[c] as usize, cells.offsets[c + 1] as usize);
             out.types.push(cells.types[c]);
-            out.connectivity.extend_from_slice(&cells.connectivity[a..b]);
+            out.connectivity
+                .extend_from_slice(&cells.connectivity[a..b]);
             out.offsets.push(out.connectivity.len() as u32);
             out.face_stream.extend_from_slice(cells.faces_of(c));
             out.face_offsets.push(out.face_stream.len() as u32);

@@ -107,8 +107,18 @@ impl Structure {
             None => (std::borrow::Cow::Borrowed(grid), None),
         };
         let grid = grid.as_ref();
-        let cgraph = |inner| Structure::CGraph(Split { inner, map: map.clone() });
-        let ciel = |inner| Structure::Ciel(Split { inner, map: map.clone() });
+        let cgraph = |inner| {
+            Structure::CGraph(Split {
+                inner,
+                map: map.clone(),
+            })
+        };
+        let ciel = |inner| {
+            Structure::Ciel(Split {
+                inner,
+                map: map.clone(),
+            })
+        };
         let s = match choice {
             StructureChoice::SCGraph => {
                 Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
@@ -371,7 +381,16 @@ pub fn slice(
     let field_s = t_field.elapsed().as_secs_f64();
     macro_rules! run {
         ($g:expr) => {
-            run_on($g, &phi, axis_slot, offset, req, attribute, s.split(), progress)
+            run_on(
+                $g,
+                &phi,
+                axis_slot,
+                offset,
+                req,
+                attribute,
+                s.split(),
+                progress,
+            )
         };
     }
     let mut r = match s {
@@ -592,39 +611,38 @@ fn run_on<G: CellGraph, F: ScalarField>(
             vec![Vec::new(); k],
         )
     };
-    let (stats_blocks, minima, state_bytes): (Vec<BlockOut>, usize, usize) =
-        if req.brute_force {
-            let t = Instant::now();
-            let mut acc = new_block();
-            let mut mesh = LevelMesh::default();
-            brute_force(g, f, &levels, &ctx, &mut mesh, |lv, m, st| {
+    let (stats_blocks, minima, state_bytes): (Vec<BlockOut>, usize, usize) = if req.brute_force {
+        let t = Instant::now();
+        let mut acc = new_block();
+        let mut mesh = LevelMesh::default();
+        brute_force(g, f, &levels, &ctx, &mut mesh, |lv, m, st| {
+            acc.0[lv] = *st;
+            gather(&mut acc, lv, m);
+            progress(1);
+        });
+        timings.sweep = t.elapsed().as_secs_f64();
+        (vec![acc], 0, mesh.capacity_bytes())
+    } else {
+        let mut sw = Sweeper::new(g, req.threads.max(1));
+        let t = Instant::now();
+        let minima = sw.prepare_minima(f, axis_slot);
+        timings.minima = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let out = sw.sweep(
+            f,
+            axis_slot,
+            &levels,
+            &ctx,
+            new_block,
+            |acc: &mut BlockOut, lv, m, st| {
                 acc.0[lv] = *st;
-                gather(&mut acc, lv, m);
+                gather(acc, lv, m);
                 progress(1);
-            });
-            timings.sweep = t.elapsed().as_secs_f64();
-            (vec![acc], 0, mesh.capacity_bytes())
-        } else {
-            let mut sw = Sweeper::new(g, req.threads.max(1));
-            let t = Instant::now();
-            let minima = sw.prepare_minima(f, axis_slot);
-            timings.minima = t.elapsed().as_secs_f64();
-            let t = Instant::now();
-            let out = sw.sweep(
-                f,
-                axis_slot,
-                &levels,
-                &ctx,
-                new_block,
-                |acc: &mut BlockOut, lv, m, st| {
-                    acc.0[lv] = *st;
-                    gather(acc, lv, m);
-                    progress(1);
-                },
-            );
-            timings.sweep = t.elapsed().as_secs_f64();
-            (out, minima, sw.state_bytes())
-        };
+            },
+        );
+        timings.sweep = t.elapsed().as_secs_f64();
+        (out, minima, sw.state_bytes())
+    };
     let mut stats = vec![LevelStats::default(); k];
     let mut cut: Vec<Vec<(u32, u32)>> = vec![Vec::new(); k];
     for (b, _, c) in &stats_blocks {

@@ -104,7 +104,11 @@ fn valley(pts: &mut Vec<P>, h: f64, shift: P) -> Vec<Vec<u32>> {
 
 /// Cross-section area of the valley cell at height t.
 fn valley_area(h: f64, t: f64) -> f64 {
-    if t <= h { 1.0 } else { 1.0 - (t - h) / (1.0 - h) }
+    if t <= h {
+        1.0
+    } else {
+        1.0 - (t - h) / (1.0 - h)
+    }
 }
 
 /// The cube [−1, 1]³ with a square pyramid (apex at 3 along the axis) on
@@ -316,9 +320,15 @@ fn pieces_are_positive_and_their_volumes_sum_to_the_cell() {
     let g = grid_of(pts, &[a, b, c, cube]);
     let original: Vec<f64> = (0..4).map(|c| cell_volume(&g, c)).collect();
     for (c, want) in [7.0, 0.6, 24.0, 1.0].into_iter().enumerate() {
-        assert!((original[c] - want).abs() < 1e-12, "cell {c}: {}", original[c]);
+        assert!(
+            (original[c] - want).abs() < 1e-12,
+            "cell {c}: {}",
+            original[c]
+        );
     }
-    let s = split_non_convex(&g, None).unwrap().expect("three non-convex cells");
+    let s = split_non_convex(&g, None)
+        .unwrap()
+        .expect("three non-convex cells");
     s.grid.validate().unwrap();
     assert_eq!(s.map.report.non_convex, 3);
     assert_eq!(s.map.input_cells, 4);
@@ -517,7 +527,10 @@ fn non_star_shaped_cell_is_an_error_naming_it() {
     let uf = prism(&mut pts, &u, 1.0, &|p| p);
     let g = grid_of(pts, &[cube, uf]);
     let e = split_non_convex(&g, None).unwrap_err();
-    assert!(matches!(e, SplitError::NotStarShaped { cell: 1, .. }), "{e:?}");
+    assert!(
+        matches!(e, SplitError::NotStarShaped { cell: 1, .. }),
+        "{e:?}"
+    );
     for choice in [StructureChoice::Ciel, StructureChoice::Auto] {
         let e = match Structure::build(&g, choice) {
             Err(e) => e,
@@ -547,13 +560,18 @@ fn areas_match_vtk_on_non_convex_cells() {
         p.exists().then(|| p.to_string_lossy().into_owned())
     });
     let Some(py) = py else {
-        eprintln!("SKIP VTK comparison of split cells: no STRATASWEEP_PEER_PYTHON and no .venv-peer");
+        eprintln!(
+            "SKIP VTK comparison of split cells: no STRATASWEEP_PEER_PYTHON and no .venv-peer"
+        );
         return;
     };
     let script =
         std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/peer/vtk_slices.py");
     if !script.exists() {
-        eprintln!("SKIP VTK comparison of split cells: {} missing", script.display());
+        eprintln!(
+            "SKIP VTK comparison of split cells: {} missing",
+            script.display()
+        );
         return;
     }
     let dir = std::env::temp_dir().join(format!("convex-split-{}", std::process::id()));
@@ -579,7 +597,12 @@ fn areas_match_vtk_on_non_convex_cells() {
         let out = std::process::Command::new(&py)
             .arg(&script)
             .arg(&path)
-            .args(["--axis", ["x", "y", "z"][axis], "--count", &count.to_string()])
+            .args([
+                "--axis",
+                ["x", "y", "z"][axis],
+                "--count",
+                &count.to_string(),
+            ])
             .arg("--json")
             .arg(&json)
             .output()
@@ -597,7 +620,11 @@ fn areas_match_vtk_on_non_convex_cells() {
             .iter()
             .map(|s| s["value"].as_f64().unwrap())
             .collect();
-        let r = run(&g, StructureChoice::Ciel, &request(axis, values.clone(), false));
+        let r = run(
+            &g,
+            StructureChoice::Ciel,
+            &request(axis, values.clone(), false),
+        );
         let mut worst = 0.0f64;
         for (k, s) in v["slices"].as_array().unwrap().iter().enumerate() {
             let pa = s["area"].as_f64().unwrap();
