@@ -479,7 +479,7 @@ pub(crate) fn build_cell(
         flipped = nf - flipped;
     }
     // Convexity: every vertex on the inner side of every face plane.
-    let non_convex = !crate::convex_split::is_convex(&faces, &verts, &rel, ext);
+    let non_convex = !crate::convex_split::is_convex(&faces, &verts, rel, ext);
     // Final loops and mate_face.
     let mut ids = Vec::with_capacity(edges.len());
     let mut starts = Vec::with_capacity(nf + 1);
