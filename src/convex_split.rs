@@ -347,20 +347,28 @@ enum FacePlan {
     Ears(Vec<[u32; 3]>),
 }
 
+/// A face's unit Newell normal, vertex mean and tolerance
+/// ([`CONVEXITY_TOLERANCE`] × its radius about the mean); `None` when the
+/// normal is zero.
+fn face_frame(pts: &[P3]) -> Option<(P3, P3, f64)> {
+    let n = newell(pts);
+    let ln = norm(n);
+    if ln == 0.0 {
+        return None;
+    }
+    let m = mean(pts.iter().copied());
+    let ext = pts.iter().map(|&p| norm(sub(p, m))).fold(0.0, f64::max);
+    Some((scale(n, 1.0 / ln), m, CONVEXITY_TOLERANCE * ext))
+}
+
 /// Is the canonical face non-planar or non-convex (beyond tolerance)?
 fn face_is_bad(pts: &[P3]) -> bool {
     if pts.len() <= 3 {
         return false;
     }
-    let n = newell(pts);
-    let ln = norm(n);
-    if ln == 0.0 {
+    let Some((nh, m, tol)) = face_frame(pts) else {
         return true;
-    }
-    let nh = scale(n, 1.0 / ln);
-    let m = mean(pts.iter().copied());
-    let ext = pts.iter().map(|&p| norm(sub(p, m))).fold(0.0, f64::max);
-    let tol = CONVEXITY_TOLERANCE * ext;
+    };
     let k = pts.len();
     (0..k).any(|i| {
         let (a, b, c) = (pts[(i + k - 1) % k], pts[i], pts[(i + 1) % k]);
@@ -374,15 +382,7 @@ fn face_is_bad(pts: &[P3]) -> bool {
 /// (the fan triangles `(q, a, b)` are positive along the face normal):
 /// the area centroid, else the vertex mean.
 fn fan_point(pts: &[P3]) -> Option<P3> {
-    let n = newell(pts);
-    let ln = norm(n);
-    if ln == 0.0 {
-        return None;
-    }
-    let nh = scale(n, 1.0 / ln);
-    let m = mean(pts.iter().copied());
-    let ext = pts.iter().map(|&p| norm(sub(p, m))).fold(0.0, f64::max);
-    let tol = CONVEXITY_TOLERANCE * ext;
+    let (nh, m, tol) = face_frame(pts)?;
     let k = pts.len();
     let mut area = 0.0;
     let mut acc = [0.0; 3];
@@ -406,15 +406,9 @@ fn fan_point(pts: &[P3]) -> Option<P3> {
 /// Ear clipping of a (possibly slightly non-planar) simple polygon, in the
 /// plane of its Newell normal; triangles keep the loop's orientation.
 fn ear_clip(ids: &[u32], pts: &[P3]) -> Option<Vec<[u32; 3]>> {
-    let n = newell(pts);
-    let ln = norm(n);
-    if ln == 0.0 {
-        return None;
-    }
-    let nh = scale(n, 1.0 / ln);
-    let m = mean(pts.iter().copied());
-    let ext = pts.iter().map(|&p| norm(sub(p, m))).fold(0.0, f64::max);
-    let tol = CONVEXITY_TOLERANCE * ext * ext;
+    let (nh, m, tol) = face_frame(pts)?;
+    // Twice a triangle's area against tolerance × radius².
+    let tol = tol * pts.iter().map(|&p| norm(sub(p, m))).fold(0.0, f64::max);
     let area2 =
         |a: usize, b: usize, c: usize| dot(cross(sub(pts[b], pts[a]), sub(pts[c], pts[a])), nh);
     let mut left: Vec<usize> = (0..ids.len()).collect();
