@@ -172,6 +172,13 @@ impl<T> Deref for Split<T> {
     }
 }
 
+impl<T> From<T> for Split<T> {
+    /// A structure on a grid with nothing split.
+    fn from(inner: T) -> Self {
+        Split { inner, map: None }
+    }
+}
+
 impl<T> Split<T> {
     /// Input cell id of output cell `c`.
     #[inline(always)]

@@ -92,54 +92,67 @@ impl Structure {
     /// Builds the chosen structure (brute force uses the auto structure).
     pub fn build(grid: &Grid, choice: StructureChoice) -> Result<Self, PipelineError> {
         grid.validate()?;
-        let mut hidden = grid.hidden_cells();
+        let hidden = grid.hidden_cells();
         let structured = matches!(grid.topology, Topology::Structured { .. });
-        // Non-convex polyhedra become convex pieces (structures taking polyhedra).
-        let split = match choice {
-            StructureChoice::SCGraph => None,
-            _ => split_non_convex(grid, hidden.as_deref())?,
-        };
-        let (grid, map) = match split {
-            Some(s) => {
-                hidden = s.grid.hidden_cells();
-                (std::borrow::Cow::Owned(s.grid), Some(s.map))
-            }
-            None => (std::borrow::Cow::Borrowed(grid), None),
-        };
-        let grid = grid.as_ref();
-        let cgraph = |inner| {
-            Structure::CGraph(Split {
-                inner,
-                map: map.clone(),
-            })
-        };
-        let ciel = |inner| {
-            Structure::Ciel(Split {
-                inner,
-                map: map.clone(),
-            })
+        let ciel = |g: &Grid, h: Option<&[bool]>| -> Result<Ciel, PipelineError> {
+            Ok(Ciel::build(g, h).map_err(StructureError::from)?)
         };
         let s = match choice {
             StructureChoice::SCGraph => {
                 Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
             }
-            StructureChoice::CGraph => cgraph(CGraph::build(grid, hidden.as_deref())?),
-            StructureChoice::Ciel => {
-                ciel(Ciel::build(grid, hidden.as_deref()).map_err(StructureError::from)?)
+            StructureChoice::CGraph => {
+                Structure::CGraph(CGraph::build(grid, hidden.as_deref())?.into())
             }
+            StructureChoice::Ciel => Structure::Ciel(ciel(grid, hidden.as_deref())?.into()),
             StructureChoice::Auto | StructureChoice::BruteForce if structured => {
                 Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
             }
             _ => match CGraph::build(grid, hidden.as_deref()) {
-                Ok(g) => cgraph(g),
+                Ok(g) => Structure::CGraph(g.into()),
                 // A cell the catalog cannot take (large or odd polyhedra): CIEL.
                 Err(StructureError::UnsupportedCell { .. }) => {
-                    ciel(Ciel::build(grid, hidden.as_deref()).map_err(StructureError::from)?)
+                    Structure::Ciel(ciel(grid, hidden.as_deref())?.into())
                 }
                 Err(e) => return Err(e.into()),
             },
         };
-        Ok(s)
+        // Non-convex polyhedra: rebuild on the grid with them split into
+        // convex pieces (CIEL has counted them while building: no extra pass
+        // for convex grids).
+        let check = match &s {
+            Structure::SCGraph(_) => false,
+            Structure::CGraph(_) => true,
+            Structure::Ciel(c) => c.counts.non_convex > 0,
+        };
+        let Some(split) = check
+            .then(|| split_non_convex(grid, hidden.as_deref()))
+            .transpose()?
+            .flatten()
+        else {
+            return Ok(s);
+        };
+        let (g, map) = (&split.grid, Some(split.map));
+        let h = g.hidden_cells();
+        let h = h.as_deref();
+        Ok(match s {
+            Structure::CGraph(_) => match CGraph::build(g, h) {
+                Ok(inner) => Structure::CGraph(Split { inner, map }),
+                Err(StructureError::UnsupportedCell { .. })
+                    if choice != StructureChoice::CGraph =>
+                {
+                    Structure::Ciel(Split {
+                        inner: ciel(g, h)?,
+                        map,
+                    })
+                }
+                Err(e) => return Err(e.into()),
+            },
+            _ => Structure::Ciel(Split {
+                inner: ciel(g, h)?,
+                map,
+            }),
+        })
     }
 
     /// The split of non-convex polyhedra the structure was built on, if any.
