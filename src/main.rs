@@ -571,6 +571,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             "triangulated_faces": r.triangulated_faces,
             "kept_faces": r.kept_faces,
             "new_vertices": r.new_vertices,
+            "vertex_pulled": r.vertex_pulled,
         })
     });
     if a.json {
