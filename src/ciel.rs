@@ -237,17 +237,18 @@ pub struct Ciel {
     pub counts: CielCounts,
 }
 
-/// One cell's oriented face loops, as built in the per-cell phase.
-struct CellFaces {
+/// One cell's oriented face loops, as built in the per-cell phase
+/// (shared with [`crate::convex_split`]).
+pub(crate) struct CellFaces {
     /// Face loops (global ids), concatenated.
-    ids: Vec<u32>,
+    pub(crate) ids: Vec<u32>,
     /// Face starts into `ids` (faces + 1).
-    starts: Vec<u32>,
+    pub(crate) starts: Vec<u32>,
     /// Local `mate_face` (indices into `ids`).
     mate: Vec<u32>,
     flipped: usize,
-    non_convex: bool,
-    class: CellClass,
+    pub(crate) non_convex: bool,
+    pub(crate) class: CellClass,
 }
 
 impl CellFaces {
@@ -297,20 +298,8 @@ pub fn parse_face_stream(cell: usize, stream: &[u32]) -> Result<Vec<Vec<u32>>, C
     Ok(faces)
 }
 
-/// Newell normal (twice the vector area) of a loop of points.
-fn newell(pts: &[[f64; 3]]) -> [f64; 3] {
-    let mut n = [0.0; 3];
-    for i in 0..pts.len() {
-        let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
-        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
-        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
-        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
-    }
-    n
-}
-
 /// Orients and checks the faces of one cell (see the module docs).
-fn build_cell(
+pub(crate) fn build_cell(
     cell: usize,
     faces: Vec<Vec<u32>>,
     points: &[[f64; 3]],
@@ -490,32 +479,7 @@ fn build_cell(
         flipped = nf - flipped;
     }
     // Convexity: every vertex on the inner side of every face plane.
-    let mut non_convex = false;
-    let mut buf: Vec<[f64; 3]> = Vec::new();
-    'faces: for face in &faces {
-        buf.clear();
-        buf.extend(face.iter().map(|&v| rel(v)));
-        let n = newell(&buf);
-        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        if len == 0.0 {
-            non_convex = true;
-            break;
-        }
-        let mut c = [0.0; 3];
-        for p in &buf {
-            for k in 0..3 {
-                c[k] += p[k] / buf.len() as f64;
-            }
-        }
-        for &v in &verts {
-            let p = rel(v);
-            let d = (n[0] * (p[0] - c[0]) + n[1] * (p[1] - c[1]) + n[2] * (p[2] - c[2])) / len;
-            if d > CONVEXITY_TOLERANCE * ext {
-                non_convex = true;
-                break 'faces;
-            }
-        }
-    }
+    let non_convex = !crate::convex_split::is_convex(&faces, &verts, rel, ext);
     // Final loops and mate_face.
     let mut ids = Vec::with_capacity(edges.len());
     let mut starts = Vec::with_capacity(nf + 1);

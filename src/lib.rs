@@ -12,6 +12,7 @@
 pub mod bruteforce;
 pub mod cgraph;
 pub mod ciel;
+pub mod convex_split;
 pub mod cornerpoint;
 pub mod extract;
 pub mod field;

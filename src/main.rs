@@ -562,6 +562,18 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         out["half_edges"] = json!(g.half_edges.len());
         out["ciel"] = ciel;
     }
+    // Non-convex polyhedra split into convex pieces before building.
+    out["convex_split"] = s.split().map_or(Value::Null, |m| {
+        let r = &m.report;
+        json!({
+            "non_convex_cells": r.non_convex,
+            "pieces": r.pieces,
+            "triangulated_faces": r.triangulated_faces,
+            "kept_faces": r.kept_faces,
+            "new_vertices": r.new_vertices,
+            "vertex_pulled": r.vertex_pulled,
+        })
+    });
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
@@ -615,6 +627,9 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     }
     if !out["ciel"].is_null() {
         println!("  ciel          {}", out["ciel"]);
+    }
+    if !out["convex_split"].is_null() {
+        println!("  convex split  {}", out["convex_split"]);
     }
     Ok(())
 }

@@ -10,6 +10,7 @@ use thiserror::Error;
 use crate::bruteforce::brute_force;
 use crate::cgraph::CGraph;
 use crate::ciel::{Ciel, CielSweeper};
+use crate::convex_split::{Split, SplitError, SplitMap, split_non_convex};
 use crate::extract::{EmitContext, LevelMesh};
 use crate::field::{
     AxisField, FieldSpec, LevelError, PlaneField, ScalarField, VertexField, levels_by_count,
@@ -37,14 +38,16 @@ pub enum StructureChoice {
     Ciel,
 }
 
-/// A built sweep structure.
+/// A built sweep structure. CGraph and CIEL are built on the grid with its
+/// non-convex polyhedra split into convex pieces ([`crate::convex_split`]);
+/// they report input cell ids.
 pub enum Structure {
     /// S-CGraph.
     SCGraph(SCGraph),
     /// CGraph.
-    CGraph(CGraph),
+    CGraph(Split<CGraph>),
     /// CIEL.
-    Ciel(Ciel),
+    Ciel(Split<Ciel>),
 }
 
 /// Errors of the pipeline.
@@ -80,6 +83,9 @@ pub enum PipelineError {
     /// The structure cannot be used on this path.
     #[error("{0}")]
     Unsupported(String),
+    /// A non-convex cell that cannot be split into convex pieces.
+    #[error(transparent)]
+    Split(#[from] SplitError),
 }
 
 impl Structure {
@@ -88,27 +94,74 @@ impl Structure {
         grid.validate()?;
         let hidden = grid.hidden_cells();
         let structured = matches!(grid.topology, Topology::Structured { .. });
+        let ciel = |g: &Grid, h: Option<&[bool]>| -> Result<Ciel, PipelineError> {
+            Ok(Ciel::build(g, h).map_err(StructureError::from)?)
+        };
         let s = match choice {
             StructureChoice::SCGraph => {
                 Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
             }
-            StructureChoice::CGraph => Structure::CGraph(CGraph::build(grid, hidden.as_deref())?),
-            StructureChoice::Ciel => {
-                Structure::Ciel(Ciel::build(grid, hidden.as_deref()).map_err(StructureError::from)?)
+            StructureChoice::CGraph => {
+                Structure::CGraph(CGraph::build(grid, hidden.as_deref())?.into())
             }
+            StructureChoice::Ciel => Structure::Ciel(ciel(grid, hidden.as_deref())?.into()),
             StructureChoice::Auto | StructureChoice::BruteForce if structured => {
                 Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
             }
             _ => match CGraph::build(grid, hidden.as_deref()) {
-                Ok(g) => Structure::CGraph(g),
+                Ok(g) => Structure::CGraph(g.into()),
                 // A cell the catalog cannot take (large or odd polyhedra): CIEL.
-                Err(StructureError::UnsupportedCell { .. }) => Structure::Ciel(
-                    Ciel::build(grid, hidden.as_deref()).map_err(StructureError::from)?,
-                ),
+                Err(StructureError::UnsupportedCell { .. }) => {
+                    Structure::Ciel(ciel(grid, hidden.as_deref())?.into())
+                }
                 Err(e) => return Err(e.into()),
             },
         };
-        Ok(s)
+        // Non-convex polyhedra: rebuild on the grid with them split into
+        // convex pieces (CIEL has counted them while building: no extra pass
+        // for convex grids).
+        let check = match &s {
+            Structure::SCGraph(_) => false,
+            Structure::CGraph(_) => true,
+            Structure::Ciel(c) => c.counts.non_convex > 0,
+        };
+        let Some(split) = check
+            .then(|| split_non_convex(grid, hidden.as_deref()))
+            .transpose()?
+            .flatten()
+        else {
+            return Ok(s);
+        };
+        let (g, map) = (&split.grid, Some(split.map));
+        let h = g.hidden_cells();
+        let h = h.as_deref();
+        Ok(match s {
+            Structure::CGraph(_) => match CGraph::build(g, h) {
+                Ok(inner) => Structure::CGraph(Split { inner, map }),
+                Err(StructureError::UnsupportedCell { .. })
+                    if choice != StructureChoice::CGraph =>
+                {
+                    Structure::Ciel(Split {
+                        inner: ciel(g, h)?,
+                        map,
+                    })
+                }
+                Err(e) => return Err(e.into()),
+            },
+            _ => Structure::Ciel(Split {
+                inner: ciel(g, h)?,
+                map,
+            }),
+        })
+    }
+
+    /// The split of non-convex polyhedra the structure was built on, if any.
+    pub fn split(&self) -> Option<&SplitMap> {
+        match self {
+            Structure::SCGraph(_) => None,
+            Structure::CGraph(g) => g.map.as_ref(),
+            Structure::Ciel(g) => g.map.as_ref(),
+        }
     }
 
     /// Short name (`scgraph` / `cgraph`).
@@ -131,19 +184,41 @@ impl Structure {
 
     /// Bytes per structure part.
     pub fn bytes(&self) -> Vec<(&'static str, usize)> {
-        match self {
+        let mut b = match self {
             Structure::SCGraph(s) => s.bytes(),
             Structure::CGraph(c) => c.bytes(),
             Structure::Ciel(c) => c.bytes(),
+        };
+        if let Some(m) = self.split() {
+            b.push(("split_map", m.bytes()));
         }
+        b
     }
 
-    /// Live (sweepable) cells.
+    /// Live (sweepable) input cells (a split cell counts once).
     pub fn live_cells(&self) -> usize {
-        match self {
-            Structure::SCGraph(s) => s.live_cells(),
-            Structure::CGraph(c) => c.live_cells(),
-            Structure::Ciel(c) => c.live_cells(),
+        let (live, map): (&dyn Fn(u32) -> bool, _) = match self {
+            Structure::SCGraph(s) => return s.live_cells(),
+            Structure::CGraph(c) => (&|x| c.inner.is_live(x), &c.map),
+            Structure::Ciel(c) => (&|x| c.inner.is_live(x), &c.map),
+        };
+        match map {
+            None => match self {
+                Structure::CGraph(c) => c.live_cells(),
+                Structure::Ciel(c) => c.live_cells(),
+                Structure::SCGraph(_) => unreachable!(),
+            },
+            Some(m) => {
+                let mut n = 0;
+                let mut last = u32::MAX;
+                for (x, &src) in m.source.iter().enumerate() {
+                    if src != last && live(x as u32) {
+                        n += 1;
+                        last = src;
+                    }
+                }
+                n
+            }
         }
     }
 
@@ -220,14 +295,22 @@ pub struct SliceResult {
 /// vertices (volume-weighted) when only a cell property has that name.
 pub fn vertex_property(grid: &Grid, s: &Structure, name: &str) -> Result<Vec<f32>, PipelineError> {
     if let Some(p) = grid.point_property(name) {
-        return Ok((0..p.len()).map(|i| p.scalar_at(i) as f32).collect());
+        let vals: Vec<f64> = (0..p.len()).map(|i| p.scalar_at(i)).collect();
+        let vals = match s.split() {
+            Some(m) => m.extend_vertex_values(&vals),
+            None => vals,
+        };
+        return Ok(vals.iter().map(|&v| v as f32).collect());
     }
     if let Some(p) = grid.cell_property(name) {
         let vals: Vec<f64> = (0..p.len()).map(|i| p.scalar_at(i)).collect();
         return Ok(match s {
             Structure::SCGraph(g) => crate::properties::cell_to_vertex(g, &vals, grid.points.len()),
-            Structure::CGraph(g) => crate::properties::cell_to_vertex(g, &vals, grid.points.len()),
-            Structure::Ciel(g) => g.cell_to_vertex(&vals),
+            Structure::CGraph(g) => crate::properties::cell_to_vertex(g, &vals, g.positions.len()),
+            Structure::Ciel(g) => match &g.map {
+                Some(m) => g.cell_to_vertex(&m.per_output_cell(&vals)),
+                None => g.cell_to_vertex(&vals),
+            },
         });
     }
     Err(PipelineError::NoSuchProperty {
@@ -311,13 +394,22 @@ pub fn slice(
     let field_s = t_field.elapsed().as_secs_f64();
     macro_rules! run {
         ($g:expr) => {
-            run_on($g, &phi, axis_slot, offset, req, attribute, progress)
+            run_on(
+                $g,
+                &phi,
+                axis_slot,
+                offset,
+                req,
+                attribute,
+                s.split(),
+                progress,
+            )
         };
     }
     let mut r = match s {
         Structure::SCGraph(g) => run!(g),
         Structure::CGraph(g) => run!(g),
-        Structure::Ciel(g) => run_ciel(g, &phi, offset, req, attribute, progress),
+        Structure::Ciel(g) => run_ciel(g, &phi, offset, req, attribute, g.map.as_ref(), progress),
     }?;
     r.timings.setup = setup;
     r.timings.field = field_s;
@@ -367,8 +459,11 @@ pub fn place_levels(
     Ok((world, levels))
 }
 
-/// Polygons of one level mesh as (source cell, corners).
-fn level_pieces(mesh: &LevelMesh) -> Vec<(u32, Vec<(u64, [f32; 3], f32)>)> {
+/// Polygons of one level mesh as (source cell, slot, corners).
+fn level_pieces(
+    mesh: &LevelMesh,
+    source: impl Fn(u32) -> u32,
+) -> Vec<(u32, u32, Vec<(u64, [f32; 3], f32)>)> {
     (0..mesh.polygon_count())
         .map(|p| {
             let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
@@ -382,9 +477,37 @@ fn level_pieces(mesh: &LevelMesh) -> Vec<(u32, Vec<(u64, [f32; 3], f32)>)> {
                     )
                 })
                 .collect();
-            (mesh.cells[p], corners)
+            (source(mesh.cells[p]), mesh.cells[p], corners)
         })
         .collect()
+}
+
+/// Appends the split pieces cut at one level as (input cell, slot):
+/// polygons of pieces of split cells, consecutive repeats dropped.
+fn cut_pieces(
+    mesh: &LevelMesh,
+    m: &SplitMap,
+    source: impl Fn(u32) -> u32,
+    out: &mut Vec<(u32, u32)>,
+) {
+    for &slot in &mesh.cells {
+        let src = source(slot);
+        if m.is_split[src as usize] && out.last() != Some(&(src, slot)) {
+            out.push((src, slot));
+        }
+    }
+}
+
+/// Per-level `cells` in input cells: the pieces of a split cell cut at a
+/// level (gathered by [`cut_pieces`], over all blocks) count once.
+fn count_input_cells(stats: &mut [LevelStats], mut cut: Vec<Vec<(u32, u32)>>) {
+    for (st, c) in stats.iter_mut().zip(cut.iter_mut()) {
+        c.sort_unstable();
+        c.dedup();
+        let mut sources = c.iter().map(|x| x.0).collect::<Vec<_>>();
+        sources.dedup();
+        st.cells = st.cells + sources.len() as u64 - c.len() as u64;
+    }
 }
 
 /// [`run_on`] for CIEL: the edge-based sweep (one thread) or the CIEL brute force.
@@ -394,9 +517,12 @@ fn run_ciel<F: ScalarField>(
     world_offset: f64,
     req: &SliceRequest,
     attribute: Option<&[f32]>,
+    split: Option<&SplitMap>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SliceResult, PipelineError> {
     let (world, levels) = place_levels(g.live_range(f), world_offset, &req.levels)?;
+    let source = |c: u32| split.map_or(c, |m| m.source[c as usize]);
+    let mut cut: Vec<Vec<(u32, u32)>> = vec![Vec::new(); levels.len()];
     let ctx = EmitContext {
         positions: &g.positions,
         attribute,
@@ -411,7 +537,10 @@ fn run_ciel<F: ScalarField>(
     let mut on_level = |lv: usize, m: &LevelMesh, st: &LevelStats| {
         stats[lv] = *st;
         if collect {
-            pieces[lv] = level_pieces(m);
+            pieces[lv] = level_pieces(m, source);
+        }
+        if let Some(sm) = split {
+            cut_pieces(m, sm, source, &mut cut[lv]);
         }
         progress(1);
     };
@@ -430,6 +559,9 @@ fn run_ciel<F: ScalarField>(
         timings.sweep = t.elapsed().as_secs_f64();
         (minima, sw.state_bytes())
     };
+    if split.is_some() {
+        count_input_cells(&mut stats, cut);
+    }
     let mesh_out = collect.then(|| canonical_mesh(vec![pieces], &world));
     Ok(SliceResult {
         level_values: world,
@@ -442,8 +574,11 @@ fn run_ciel<F: ScalarField>(
     })
 }
 
-/// Per block: per level, polygons as (source cell, corners (edge key, position, value)).
-type Pieces = Vec<Vec<(u32, Vec<(u64, [f32; 3], f32)>)>>;
+/// Per block: per level, polygons as (source cell, slot, corners (edge key, position, value)).
+type Pieces = Vec<Vec<(u32, u32, Vec<(u64, [f32; 3], f32)>)>>;
+
+/// Per block: per level statistics, polygons and cut split pieces.
+type BlockOut = (Vec<LevelStats>, Pieces, Vec<Vec<(u32, u32)>>);
 
 fn run_on<G: CellGraph, F: ScalarField>(
     g: &G,
@@ -452,6 +587,7 @@ fn run_on<G: CellGraph, F: ScalarField>(
     world_offset: f64,
     req: &SliceRequest,
     attribute: Option<&[f32]>,
+    split: Option<&SplitMap>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SliceResult, PipelineError> {
     let (lo, hi) = live_range(g, f).ok_or(PipelineError::NoLiveCells)?;
@@ -473,63 +609,63 @@ fn run_on<G: CellGraph, F: ScalarField>(
     let k = levels.len();
     let mut timings = Timings::default();
     let collect = req.collect_mesh;
-    let gather = |pieces: &mut Pieces, level: usize, mesh: &LevelMesh| {
-        if !collect {
-            return;
+    let gather = |acc: &mut BlockOut, level: usize, mesh: &LevelMesh| {
+        if collect {
+            acc.1[level].extend(level_pieces(mesh, |s| g.source_cell(s)));
         }
-        for p in 0..mesh.polygon_count() {
-            let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
-            let corners = ids
-                .iter()
-                .map(|&i| {
-                    (
-                        mesh.edge_keys[i as usize],
-                        mesh.positions[i as usize],
-                        mesh.values[i as usize],
-                    )
-                })
-                .collect();
-            pieces[level].push((g.source_cell(mesh.cells[p]), corners));
+        if let Some(m) = split {
+            cut_pieces(mesh, m, |s| g.source_cell(s), &mut acc.2[level]);
         }
     };
-    let (stats_blocks, minima, state_bytes): (Vec<(Vec<LevelStats>, Pieces)>, usize, usize) =
-        if req.brute_force {
-            let t = Instant::now();
-            let mut acc = (vec![LevelStats::default(); k], vec![Vec::new(); k]);
-            let mut mesh = LevelMesh::default();
-            brute_force(g, f, &levels, &ctx, &mut mesh, |lv, m, st| {
+    let new_block = || -> BlockOut {
+        (
+            vec![LevelStats::default(); k],
+            vec![Vec::new(); k],
+            vec![Vec::new(); k],
+        )
+    };
+    let (stats_blocks, minima, state_bytes): (Vec<BlockOut>, usize, usize) = if req.brute_force {
+        let t = Instant::now();
+        let mut acc = new_block();
+        let mut mesh = LevelMesh::default();
+        brute_force(g, f, &levels, &ctx, &mut mesh, |lv, m, st| {
+            acc.0[lv] = *st;
+            gather(&mut acc, lv, m);
+            progress(1);
+        });
+        timings.sweep = t.elapsed().as_secs_f64();
+        (vec![acc], 0, mesh.capacity_bytes())
+    } else {
+        let mut sw = Sweeper::new(g, req.threads.max(1));
+        let t = Instant::now();
+        let minima = sw.prepare_minima(f, axis_slot);
+        timings.minima = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let out = sw.sweep(
+            f,
+            axis_slot,
+            &levels,
+            &ctx,
+            new_block,
+            |acc: &mut BlockOut, lv, m, st| {
                 acc.0[lv] = *st;
-                gather(&mut acc.1, lv, m);
+                gather(acc, lv, m);
                 progress(1);
-            });
-            timings.sweep = t.elapsed().as_secs_f64();
-            (vec![acc], 0, mesh.capacity_bytes())
-        } else {
-            let mut sw = Sweeper::new(g, req.threads.max(1));
-            let t = Instant::now();
-            let minima = sw.prepare_minima(f, axis_slot);
-            timings.minima = t.elapsed().as_secs_f64();
-            let t = Instant::now();
-            let out = sw.sweep(
-                f,
-                axis_slot,
-                &levels,
-                &ctx,
-                || (vec![LevelStats::default(); k], vec![Vec::new(); k]),
-                |acc: &mut (Vec<LevelStats>, Pieces), lv, m, st| {
-                    acc.0[lv] = *st;
-                    gather(&mut acc.1, lv, m);
-                    progress(1);
-                },
-            );
-            timings.sweep = t.elapsed().as_secs_f64();
-            (out, minima, sw.state_bytes())
-        };
+            },
+        );
+        timings.sweep = t.elapsed().as_secs_f64();
+        (out, minima, sw.state_bytes())
+    };
     let mut stats = vec![LevelStats::default(); k];
-    for (b, _) in &stats_blocks {
+    let mut cut: Vec<Vec<(u32, u32)>> = vec![Vec::new(); k];
+    for (b, _, c) in &stats_blocks {
         for (lv, st) in b.iter().enumerate() {
             stats[lv].add(st);
+            cut[lv].extend_from_slice(&c[lv]);
         }
+    }
+    if split.is_some() {
+        count_input_cells(&mut stats, cut);
     }
     let mesh =
         collect.then(|| canonical_mesh(stats_blocks.into_iter().map(|b| b.1).collect(), &world));
@@ -545,8 +681,8 @@ fn run_on<G: CellGraph, F: ScalarField>(
 }
 
 /// Merges per-block pieces into one mesh: per level, polygons sorted by
-/// source cell (stable), vertices welded by grid edge in first-use order.
-/// The result does not depend on the number of blocks.
+/// (source cell, slot) (stable), vertices welded by grid edge in first-use
+/// order. The result does not depend on the number of blocks.
 fn canonical_mesh(blocks: Vec<Pieces>, world: &[f64]) -> PolyMesh {
     let mut m = PolyMesh {
         poly_offsets: vec![0],
@@ -556,11 +692,11 @@ fn canonical_mesh(blocks: Vec<Pieces>, world: &[f64]) -> PolyMesh {
     let k = world.len();
     let mut weld: HashMap<u64, u32> = HashMap::new();
     for lv in 0..k {
-        let mut polys: Vec<&(u32, Vec<(u64, [f32; 3], f32)>)> =
+        let mut polys: Vec<&(u32, u32, Vec<(u64, [f32; 3], f32)>)> =
             blocks.iter().flat_map(|b| b[lv].iter()).collect();
-        polys.sort_by_key(|p| p.0);
+        polys.sort_by_key(|p| (p.0, p.1));
         weld.clear();
-        for (cell, corners) in polys {
+        for (cell, _, corners) in polys {
             for &(key, pos, val) in corners {
                 let next = m.positions.len() as u32;
                 let vi = *weld.entry(key).or_insert_with(|| next);

@@ -1,0 +1,919 @@
+//! Non-convex polyhedra split into convex pieces (a star decomposition), so
+//! that every structure slices them correctly. No I/O.
+//!
+//! A polyhedral cell (`VTK_POLYHEDRON`) is *non-convex* when, with its faces
+//! oriented outward, some vertex lies more than [`CONVEXITY_TOLERANCE`] ×
+//! its extent outside a face plane ([`is_convex`], the test the CIEL build
+//! counts with; non-planar faces are caught too). Such a cell is replaced by
+//! pieces coned from one interior point `p` of the cell:
+//!
+//! - each face that is planar and convex (within tolerance) becomes the base
+//!   of one pyramid with apex `p` (a tetrahedron for a triangle, a VTK
+//!   pyramid for a quad, a polyhedron otherwise);
+//! - each face that is not planar or not convex is first triangulated: a
+//!   fan from a new vertex at the face's area centroid (or its vertex mean)
+//!   when every fan triangle is positive, else ear clipping; every triangle
+//!   coned to `p` gives a tetrahedron. A face shared with a cell that is
+//!   live and not split is kept whole instead, so the grid stays conforming.
+//!   Faces are triangulated from a canonical loop (smallest id first), so
+//!   the two cells sharing a face get the same triangles and the same new
+//!   vertex.
+//!
+//! `p` is the first of the cell's volume centroid, its vertex mean and the
+//! mean of the vertices of its kernel (the intersection of the inner
+//! half-spaces of its faces and triangles) that is strictly (by
+//! [`CONVEXITY_TOLERANCE`] × extent) on the inner side of every base and
+//! triangle: the cell is then star-shaped from `p`, and the pieces are
+//! convex, have positive volumes and tile the cell. Failing that (thin
+//! slivers between warped faces), `p` is the first vertex of the cell that
+//! is strictly inside every face it is not on, coned over those faces only
+//! (exact for planar faces through `p`). A cell with no such point is an
+//! error naming the cell.
+//!
+//! New vertices (face points, cell points) are appended after the input's
+//! points; their point-property values are the means of the face's or the
+//! cell's vertices. Every piece records its source cell
+//! ([`SplitMap::source`]) and carries its source cell's cell properties.
+
+use std::collections::HashMap;
+use std::ops::Deref;
+
+use rayon::prelude::*;
+use thiserror::Error;
+
+use crate::ciel::{CONVEXITY_TOLERANCE, build_cell, parse_face_stream};
+use crate::extract::EmitContext;
+use crate::field::ScalarField;
+use crate::grid::{Cells, Grid, Property, Topology, is_lower_dimensional, vtk_type};
+use crate::metacell::{Catalog, MAX_META_VERTICES};
+use crate::structure::is_sweepable;
+use crate::sweep::{CellGraph, Lattice};
+
+/// A cell that cannot be split into convex pieces.
+#[derive(Debug, Error, PartialEq, Eq)]
+pub enum SplitError {
+    /// No interior point sees every face: the cell is not star-shaped.
+    #[error(
+        "cell {cell}: non-convex and not star-shaped (no point inside sees all its faces; face {face} is hidden from the best candidate), so it cannot be split into convex pieces"
+    )]
+    NotStarShaped {
+        /// Cell id.
+        cell: usize,
+        /// A face (index in the cell's face stream) the best candidate point does not see.
+        face: usize,
+    },
+    /// A non-planar or non-convex face that cannot be triangulated.
+    #[error(
+        "cell {cell}, face {face}: the face cannot be triangulated (self-intersecting or degenerate)"
+    )]
+    Face {
+        /// Cell id.
+        cell: usize,
+        /// Face index in the cell's face stream.
+        face: usize,
+    },
+    /// Too many points or cells after splitting.
+    #[error("grid too large after splitting non-convex cells: {0}")]
+    TooLarge(String),
+}
+
+/// Counts of a split, reported by `info`.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SplitReport {
+    /// Non-convex polyhedra found (live, not hidden) and split.
+    pub non_convex: usize,
+    /// Convex pieces they became.
+    pub pieces: usize,
+    /// Faces triangulated (non-planar or non-convex faces).
+    pub triangulated_faces: usize,
+    /// Non-planar or non-convex faces kept whole because the cell across
+    /// them is not split (the grid stays conforming).
+    pub kept_faces: usize,
+    /// New vertices (face points and cell points).
+    pub new_vertices: usize,
+    /// Cells with no interior star point, coned from one of their vertices
+    /// over the faces it is not on (slivers).
+    pub vertex_pulled: usize,
+}
+
+/// How a split grid maps back to its input.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SplitMap {
+    /// Per output cell, the input cell it comes from.
+    pub source: Vec<u32>,
+    /// Per input cell, true when it was split into pieces.
+    pub is_split: Vec<bool>,
+    /// Points of the input grid (new vertices are numbered from here).
+    pub input_points: usize,
+    /// Cells of the input grid.
+    pub input_cells: usize,
+    /// New vertex `i` is the mean of input vertices
+    /// `mean_ids[mean_offsets[i]..mean_offsets[i + 1]]`.
+    pub mean_offsets: Vec<u32>,
+    /// See [`SplitMap::mean_offsets`].
+    pub mean_ids: Vec<u32>,
+    /// Counts.
+    pub report: SplitReport,
+}
+
+impl SplitMap {
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.source.len() * 4
+            + self.is_split.len()
+            + (self.mean_offsets.len() + self.mean_ids.len()) * 4
+    }
+
+    /// Per-vertex values of the split grid from per-vertex values of the
+    /// input (new vertices get the mean of their recipe).
+    pub fn extend_vertex_values(&self, input: &[f64]) -> Vec<f64> {
+        let mut out = Vec::with_capacity(input.len() + self.mean_offsets.len() - 1);
+        out.extend_from_slice(input);
+        for w in self.mean_offsets.windows(2) {
+            let ids = &self.mean_ids[w[0] as usize..w[1] as usize];
+            out.push(ids.iter().map(|&v| input[v as usize]).sum::<f64>() / ids.len() as f64);
+        }
+        out
+    }
+
+    /// Per-cell values of the split grid (each piece takes its source's value).
+    pub fn per_output_cell(&self, input: &[f64]) -> Vec<f64> {
+        self.source
+            .iter()
+            .map(|&c| input.get(c as usize).copied().unwrap_or(0.0))
+            .collect()
+    }
+}
+
+/// A grid whose non-convex polyhedra were split, with its map to the input.
+#[derive(Clone, Debug)]
+pub struct SplitGrid {
+    /// The split grid.
+    pub grid: Grid,
+    /// Output → input.
+    pub map: SplitMap,
+}
+
+/// A sweep structure built on a split grid (or on the input when nothing
+/// was split): derefs to the structure; as a [`CellGraph`] it reports
+/// input cell ids from [`CellGraph::source_cell`].
+#[derive(Clone, Debug)]
+pub struct Split<T> {
+    /// The structure, built on the split grid.
+    pub inner: T,
+    /// The split, `None` when the input had no non-convex polyhedron.
+    pub map: Option<SplitMap>,
+}
+
+impl<T> Deref for Split<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.inner
+    }
+}
+
+impl<T> From<T> for Split<T> {
+    /// A structure on a grid with nothing split.
+    fn from(inner: T) -> Self {
+        Split { inner, map: None }
+    }
+}
+
+impl<T> Split<T> {
+    /// Input cell id of output cell `c`.
+    #[inline(always)]
+    pub fn source_of(&self, c: u32) -> u32 {
+        match &self.map {
+            Some(m) => m.source[c as usize],
+            None => c,
+        }
+    }
+}
+
+impl<T: CellGraph> CellGraph for Split<T> {
+    #[inline(always)]
+    fn slot_count(&self) -> usize {
+        self.inner.slot_count()
+    }
+    #[inline(always)]
+    fn is_live(&self, slot: u32) -> bool {
+        self.inner.is_live(slot)
+    }
+    fn initial_stamps(&self) -> Vec<crate::sweep::Stamp> {
+        self.inner.initial_stamps()
+    }
+    #[inline(always)]
+    fn catalog(&self) -> &Catalog {
+        self.inner.catalog()
+    }
+    #[inline(always)]
+    fn positions(&self) -> &[[f32; 3]] {
+        self.inner.positions()
+    }
+    #[inline(always)]
+    fn cell(&self, slot: u32, out: &mut [u32; MAX_META_VERTICES]) -> (u16, usize) {
+        self.inner.cell(slot, out)
+    }
+    #[inline(always)]
+    fn for_each_neighbour(&self, slot: u32, f: impl FnMut(u32)) {
+        self.inner.for_each_neighbour(slot, f)
+    }
+    #[inline(always)]
+    fn scan_neighbours<F: ScalarField>(
+        &self,
+        f: &F,
+        slot: u32,
+        ids: &[u32; MAX_META_VERTICES],
+        phi: &[f32; MAX_META_VERTICES],
+        want: impl FnMut(u32) -> bool,
+        found: impl FnMut(u32, f32),
+    ) {
+        self.inner.scan_neighbours(f, slot, ids, phi, want, found)
+    }
+    #[inline(always)]
+    fn prefetch_cell(&self, slot: u32, ctx: &EmitContext) {
+        self.inner.prefetch_cell(slot, ctx)
+    }
+    #[inline(always)]
+    fn source_cell(&self, slot: u32) -> u32 {
+        self.source_of(self.inner.source_cell(slot))
+    }
+    fn lattice(&self) -> Option<Lattice<'_>> {
+        self.inner.lattice()
+    }
+    fn blocks(&self, n: usize) -> Vec<(u32, u32)> {
+        self.inner.blocks(n)
+    }
+}
+
+/// Newell normal (twice the vector area) of a loop of points.
+pub fn newell(pts: &[[f64; 3]]) -> [f64; 3] {
+    let mut n = [0.0; 3];
+    for i in 0..pts.len() {
+        let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
+        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+    }
+    n
+}
+
+/// The convexity test of the CIEL build: with `faces` oriented outward,
+/// every vertex of `verts` lies on the inner side of every face plane
+/// (through the face's vertex mean, normal by Newell) within
+/// [`CONVEXITY_TOLERANCE`] × `ext`. `rel` gives positions (relative to any
+/// fixed point). A face with a zero normal makes the cell non-convex.
+pub fn is_convex(
+    faces: &[Vec<u32>],
+    verts: &[u32],
+    rel: impl Fn(u32) -> [f64; 3],
+    ext: f64,
+) -> bool {
+    let mut buf: Vec<[f64; 3]> = Vec::new();
+    for face in faces {
+        buf.clear();
+        buf.extend(face.iter().map(|&v| rel(v)));
+        let n = newell(&buf);
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if len == 0.0 {
+            return false;
+        }
+        let mut c = [0.0; 3];
+        for p in &buf {
+            for k in 0..3 {
+                c[k] += p[k] / buf.len() as f64;
+            }
+        }
+        for &v in verts {
+            let p = rel(v);
+            let d = (n[0] * (p[0] - c[0]) + n[1] * (p[1] - c[1]) + n[2] * (p[2] - c[2])) / len;
+            if d > CONVEXITY_TOLERANCE * ext {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+type P3 = [f64; 3];
+
+fn sub(a: P3, b: P3) -> P3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn add(a: P3, b: P3) -> P3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn scale(a: P3, s: f64) -> P3 {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+fn dot(a: P3, b: P3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: P3, b: P3) -> P3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn norm(a: P3) -> f64 {
+    dot(a, a).sqrt()
+}
+fn mean(pts: impl ExactSizeIterator<Item = P3>) -> P3 {
+    let n = pts.len() as f64;
+    let mut m = [0.0; 3];
+    for p in pts {
+        m = add(m, p);
+    }
+    scale(m, 1.0 / n)
+}
+
+/// A face loop rotated to start at its smallest id, in the direction whose
+/// second vertex is the smaller neighbour; and whether `face` runs in that
+/// direction.
+fn canonical(face: &[u32]) -> (Vec<u32>, bool) {
+    let n = face.len();
+    let i0 = (0..n).min_by_key(|&i| face[i]).unwrap_or(0);
+    let fwd: Vec<u32> = (0..n).map(|k| face[(i0 + k) % n]).collect();
+    if fwd[1] < fwd[n - 1] {
+        (fwd, true)
+    } else {
+        let back: Vec<u32> = (0..n).map(|k| face[(i0 + n - k) % n]).collect();
+        (back, false)
+    }
+}
+
+/// How a face is cut into triangles (on its canonical loop).
+#[derive(Clone, Debug)]
+enum FacePlan {
+    /// Kept whole: the base of one pyramid.
+    Whole,
+    /// Fan from a new vertex (output point id) at the given position.
+    Fan(u32),
+    /// Ear-clipping triangles (canonical orientation).
+    Ears(Vec<[u32; 3]>),
+}
+
+/// A face's unit Newell normal, vertex mean and tolerance
+/// ([`CONVEXITY_TOLERANCE`] × its radius about the mean); `None` when the
+/// normal is zero.
+fn face_frame(pts: &[P3]) -> Option<(P3, P3, f64)> {
+    let n = newell(pts);
+    let ln = norm(n);
+    if ln == 0.0 {
+        return None;
+    }
+    let m = mean(pts.iter().copied());
+    let ext = pts.iter().map(|&p| norm(sub(p, m))).fold(0.0, f64::max);
+    Some((scale(n, 1.0 / ln), m, CONVEXITY_TOLERANCE * ext))
+}
+
+/// Is the canonical face non-planar or non-convex (beyond tolerance)?
+fn face_is_bad(pts: &[P3]) -> bool {
+    if pts.len() <= 3 {
+        return false;
+    }
+    let Some((nh, m, tol)) = face_frame(pts) else {
+        return true;
+    };
+    let k = pts.len();
+    (0..k).any(|i| {
+        let (a, b, c) = (pts[(i + k - 1) % k], pts[i], pts[(i + 1) % k]);
+        let chord = norm(sub(c, a));
+        dot(sub(b, m), nh).abs() > tol
+            || (chord > 0.0 && dot(cross(sub(b, a), sub(c, b)), nh) / chord < -tol)
+    })
+}
+
+/// A point `q` from which every edge of the face is seen positively
+/// (the fan triangles `(q, a, b)` are positive along the face normal):
+/// the area centroid, else the vertex mean.
+fn fan_point(pts: &[P3]) -> Option<P3> {
+    let (nh, m, tol) = face_frame(pts)?;
+    let k = pts.len();
+    let mut area = 0.0;
+    let mut acc = [0.0; 3];
+    for i in 0..k {
+        let (a, b) = (pts[i], pts[(i + 1) % k]);
+        let w = dot(cross(sub(a, m), sub(b, m)), nh);
+        area += w;
+        acc = add(acc, scale(add(add(a, b), m), w / 3.0));
+    }
+    let centroid = scale(acc, 1.0 / area);
+    [centroid, m].into_iter().find(|&q| {
+        q.iter().all(|x| x.is_finite())
+            && (0..k).all(|i| {
+                let (a, b) = (pts[i], pts[(i + 1) % k]);
+                let e = norm(sub(b, a));
+                e > 0.0 && dot(cross(sub(a, q), sub(b, q)), nh) / e > tol
+            })
+    })
+}
+
+/// Ear clipping of a (possibly slightly non-planar) simple polygon, in the
+/// plane of its Newell normal; triangles keep the loop's orientation.
+fn ear_clip(ids: &[u32], pts: &[P3]) -> Option<Vec<[u32; 3]>> {
+    let (nh, m, tol) = face_frame(pts)?;
+    // Twice a triangle's area against tolerance × radius².
+    let tol = tol * pts.iter().map(|&p| norm(sub(p, m))).fold(0.0, f64::max);
+    let area2 =
+        |a: usize, b: usize, c: usize| dot(cross(sub(pts[b], pts[a]), sub(pts[c], pts[a])), nh);
+    let mut left: Vec<usize> = (0..ids.len()).collect();
+    let mut tris = Vec::with_capacity(ids.len() - 2);
+    while left.len() > 3 {
+        let k = left.len();
+        let ear = (0..k).find(|&i| {
+            let (a, b, c) = (left[(i + k - 1) % k], left[i], left[(i + 1) % k]);
+            if area2(a, b, c) <= tol {
+                return false;
+            }
+            // No other remaining vertex inside (or on) the triangle.
+            left.iter().all(|&x| {
+                x == a
+                    || x == b
+                    || x == c
+                    || area2(a, b, x) < -tol
+                    || area2(b, c, x) < -tol
+                    || area2(c, a, x) < -tol
+            })
+        })?;
+        let (a, b, c) = (left[(ear + k - 1) % k], left[ear], left[(ear + 1) % k]);
+        tris.push([ids[a], ids[b], ids[c]]);
+        left.remove(ear);
+    }
+    if area2(left[0], left[1], left[2]) <= tol {
+        return None;
+    }
+    tris.push([ids[left[0]], ids[left[1]], ids[left[2]]]);
+    Some(tris)
+}
+
+/// One element of a cell's boundary after triangulation, oriented outward.
+enum Element {
+    /// A whole face (global ids), the base of a pyramid.
+    Base(Vec<u32>),
+    /// A triangle (global ids, possibly new vertices).
+    Tri([u32; 3]),
+}
+
+/// Plane of an element: (point on it, unit outward normal).
+fn element_plane(e: &Element, pos: &dyn Fn(u32) -> P3) -> Option<(P3, P3)> {
+    let (c, n) = match e {
+        Element::Base(ids) => {
+            let pts: Vec<P3> = ids.iter().map(|&v| pos(v)).collect();
+            (mean(pts.iter().copied()), newell(&pts))
+        }
+        Element::Tri([a, b, c]) => {
+            let (a, b, c) = (pos(*a), pos(*b), pos(*c));
+            (a, cross(sub(b, a), sub(c, a)))
+        }
+    };
+    let l = norm(n);
+    (l > 0.0).then(|| (c, scale(n, 1.0 / l)))
+}
+
+/// Signed volume of the cone from `p` over an element (positive inside).
+fn cone_volume(e: &Element, p: P3, pos: &dyn Fn(u32) -> P3) -> f64 {
+    let tri = |a: P3, b: P3, c: P3| dot(sub(a, p), cross(sub(b, p), sub(c, p))) / 6.0;
+    match e {
+        Element::Base(ids) => {
+            let a = pos(ids[0]);
+            (1..ids.len() - 1)
+                .map(|i| tri(a, pos(ids[i]), pos(ids[i + 1])))
+                .sum()
+        }
+        Element::Tri([a, b, c]) => tri(pos(*a), pos(*b), pos(*c)),
+    }
+}
+
+/// Mean of the vertices of `{x : (x − c_i)·n_i ≤ −margin}` (by enumerating
+/// plane triples), or `None` when it is empty or too large to enumerate.
+fn kernel_point(planes: &[(P3, P3)], margin: f64, slack: f64) -> Option<P3> {
+    let m = planes.len();
+    if m > 160 {
+        return None;
+    }
+    let off: Vec<f64> = planes.iter().map(|(c, n)| dot(*c, *n) - margin).collect();
+    let mut sum = [0.0; 3];
+    let mut count = 0usize;
+    for i in 0..m {
+        for j in i + 1..m {
+            let nij = cross(planes[i].1, planes[j].1);
+            for k in j + 1..m {
+                let det = dot(nij, planes[k].1);
+                if det.abs() < 1e-12 {
+                    continue;
+                }
+                // Cramer: x = (d_i (n_j × n_k) + d_j (n_k × n_i) + d_k (n_i × n_j)) / det.
+                let x = scale(
+                    add(
+                        add(
+                            scale(cross(planes[j].1, planes[k].1), off[i]),
+                            scale(cross(planes[k].1, planes[i].1), off[j]),
+                        ),
+                        scale(nij, off[k]),
+                    ),
+                    1.0 / det,
+                );
+                if (0..m).all(|l| dot(x, planes[l].1) <= off[l] + slack) {
+                    sum = add(sum, x);
+                    count += 1;
+                }
+            }
+        }
+    }
+    (count > 0).then(|| scale(sum, 1.0 / count as f64))
+}
+
+/// The shared face table of a split: per canonical face (sorted ids), how
+/// many split cells use it and how it is cut.
+struct FaceTable {
+    index: HashMap<Vec<u32>, usize>,
+    split_uses: Vec<u8>,
+    plan: Vec<Option<FacePlan>>,
+}
+
+/// Splits every live, non-hidden, non-convex polyhedron of `grid` into
+/// convex pieces (see the module docs). `Ok(None)` when there is none.
+/// Polyhedra the CIEL checks reject (open, non-manifold...) are left as
+/// they are, for the structure build to report.
+pub fn split_non_convex(
+    grid: &Grid,
+    hidden: Option<&[bool]>,
+) -> Result<Option<SplitGrid>, SplitError> {
+    let Topology::Unstructured(cells) = &grid.topology else {
+        return Ok(None);
+    };
+    if !cells.types.contains(&vtk_type::POLYHEDRON) {
+        return Ok(None);
+    }
+    let points = &grid.points;
+    let is_hidden = |c: usize| hidden.is_some_and(|h| h.get(c).copied().unwrap_or(false));
+    // Non-convex polyhedra, with their faces oriented outward (CIEL's build_cell).
+    let found: Vec<(usize, Vec<Vec<u32>>)> = (0..cells.len())
+        .into_par_iter()
+        .filter(|&c| cells.types[c] == vtk_type::POLYHEDRON && !is_hidden(c))
+        .filter_map(|c| {
+            let faces = parse_face_stream(c, cells.faces_of(c)).ok()?;
+            let cf = build_cell(c, faces, points).ok()?;
+            (is_sweepable(cf.class) && cf.non_convex).then(|| {
+                let faces = cf
+                    .starts
+                    .windows(2)
+                    .map(|w| cf.ids[w[0] as usize..w[1] as usize].to_vec())
+                    .collect();
+                (c, faces)
+            })
+        })
+        .collect();
+    if found.is_empty() {
+        return Ok(None);
+    }
+    let n = cells.len();
+    let mut split = vec![false; n];
+    for (c, _) in &found {
+        split[*c] = true;
+    }
+    // Canonical faces of split cells.
+    let mut table = FaceTable {
+        index: HashMap::new(),
+        split_uses: Vec::new(),
+        plan: Vec::new(),
+    };
+    let key = |f: &[u32]| {
+        let mut k = f.to_vec();
+        k.sort_unstable();
+        k
+    };
+    for (_, faces) in &found {
+        for f in faces {
+            let next = table.split_uses.len();
+            let i = *table.index.entry(key(f)).or_insert(next);
+            if i == next {
+                table.split_uses.push(0);
+                table.plan.push(None);
+            }
+            table.split_uses[i] = table.split_uses[i].saturating_add(1);
+        }
+    }
+    // Bad faces (non-planar or non-convex) and whether a live cell that is
+    // not split shares them.
+    let pos = |v: u32| points[v as usize];
+    let mut bad = vec![false; table.split_uses.len()];
+    // Loops per face entry (first occurrence, canonical).
+    let mut loops: Vec<Vec<u32>> = vec![Vec::new(); table.split_uses.len()];
+    for (_, faces) in &found {
+        for f in faces {
+            let i = table.index[&key(f)];
+            if loops[i].is_empty() {
+                loops[i] = canonical(f).0;
+            }
+        }
+    }
+    for (i, l) in loops.iter().enumerate() {
+        let pts: Vec<P3> = l.iter().map(|&v| pos(v)).collect();
+        bad[i] = face_is_bad(&pts);
+    }
+    let mut marked = vec![false; points.len()];
+    for (i, l) in loops.iter().enumerate() {
+        if bad[i] && table.split_uses[i] == 1 {
+            marked[l[0] as usize] = true;
+        }
+    }
+    let mut incident: Vec<(u32, u32)> = Vec::new();
+    for c in 0..n {
+        if split[c] || is_hidden(c) || is_lower_dimensional(cells.types[c]) {
+            continue;
+        }
+        for &v in cells.cell(c) {
+            if marked.get(v as usize).copied().unwrap_or(false) {
+                incident.push((v, c as u32));
+            }
+        }
+    }
+    incident.sort_unstable();
+    let shared_with_unsplit = |l: &[u32]| {
+        let lo = incident.partition_point(|e| e.0 < l[0]);
+        incident[lo..]
+            .iter()
+            .take_while(|e| e.0 == l[0])
+            .any(|&(_, c)| {
+                let ids = cells.cell(c as usize);
+                l.iter().all(|v| ids.contains(v))
+            })
+    };
+    // Plans, in first-use order (new vertex ids are deterministic).
+    let mut new_points: Vec<P3> = Vec::new();
+    let mut mean_offsets = vec![0u32];
+    let mut mean_ids: Vec<u32> = Vec::new();
+    let np0 = points.len();
+    let mut report = SplitReport {
+        non_convex: found.len(),
+        ..Default::default()
+    };
+    for (c, faces) in &found {
+        for (fi, f) in faces.iter().enumerate() {
+            let i = table.index[&key(f)];
+            if table.plan[i].is_some() {
+                continue;
+            }
+            let l = &loops[i];
+            let plan = if !bad[i] {
+                FacePlan::Whole
+            } else if table.split_uses[i] == 1 && shared_with_unsplit(l) {
+                report.kept_faces += 1;
+                FacePlan::Whole
+            } else {
+                report.triangulated_faces += 1;
+                let pts: Vec<P3> = l.iter().map(|&v| pos(v)).collect();
+                if let Some(q) = fan_point(&pts) {
+                    let id = np0 + new_points.len();
+                    new_points.push(q);
+                    mean_ids.extend_from_slice(l);
+                    mean_offsets.push(mean_ids.len() as u32);
+                    FacePlan::Fan(id as u32)
+                } else if let Some(t) = ear_clip(l, &pts) {
+                    FacePlan::Ears(t)
+                } else {
+                    return Err(SplitError::Face { cell: *c, face: fi });
+                }
+            };
+            table.plan[i] = Some(plan);
+        }
+    }
+    // Cells: boundary elements, star point, pieces.
+    let mut pieces_of: Vec<(usize, Vec<(u8, Vec<u32>)>)> = Vec::with_capacity(found.len());
+    for (c, faces) in &found {
+        let cpos = |v: u32| -> P3 {
+            if (v as usize) < np0 {
+                points[v as usize]
+            } else {
+                new_points[v as usize - np0]
+            }
+        };
+        let mut elems: Vec<(usize, Element)> = Vec::new();
+        for (fi, f) in faces.iter().enumerate() {
+            let i = table.index[&key(f)];
+            let (can, same) = canonical(f);
+            let orient = |t: [u32; 3]| if same { t } else { [t[0], t[2], t[1]] };
+            match table.plan[i].as_ref().expect("planned") {
+                FacePlan::Whole => elems.push((fi, Element::Base(f.clone()))),
+                FacePlan::Fan(q) => {
+                    let k = can.len();
+                    for j in 0..k {
+                        elems.push((fi, Element::Tri(orient([*q, can[j], can[(j + 1) % k]]))));
+                    }
+                }
+                FacePlan::Ears(tris) => {
+                    for &t in tris {
+                        elems.push((fi, Element::Tri(orient(t))));
+                    }
+                }
+            }
+        }
+        let mut verts: Vec<u32> = faces.iter().flatten().copied().collect();
+        verts.sort_unstable();
+        verts.dedup();
+        let vm = mean(verts.iter().map(|&v| points[v as usize]));
+        let ext = verts
+            .iter()
+            .map(|&v| norm(sub(points[v as usize], vm)))
+            .fold(0.0, f64::max);
+        let tol = CONVEXITY_TOLERANCE * ext;
+        let planes: Vec<(usize, Option<(P3, P3)>)> = elems
+            .iter()
+            .map(|(fi, e)| (*fi, element_plane(e, &cpos)))
+            .collect();
+        // Volume centroid (cones from the vertex mean).
+        let mut vol = 0.0;
+        let mut acc = [0.0; 3];
+        for (_, e) in &elems {
+            let pts: Vec<P3> = match e {
+                Element::Base(ids) => ids.iter().map(|&v| cpos(v)).collect(),
+                Element::Tri(t) => t.iter().map(|&v| cpos(v)).collect(),
+            };
+            for j in 1..pts.len() - 1 {
+                let w = dot(sub(pts[0], vm), cross(sub(pts[j], vm), sub(pts[j + 1], vm))) / 6.0;
+                vol += w;
+                acc = add(
+                    acc,
+                    scale(add(add(add(pts[0], pts[j]), pts[j + 1]), vm), w / 4.0),
+                );
+            }
+        }
+        let centroid = scale(acc, 1.0 / vol);
+        // The first element a point does not see, if any.
+        let hidden_from = |p: P3| {
+            planes.iter().find_map(|(fi, pl)| match pl {
+                Some((o, nh)) if dot(sub(p, *o), *nh) < -tol => None,
+                _ => Some(*fi),
+            })
+        };
+        let mut best_face = hidden_from(centroid);
+        let mut apex = best_face.is_none().then_some(centroid);
+        if apex.is_none() && hidden_from(vm).is_none() {
+            apex = Some(vm);
+        }
+        if apex.is_none() && planes.iter().all(|(_, p)| p.is_some()) {
+            let pl: Vec<(P3, P3)> = planes.iter().map(|(_, p)| p.expect("plane")).collect();
+            if let Some(k) = kernel_point(&pl, 2.0 * tol, 1e-9 * ext) {
+                match hidden_from(k) {
+                    None => apex = Some(k),
+                    Some(f) => best_face = Some(f),
+                }
+            }
+        }
+        let p = match apex {
+            Some(apex) => {
+                debug_assert!(elems.iter().all(|(_, e)| cone_volume(e, apex, &cpos) > 0.0));
+                new_points.push(apex);
+                mean_ids.extend_from_slice(&verts);
+                mean_offsets.push(mean_ids.len() as u32);
+                (np0 + new_points.len() - 1) as u32
+            }
+            // No interior point: pull from a vertex that sees every face
+            // it is not on (thin slivers between warped faces).
+            None => match verts.iter().copied().find(|&v| {
+                planes.iter().all(|(fi, pl)| {
+                    faces[*fi].contains(&v)
+                        || matches!(pl, Some((o, nh)) if dot(sub(points[v as usize], *o), *nh) < -tol)
+                })
+            }) {
+                Some(v) => {
+                    report.vertex_pulled += 1;
+                    elems.retain(|(fi, _)| !faces[*fi].contains(&v));
+                    v
+                }
+                None => {
+                    return Err(SplitError::NotStarShaped {
+                        cell: *c,
+                        face: best_face.unwrap_or(0),
+                    });
+                }
+            },
+        };
+        let mut out = Vec::with_capacity(elems.len());
+        for (_, e) in elems {
+            out.push(match e {
+                Element::Tri([a, b, c]) => (vtk_type::TETRA, vec![a, c, b, p]),
+                Element::Base(ids) if ids.len() == 3 => {
+                    (vtk_type::TETRA, vec![ids[0], ids[2], ids[1], p])
+                }
+                Element::Base(ids) if ids.len() == 4 => {
+                    (vtk_type::PYRAMID, vec![ids[0], ids[3], ids[2], ids[1], p])
+                }
+                Element::Base(mut ids) => {
+                    // A polyhedron: the base loop, then the apex.
+                    ids.push(p);
+                    (vtk_type::POLYHEDRON, ids)
+                }
+            });
+        }
+        report.pieces += out.len();
+        pieces_of.push((*c, out));
+    }
+    report.new_vertices = new_points.len();
+    if np0 + new_points.len() >= u32::MAX as usize / 4 {
+        return Err(SplitError::TooLarge(format!(
+            "{} points",
+            np0 + new_points.len()
+        )));
+    }
+    // Assemble the output grid.
+    let mut out = Cells {
+        offsets: vec![0],
+        face_offsets: vec![0],
+        ..Default::default()
+    };
+    let mut source = Vec::with_capacity(n + report.pieces);
+    let mut next = pieces_of.iter().peekable();
+    for c in 0..n {
+        if let Some((_, pieces)) = next.next_if(|(s, _)| *s == c) {
+            for (t, ids) in pieces {
+                if *t == vtk_type::POLYHEDRON {
+                    let (apex, base) = ids.split_last().expect("base and apex");
+                    let k = base.len();
+                    let mut faces = vec![base.to_vec()];
+                    for j in 0..k {
+                        faces.push(vec![base[(j + 1) % k], base[j], *apex]);
+                    }
+                    out.push_polyhedron(&faces);
+                } else {
+                    out.push(*t, ids);
+                }
+                source.push(c as u32);
+            }
+        } else {
+            let (a, b) = (cells.offsets[c] as usize, cells.offsets[c + 1] as usize);
+            out.types.push(cells.types[c]);
+            out.connectivity
+                .extend_from_slice(&cells.connectivity[a..b]);
+            out.offsets.push(out.connectivity.len() as u32);
+            out.face_stream.extend_from_slice(cells.faces_of(c));
+            out.face_offsets.push(out.face_stream.len() as u32);
+            source.push(c as u32);
+        }
+    }
+    if source.len() >= u32::MAX as usize {
+        return Err(SplitError::TooLarge(format!("{} cells", source.len())));
+    }
+    let mut all_points = points.clone();
+    all_points.extend_from_slice(&new_points);
+    let map = SplitMap {
+        source,
+        is_split: split,
+        input_points: np0,
+        input_cells: n,
+        mean_offsets,
+        mean_ids,
+        report,
+    };
+    let point_data = grid
+        .point_data
+        .iter()
+        .map(|p| extend_point_property(p, &map))
+        .collect();
+    let cell_data = grid
+        .cell_data
+        .iter()
+        .map(|p| {
+            let k = p.components.max(1);
+            let mut values = Vec::with_capacity(map.source.len() * k);
+            for &s in &map.source {
+                values.extend_from_slice(&p.values[s as usize * k..(s as usize + 1) * k]);
+            }
+            Property {
+                name: p.name.clone(),
+                components: p.components,
+                values,
+            }
+        })
+        .collect();
+    Ok(Some(SplitGrid {
+        grid: Grid {
+            points: all_points,
+            topology: Topology::Unstructured(out),
+            point_data,
+            cell_data,
+        },
+        map,
+    }))
+}
+
+/// A point property with values for the new vertices (component-wise means).
+fn extend_point_property(p: &Property, map: &SplitMap) -> Property {
+    let k = p.components.max(1);
+    let mut values = p.values.clone();
+    for w in map.mean_offsets.windows(2) {
+        let ids = &map.mean_ids[w[0] as usize..w[1] as usize];
+        for comp in 0..k {
+            let s: f64 = ids.iter().map(|&v| p.values[v as usize * k + comp]).sum();
+            values.push(s / ids.len() as f64);
+        }
+    }
+    Property {
+        name: p.name.clone(),
+        components: p.components,
+        values,
+    }
+}
