@@ -555,25 +555,9 @@ fn non_star_shaped_cell_is_an_error_naming_it() {
 /// `.venv-peer` in the crate).
 #[test]
 fn areas_match_vtk_on_non_convex_cells() {
-    let py = std::env::var("STRATASWEEP_PEER_PYTHON").ok().or_else(|| {
-        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv-peer/bin/python");
-        p.exists().then(|| p.to_string_lossy().into_owned())
-    });
-    let Some(py) = py else {
-        eprintln!(
-            "SKIP VTK comparison of split cells: no STRATASWEEP_PEER_PYTHON and no .venv-peer"
-        );
+    let Some((py, script)) = common::peer::peer("VTK comparison of split cells") else {
         return;
     };
-    let script =
-        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/peer/vtk_slices.py");
-    if !script.exists() {
-        eprintln!(
-            "SKIP VTK comparison of split cells: {} missing",
-            script.display()
-        );
-        return;
-    }
     let dir = std::env::temp_dir().join(format!("convex-split-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mut cases: Vec<(&str, Grid, usize)> = Vec::new();
@@ -593,27 +577,7 @@ fn areas_match_vtk_on_non_convex_cells() {
     for (name, g, axis) in cases {
         let path = dir.join(format!("{name}.vtu"));
         stratasweep::io::writers::write_vtk_xml_grid(&path, &g).unwrap();
-        let json = dir.join(format!("{name}.json"));
-        let out = std::process::Command::new(&py)
-            .arg(&script)
-            .arg(&path)
-            .args([
-                "--axis",
-                ["x", "y", "z"][axis],
-                "--count",
-                &count.to_string(),
-            ])
-            .arg("--json")
-            .arg(&json)
-            .output()
-            .expect("run the peer");
-        assert!(
-            out.status.success(),
-            "peer failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let v = common::peer::vtk_slices(&py, &script, &path, axis, count);
         let values: Vec<f64> = v["slices"]
             .as_array()
             .unwrap()

@@ -2,16 +2,11 @@
 //! run through the Python named by STRATASWEEP_PEER_PYTHON.
 
 use std::path::PathBuf;
-use std::process::Command;
 
 use stratasweep::field::FieldSpec;
 use stratasweep::pipeline::{LevelSpec, SliceRequest, Structure, StructureChoice, slice};
 
-fn peer() -> Option<(String, PathBuf)> {
-    let py = std::env::var("STRATASWEEP_PEER_PYTHON").ok()?;
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/peer/vtk_slices.py");
-    script.exists().then_some((py, script))
-}
+mod common;
 
 fn compare(
     grid_path: &std::path::Path,
@@ -20,39 +15,10 @@ fn compare(
     count: usize,
     tol: f64,
 ) {
-    let Some((py, script)) = peer() else {
-        eprintln!(
-            "SKIP peer comparison: STRATASWEEP_PEER_PYTHON not set or ../shared/peer missing"
-        );
+    let Some((py, script)) = common::peer::peer("peer comparison") else {
         return;
     };
-    // In the temp dir, never beside the grid (real grids sit in shared data).
-    let json = std::env::temp_dir().join(format!(
-        "peer-{}-{}-{axis}.json",
-        std::process::id(),
-        grid_path.file_stem().unwrap().to_string_lossy()
-    ));
-    let out = Command::new(&py)
-        .arg(&script)
-        .arg(grid_path)
-        .args([
-            "--axis",
-            ["x", "y", "z"][axis],
-            "--count",
-            &count.to_string(),
-            "--json",
-        ])
-        .arg(&json)
-        .output()
-        .expect("run peer");
-    assert!(
-        out.status.success(),
-        "peer failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let _ = std::fs::remove_file(&json);
+    let v = common::peer::vtk_slices(&py, &script, grid_path, axis, count);
     let s = Structure::build(grid, StructureChoice::Auto).unwrap();
     let req = SliceRequest {
         field: FieldSpec::Axis {

@@ -1,6 +1,8 @@
 //! Small random grids for property tests.
 #![allow(dead_code)]
 
+pub mod peer;
+
 use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
 
 /// SplitMix64.
