@@ -284,6 +284,10 @@ struct BenchArgs {
     /// conversion to a zoo grid, then stop.
     #[arg(long)]
     load_only: bool,
+    /// With --load-only: stop before building the sweep structure (so that
+    /// `/usr/bin/time -v` measures the load alone).
+    #[arg(long)]
+    skip_build: bool,
 }
 
 fn main() {
@@ -1154,9 +1158,14 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
     let out_arrays = grid_array_bytes(&grid) + rep.source_cell.len() * 4;
     let peak = peak_rss_bytes();
     let t = Instant::now();
-    let s = Structure::build(&grid, StructureChoice::Auto)?;
+    let s = if a.skip_build {
+        None
+    } else {
+        Some(Structure::build(&grid, StructureChoice::Auto)?)
+    };
     let build_s = t.elapsed().as_secs_f64();
-    let (_, structure_bytes) = memory_json(&s, &grid);
+    let structure_bytes = s.as_ref().map_or(0, |s| memory_json(s, &grid).1);
+    let structure = s.as_ref().map_or("none", |s| s.name());
     let nv = grid.points.len();
     let load_build_s = parse_s + grid_s + build_s;
     let out = json!({
@@ -1168,7 +1177,7 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
         "peak_rss_after_parse": hwm_parse, "peak_rss_after_to_grid": peak,
         "grid_array_bytes": out_arrays,
         "peak_rss_over_grid_arrays": peak.map(|p| p as f64 / out_arrays as f64),
-        "structure": s.name(), "build_s": build_s,
+        "structure": structure, "build_s": build_s,
         "load_build_us_per_vertex": load_build_s * 1e6 / nv as f64,
         "structure_bytes_per_cell": structure_bytes as f64 / grid.cell_count() as f64,
     });
@@ -1193,7 +1202,7 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
         );
         println!(
             "  build {} {:.3} s; load + build {:.3} s = {:.3} µs/vertex; structure {:.1} B/cell",
-            s.name(),
+            structure,
             build_s,
             load_build_s,
             load_build_s * 1e6 / nv as f64,
