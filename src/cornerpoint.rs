@@ -13,15 +13,23 @@
 //! * World coordinates: MAPAXES (origin, a point on the Y axis, a point on
 //!   the X axis) maps the grid's x, y to the map; z = −depth (elevation).
 //! * Corners on the same pillar with the same depth are welded into one
-//!   vertex; nothing else is. So cells on the two sides of a fault share no
-//!   vertex, and the CGraph sews only faces that match exactly.
+//!   vertex. Corners of one cell on different pillars that coincide (within
+//!   1e-9 of the cell's extent: pillars that meet or coincide) are merged
+//!   too, through one union-find over the vertices, so the neighbours see the
+//!   same vertex. Nothing else is welded: cells on the two sides of a fault
+//!   share no vertex, and the CGraph sews only faces that match exactly.
 //! * Each cell's volume is the exact volume of its trilinear hexahedron
 //!   (2×2×2 Gauss quadrature of det J, which is exact: det J has degree ≤ 2
 //!   in each parameter).
-//! * A cell with collapsed pillar edges (pinch-outs) loses its repeated
-//!   corners and becomes what it really is: a wedge (two adjacent edges
-//!   collapsed), or a polyhedron for other patterns; faces with fewer than
-//!   three distinct corners vanish. Cells of (near) zero volume are dropped.
+//! * A cell with merged corners (pinch-outs, meeting pillars) loses its
+//!   repeated corners and becomes what it really is: faces with fewer than
+//!   three distinct corners vanish, and a closed surface of 2 triangles + 3
+//!   quads, 1 quad + 4 triangles or 4 triangles is the catalog's wedge,
+//!   pyramid or tetrahedron; other closed surfaces are polyhedra. A merge
+//!   that leaves a face passing twice through a corner is not applied (the
+//!   cell keeps its pillar-only shape; counted). Cells of (near) zero volume
+//!   are dropped and counted; cells oriented against the grid are kept and
+//!   counted as inverted.
 
 use rayon::prelude::*;
 use thiserror::Error;
@@ -226,11 +234,11 @@ fn pillar_pattern(collapsed: u8) -> [u8; 8] {
 /// coinciding with corner `c`, corner-point numbering), given the VTK order
 /// in use. The faces are the hexahedron's with merged corners removed;
 /// faces left with fewer than three corners vanish. 8 distinct corners give
-/// a hexahedron, and a closed surface of 2 triangles + 3 quads, 4 triangles
-/// + 1 quad or 4 triangles gives a wedge, pyramid or tetrahedron; other
-/// closed surfaces a polyhedron. `None` when the merged faces are not a
-/// closed, consistently oriented surface (a face passing twice through a
-/// corner, an edge used twice in one direction).
+/// a hexahedron; a closed surface of 2 triangles and 3 quads, of 4
+/// triangles and 1 quad, or of 4 triangles gives a wedge, a pyramid or a
+/// tetrahedron; other closed surfaces a polyhedron. `None` when the merged
+/// faces are not a closed, consistently oriented surface (a face passing
+/// twice through a corner, an edge used twice in one direction).
 fn shape_of(rep: &[u8; 8], order: &[usize; 8]) -> Option<Shape> {
     if rep.iter().enumerate().all(|(c, &r)| r as usize == c) {
         return Some(Shape::Typed(
@@ -659,10 +667,10 @@ impl CornerPointGrid {
         }
         // The shape of a kept cell and whether it uses merged vertices.
         let shape_at = |c: usize, code: u8| -> (&Shape, bool) {
-            if code & CODE_CROSS != 0 {
-                if let Ok(x) = cross_cells.binary_search_by_key(&c, |e| e.0) {
-                    return (&cross_shapes[cross_cells[x].1].1, true);
-                }
+            if code & CODE_CROSS != 0
+                && let Ok(x) = cross_cells.binary_search_by_key(&c, |e| e.0)
+            {
+                return (&cross_shapes[cross_cells[x].1].1, true);
             }
             (&shapes[(code & 15) as usize], false)
         };

@@ -32,12 +32,30 @@ fn build(
     shear: [f64; 2],
     depth: impl Fn(usize, usize, usize, usize) -> f64,
 ) -> CornerPointGrid {
+    build_pillars(
+        dims,
+        |pi, pj| {
+            let (x, y) = (pi as f64, pj as f64);
+            ([x, y, 0.0], [x + shear[0], y + shear[1], 100.0])
+        },
+        depth,
+    )
+}
+
+/// An nx×ny×nz grid with pillar `(pi, pj)` from `pillar(pi, pj) = (top,
+/// bottom)` and corner depths from `depth(i, j, k, corner)`.
+fn build_pillars(
+    dims: [usize; 3],
+    pillar: impl Fn(usize, usize) -> ([f64; 3], [f64; 3]),
+    depth: impl Fn(usize, usize, usize, usize) -> f64,
+) -> CornerPointGrid {
     let [nx, ny, nz] = dims;
     let mut coord = Vec::new();
     for pj in 0..=ny {
         for pi in 0..=nx {
-            coord.extend_from_slice(&[pi as f64, pj as f64, 0.0]);
-            coord.extend_from_slice(&[pi as f64 + shear[0], pj as f64 + shear[1], 100.0]);
+            let (t, b) = pillar(pi, pj);
+            coord.extend_from_slice(&t);
+            coord.extend_from_slice(&b);
         }
     }
     let mut g = CornerPointGrid {
@@ -266,6 +284,320 @@ fn three_collapsed_pillar_edges() {
         assert!(m.polygon_count() > 0);
         assert!((0..m.polygon_count()).all(|p| m.polygon(p).len() >= 3));
     }
+}
+
+/// Area of the convex polygon spanned by `p` (monotone-chain hull + shoelace).
+fn hull_area(mut p: Vec<[f64; 2]>) -> f64 {
+    p.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    p.dedup();
+    if p.len() < 3 {
+        return 0.0;
+    }
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    };
+    let mut h: Vec<[f64; 2]> = Vec::new();
+    for &x in &p {
+        while h.len() >= 2 && cross(h[h.len() - 2], h[h.len() - 1], x) <= 0.0 {
+            h.pop();
+        }
+        h.push(x);
+    }
+    let lower = h.len() + 1;
+    for &x in p.iter().rev().skip(1) {
+        while h.len() >= lower && cross(h[h.len() - 2], h[h.len() - 1], x) <= 0.0 {
+            h.pop();
+        }
+        h.push(x);
+    }
+    h.pop();
+    let n = h.len();
+    (0..n)
+        .map(|i| h[i][0] * h[(i + 1) % n][1] - h[i][1] * h[(i + 1) % n][0])
+        .sum::<f64>()
+        .abs()
+        / 2.0
+}
+
+/// Independent brute force for a convex cell: the area of the section of
+/// the convex hull of `pts` by the plane `x[axis] = t` (the crossings of
+/// every segment between two points, then their 2D hull).
+fn convex_section_area(pts: &[[f64; 3]], axis: usize, t: f64) -> f64 {
+    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+    let mut q = Vec::new();
+    for a in 0..pts.len() {
+        let da = pts[a][axis] - t;
+        if da == 0.0 {
+            q.push([pts[a][u], pts[a][v]]);
+        }
+        for b in a + 1..pts.len() {
+            let db = pts[b][axis] - t;
+            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+                let s = da / (da - db);
+                q.push([
+                    pts[a][u] + s * (pts[b][u] - pts[a][u]),
+                    pts[a][v] + s * (pts[b][v] - pts[a][v]),
+                ]);
+            }
+        }
+    }
+    hull_area(q)
+}
+
+/// Converts `g` (convex cells with planar faces), checks the class counts
+/// `[hexahedra, wedges, pyramids, tetrahedra, polyhedra]`, the bulk volume
+/// against the analytic `volume` and each cell's trilinear volume, that the
+/// CGraph takes every cell as valid, and the sweep's slice areas along x, y
+/// and z against the convex brute force summed over the cells. Does the
+/// same with y mirrored (the other handedness). Returns the grid and the
+/// CGraph's sewn face count.
+fn check_collapsed(
+    what: &str,
+    g: &CornerPointGrid,
+    classes: [usize; 5],
+    volume: f64,
+) -> (stratasweep::grid::Grid, usize) {
+    let mut mirrored = g.clone();
+    for p in mirrored.coord.chunks_mut(3) {
+        p[1] = -p[1];
+    }
+    let mut first = None;
+    for g in [g, &mirrored] {
+        let [nx, ny, nz] = g.dims;
+        let corners: Vec<[[f64; 3]; 8]> = (0..nz)
+            .flat_map(|k| (0..ny).flat_map(move |j| (0..nx).map(move |i| (i, j, k))))
+            .map(|(i, j, k)| g.cell_corners(i, j, k))
+            .collect();
+        let tri: f64 = corners.iter().map(|c| trilinear_volume(c).abs()).sum();
+        let (grid, rep) = g.to_grid().unwrap();
+        assert_eq!(
+            [
+                rep.hexahedra,
+                rep.wedges,
+                rep.pyramids,
+                rep.tetrahedra,
+                rep.polyhedra
+            ],
+            classes,
+            "{what}: {rep:?}"
+        );
+        assert_eq!(
+            (rep.zero_volume, rep.inverted, rep.merge_fallback),
+            (0, 0, 0)
+        );
+        assert!(
+            (rep.bulk_volume - volume).abs() < 1e-12 * volume.max(1.0),
+            "{what}: bulk {} vs analytic {volume}",
+            rep.bulk_volume
+        );
+        assert!(
+            (tri - volume).abs() < 1e-12 * volume.max(1.0),
+            "{what}: {tri}"
+        );
+        let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+        let Structure::CGraph(cg) = &s else { panic!() };
+        assert_eq!(cg.class_counts, [grid.cell_count(), 0, 0, 0, 0], "{what}");
+        for axis in 0..3 {
+            let req = SliceRequest {
+                field: FieldSpec::Axis {
+                    axis,
+                    negative: false,
+                },
+                levels: LevelSpec::Count(40),
+                attribute: None,
+                threads: 1,
+                brute_force: false,
+                collect_mesh: false,
+            };
+            let r = slice(&grid, &s, &req, &|_| {}).unwrap();
+            let mut top = 0.0f64;
+            let mut sum = 0.0;
+            for (l, &t) in r.level_values.iter().enumerate() {
+                let want: f64 = corners
+                    .iter()
+                    .map(|c| convex_section_area(c, axis, t))
+                    .sum();
+                top = top.max(want);
+                let got = r.stats[l].area;
+                assert!(
+                    (got - want).abs() <= 1e-5 * top.max(1e-3),
+                    "{what}: axis {axis} level {l} (t = {t}): sweep area {got} vs brute force {want}"
+                );
+                sum += got;
+            }
+            assert!(sum > 0.0, "{what}: axis {axis} cut nothing");
+        }
+        first.get_or_insert((grid, cg.sewn_faces));
+    }
+    first.unwrap()
+}
+
+#[test]
+fn collapse_patterns_become_catalog_cells() {
+    let lattice = |pi: usize, pj: usize| {
+        let (x, y) = (pi as f64, pj as f64);
+        ([x, y, 0.0], [x, y, 100.0])
+    };
+    // Hexahedron (a box 1 × 1 × 2).
+    let hex = build_pillars(
+        [1, 1, 1],
+        lattice,
+        |_, _, _, c| {
+            if c < 4 { 10.0 } else { 12.0 }
+        },
+    );
+    check_collapsed("hexahedron", &hex, [1, 0, 0, 0, 0], 2.0);
+    // Pinch-out: the two pillar edges at i = 0 collapse, planar bottom: a wedge.
+    let pinch = build_pillars([1, 1, 1], lattice, |_, _, _, c| {
+        if c < 4 || c & 1 == 0 { 10.0 } else { 12.0 }
+    });
+    check_collapsed("pinch-out wedge", &pinch, [0, 1, 0, 0, 0], 1.0);
+    // Pillars (0,0) and (1,0) coincide: corners 0 = 1 and 4 = 5 merge
+    // across pillars, a triangular prism (wedge) of base 1/2 and height 2.
+    let side = build_pillars(
+        [1, 1, 1],
+        |pi, pj| {
+            let (x, y) = if pj == 0 {
+                (0.5, 0.0)
+            } else {
+                (pi as f64, 1.0)
+            };
+            ([x, y, 0.0], [x, y, 100.0])
+        },
+        |_, _, _, c| if c < 4 { 10.0 } else { 12.0 },
+    );
+    check_collapsed("collapsed-side wedge", &side, [0, 1, 0, 0, 0], 1.0);
+    // Four pillars meeting at depth 13: the bottom corners merge into an
+    // apex, a pyramid of base 1 and height 3.
+    let apex = [0.5, 0.5, 13.0];
+    let pyr = build_pillars(
+        [1, 1, 1],
+        |pi, pj| ([pi as f64, pj as f64, 10.0], apex),
+        |_, _, _, c| if c < 4 { 10.0 } else { 13.0 },
+    );
+    check_collapsed("pyramid", &pyr, [0, 0, 1, 0, 0], 1.0);
+    // Same, with pillars (0,0) and (1,0) starting at the same point: the
+    // top is a triangle of area 1/2, a tetrahedron of volume 1/2.
+    let tet = build_pillars(
+        [1, 1, 1],
+        |pi, pj| {
+            let top = if pj == 0 {
+                [1.0, 0.0, 10.0]
+            } else {
+                [pi as f64, 1.0, 10.0]
+            };
+            (top, apex)
+        },
+        |_, _, _, c| if c < 4 { 10.0 } else { 13.0 },
+    );
+    check_collapsed("tetrahedron", &tet, [0, 0, 0, 1, 0], 0.5);
+    // A pinch-out on a pillar pair next to a collapsed side: the cell with
+    // pillars (0,0) = (1,0) and its pillar edges at j = 1, i = 0 collapsed
+    // (corners 2 = 6) keeps 5 distinct corners and is a pyramid: base the
+    // vertical quad on pillars (1,0) and (1,1), apex at corner 2.
+    let mixed = build_pillars(
+        [1, 1, 1],
+        |pi, pj| {
+            let (x, y) = if pj == 0 {
+                (0.5, 0.0)
+            } else {
+                (pi as f64, 1.0)
+            };
+            ([x, y, 0.0], [x, y, 100.0])
+        },
+        |_, _, _, c| if c < 4 || c == 6 { 10.0 } else { 12.0 },
+    );
+    // Prism of base 1/2 and height 2 less the tetrahedron at the pinched
+    // corner (1/3).
+    check_collapsed(
+        "pinch-out by a collapsed side",
+        &mixed,
+        [0, 0, 1, 0, 0],
+        2.0 / 3.0,
+    );
+}
+
+#[test]
+fn converging_pillars_give_sewn_pyramids_and_tetrahedra() {
+    // 3×3 columns whose 16 pillars all end at one apex 30 below the top
+    // (pillar (0,0) starts on pillar (1,0)): three layers, 10 thick. The
+    // two upper layers are frusta (hexahedra; wedges in column (0,0)), the
+    // bottom layer pyramids (a tetrahedron in column (0,0)). The grid is the
+    // cone over the top polygon: 3×3 minus a half unit square, V = 8.5·30/3.
+    let apex = [1.5, 1.5, 30.0];
+    let g = build_pillars(
+        [3, 3, 3],
+        |pi, pj| {
+            let top = if (pi, pj) == (0, 0) {
+                [1.0, 0.0, 0.0]
+            } else {
+                [pi as f64, pj as f64, 0.0]
+            };
+            (top, apex)
+        },
+        |_, _, k, c| 10.0 * (k + (c >> 2)) as f64,
+    );
+    let (grid, sewn) = check_collapsed("converging pillars", &g, [16, 2, 8, 1, 0], 85.0);
+    // Coincident corners are one vertex: 15 distinct pillar positions at
+    // depths 0, 10, 20, plus the apex; every interior face is sewn (36
+    // between columns, 18 between layers), each counted from both sides.
+    assert_eq!(grid.points.len(), 15 * 3 + 1);
+    let mut pts = grid.points.clone();
+    pts.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    pts.dedup();
+    assert_eq!(pts.len(), grid.points.len());
+    assert_eq!(sewn, 2 * (36 + 18));
+    // The sweep cuts exactly the cells the brute force cuts.
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    for axis in 0..3 {
+        let mut req = SliceRequest {
+            field: FieldSpec::Axis {
+                axis,
+                negative: false,
+            },
+            levels: LevelSpec::Count(31),
+            attribute: None,
+            threads: 1,
+            brute_force: false,
+            collect_mesh: false,
+        };
+        let a = slice(&grid, &s, &req, &|_| {}).unwrap();
+        req.brute_force = true;
+        let b = slice(&grid, &s, &req, &|_| {}).unwrap();
+        let cells = |r: &stratasweep::pipeline::SliceResult| {
+            r.stats.iter().map(|s| s.cells).collect::<Vec<_>>()
+        };
+        assert_eq!(cells(&a), cells(&b), "axis {axis}");
+        assert_eq!(a.minima, 1, "axis {axis}: a sewn grid has one minimum");
+    }
+}
+
+#[test]
+fn twisted_cell_keeps_its_pillar_shape() {
+    // Pillars (0,0) and (1,1) cross at the top: corners 0 and 3 coincide,
+    // the merged top face would pass twice through one corner. The cell is
+    // not merged (counted as a fallback), keeps its trilinear volume, and
+    // the sweep structure skips it as a cell with a repeated vertex.
+    let g = build_pillars(
+        [1, 1, 1],
+        |pi, pj| {
+            let (x, y) = (pi as f64, pj as f64);
+            let top = if pi == pj {
+                [0.5, 0.5, 10.0]
+            } else {
+                [x, y, 10.0]
+            };
+            (top, [x, y, 20.0])
+        },
+        |_, _, _, c| if c < 4 { 10.0 } else { 20.0 },
+    );
+    let (grid, rep) = g.to_grid().unwrap();
+    assert_eq!((rep.merge_fallback, rep.hexahedra), (1, 1), "{rep:?}");
+    let t = trilinear_volume(&g.cell_corners(0, 0, 0)).abs();
+    assert!(t > 1.0 && (rep.bulk_volume - t).abs() < 1e-12, "{t}");
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let Structure::CGraph(cg) = &s else { panic!() };
+    assert_eq!(cg.class_counts, [0, 0, 0, 1, 0]);
 }
 
 fn reek(data: &std::path::Path) -> stratasweep::io::grdecl::GrdeclDeck {
