@@ -225,6 +225,10 @@ enum GenCmd {
         /// Number of faults.
         #[arg(long, default_value_t = 3)]
         faults: usize,
+        /// Dip of every fault in degrees (45–90; 90 = vertical). Default: the
+        /// first fault vertical, the others inclined 50–80°.
+        #[arg(long)]
+        fault_dip: Option<f64>,
         /// Random seed.
         #[arg(long, default_value_t = 1)]
         seed: u64,
@@ -952,6 +956,7 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
         GenCmd::Faulted {
             dims,
             faults,
+            fault_dip,
             seed,
             output,
         } => {
@@ -959,7 +964,15 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
             if faults > 1000 {
                 bail!("--faults must be at most 1000");
             }
-            let g = generate::faulted(d, faults, seed);
+            if let Some(dip) = fault_dip
+                && !(generate::MIN_FAULT_DIP..=90.0).contains(&dip)
+            {
+                bail!(
+                    "--fault-dip {dip} is outside [{}, 90] degrees",
+                    generate::MIN_FAULT_DIP
+                );
+            }
+            let g = generate::faulted_with_dip(d, faults, fault_dip, seed);
             let sp = spinner(quiet, format!("writing {}", output.display()));
             let f = std::fs::File::create(&output)
                 .with_context(|| format!("cannot create {}", output.display()))?;
