@@ -384,6 +384,40 @@ fn split_by<'a, T>(mut v: &'a mut [T], start: &[usize]) -> Vec<&'a mut [T]> {
     out
 }
 
+/// Index of the first element of the sorted `d` not below `z` (total
+/// order), searched by galloping from `guess`.
+fn search_from(d: &[f64], z: f64, guess: usize) -> usize {
+    let below = |x: &f64| x.total_cmp(&z).is_lt();
+    let n = d.len();
+    if n == 0 {
+        return 0;
+    }
+    let g = guess.min(n - 1);
+    let (mut lo, mut hi, mut step) = (g, g, 1);
+    if below(&d[g]) {
+        // Answer in (g, n]: d[..lo] below z.
+        lo = g + 1;
+        hi = lo;
+        while hi < n && below(&d[hi]) {
+            lo = hi + 1;
+            hi += step;
+            step *= 2;
+        }
+        hi = hi.min(n);
+    } else {
+        // Answer in [0, g]: d[hi] not below z.
+        while lo > 0 {
+            lo = hi.saturating_sub(step);
+            if below(&d[lo]) {
+                break;
+            }
+            hi = lo;
+            step *= 2;
+        }
+    }
+    lo + d[lo..hi].partition_point(below)
+}
+
 /// Union-find root with path halving.
 fn find(parent: &mut [u32], mut v: u32) -> u32 {
     while parent[v as usize] != v {
@@ -753,50 +787,69 @@ impl CornerPointGrid {
             rep.tetrahedra,
             rep.polyhedra,
         ) = (acc[3], acc[4], acc[5], acc[6], acc[7]);
-        // Pass 3: weld corners per pillar (sorted unique depths of kept cells).
+        // Pass 3: weld corners per pillar (sorted unique depths of kept
+        // cells), in parallel over rows of pillars so that ZCORN is read
+        // row by row; per pillar row one vector of its pillars' depths.
         let npx = nx + 1;
         let npil = npx * (ny + 1);
-        let per_pillar: Vec<Vec<f64>> = (0..npil)
+        let row_depths: Vec<(Vec<f64>, Vec<u32>)> = (0..=ny)
             .into_par_iter()
-            .map(|p| {
-                let (pi, pj) = (p % npx, p / npx);
-                let mut d = Vec::new();
-                for (ci, ii) in [(pi.wrapping_sub(1), 1usize), (pi, 0)] {
-                    for (cj, jj) in [(pj.wrapping_sub(1), 1usize), (pj, 0)] {
-                        if ci >= nx || cj >= ny {
-                            continue;
-                        }
-                        for k in 0..nz {
-                            if !kept(codes[ci + nx * (cj + ny * k)]) {
+            .map(|pj| {
+                let mut lists: Vec<Vec<f64>> = vec![Vec::new(); npx];
+                for k in 0..nz {
+                    for kk in 0..2 {
+                        for (cj, jj) in [(pj.wrapping_sub(1), 1usize), (pj, 0)] {
+                            if cj >= ny {
                                 continue;
                             }
-                            for kk in 0..2 {
-                                d.push(zcorn[this.zcorn_index(ci, cj, k, ii + 2 * jj + 4 * kk)]);
+                            let row = &codes[nx * (cj + ny * k)..][..nx];
+                            let z0 = this.zcorn_index(0, cj, k, 2 * jj + 4 * kk);
+                            let zrow = &zcorn[z0..z0 + 2 * nx];
+                            for (i, &code) in row.iter().enumerate() {
+                                if kept(code) {
+                                    lists[i].push(zrow[2 * i]);
+                                    lists[i + 1].push(zrow[2 * i + 1]);
+                                }
                             }
                         }
                     }
                 }
-                d.sort_unstable_by(|a, b| a.total_cmp(b));
-                d.dedup();
-                d.shrink_to_fit();
-                d
+                let mut flat = Vec::new();
+                let mut lens = Vec::with_capacity(npx);
+                for mut d in lists {
+                    d.sort_unstable_by(|a, b| a.total_cmp(b));
+                    d.dedup();
+                    lens.push(d.len() as u32);
+                    flat.extend_from_slice(&d);
+                }
+                flat.shrink_to_fit();
+                (flat, lens)
             })
             .collect();
         let mut start = Vec::with_capacity(npil + 1);
         let mut nv = 0usize;
-        for d in &per_pillar {
-            start.push(nv);
-            nv += d.len();
+        for (_, lens) in &row_depths {
+            for &l in lens {
+                start.push(nv);
+                nv += l as usize;
+            }
         }
         start.push(nv);
         if nv >= u32::MAX as usize {
             return Err(CornerPointError::BadDims(self.dims));
         }
+        // The depths of pillar `p` (ids `start[p]..start[p + 1]`).
+        let depths = |p: usize| -> &[f64] {
+            let base = start[p - p % npx];
+            &row_depths[p / npx].0[start[p] - base..start[p + 1] - base]
+        };
         let vid = |zcorn: &[f64], i: usize, j: usize, k: usize, corner: usize| -> u32 {
             let p = this.pillar_index(i + (corner & 1), j + (corner >> 1 & 1));
             let z = zcorn[this.zcorn_index(i, j, k, corner)];
-            let l = per_pillar[p].partition_point(|x| x.total_cmp(&z).is_lt());
-            (start[p] + l) as u32
+            let d = depths(p);
+            // Layer k's corners sit near index k·len/(nz+1) of a pillar.
+            let guess = (k + (corner >> 2)) * d.len() / (nz + 1);
+            (start[p] + search_from(d, z, guess)) as u32
         };
         // Cross-pillar merges: union the coincident vertices (smallest id wins).
         let canon: Option<Vec<u32>> = (!cross_cells.is_empty()).then(|| {
@@ -919,14 +972,13 @@ impl CornerPointGrid {
         let mut points = vec![[0.0f64; 3]; nv];
         split_by(&mut points, &start)
             .into_par_iter()
-            .zip(per_pillar.par_iter())
             .enumerate()
-            .for_each(|(p, (out, d))| {
-                for (o, &z) in out.iter_mut().zip(d) {
+            .for_each(|(p, out)| {
+                for (o, &z) in out.iter_mut().zip(depths(p)) {
                     *o = Self::apply(&tr, this.on_pillar(p, z));
                 }
             });
-        drop(per_pillar);
+        drop(row_depths);
         // Vertices merged away: renumber the used ones, keeping their order.
         if canon.is_some() {
             let mut new_id = vec![u32::MAX; nv];
@@ -999,5 +1051,33 @@ impl CornerPointGrid {
             .filter(|&c| self.is_active(c))
             .map(|c| self.cell_volume(c % nx, c / nx % ny, c / (nx * ny)).abs())
             .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::search_from;
+
+    #[test]
+    fn search_from_matches_partition_point() {
+        let mut seed = 0x1234_5678_9abc_def0u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for n in 0..40usize {
+            let mut d: Vec<f64> = (0..n).map(|_| (next() % 50) as f64).collect();
+            d.sort_by(f64::total_cmp);
+            d.dedup();
+            for z in -1..52 {
+                let z = z as f64;
+                let want = d.partition_point(|x| *x < z);
+                for guess in 0..n + 3 {
+                    assert_eq!(search_from(&d, z, guess), want, "{d:?} z {z} guess {guess}");
+                }
+            }
+        }
     }
 }
