@@ -351,6 +351,50 @@ proptest! {
 }
 
 /// Inputs found by the fuzzers above (or written as their likely cousins), kept as regressions.
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Random runs of plain numbers and `N*v` repeats (any separators,
+    /// comments between them, `/` glued to the last value) read back as the
+    /// expanded list, whatever the path (fast or general) takes them.
+    #[test]
+    fn repeats_and_numbers_expand_exactly(
+        runs in proptest::collection::vec((1usize..6, -5000i64..5000, 0u8..4, 0u8..6), 1..60),
+        glued in any::<bool>(),
+    ) {
+        let mut body = String::new();
+        let mut want = Vec::new();
+        for &(n, v, form, sep) in &runs {
+            let x = v as f64 / 8.0;
+            match (n, form) {
+                (1, 0) => body.push_str(&format!("{x}")),
+                (_, 1) => body.push_str(&format!("{n}*{x:e}")),
+                _ => body.push_str(&format!("{n}*{x}")),
+            }
+            want.extend(std::iter::repeat_n(x, n));
+            body.push_str(match sep {
+                0 => " ",
+                1 => "\n",
+                2 => "\t ",
+                3 => " -- note 3*7\n",
+                4 => "\r\n",
+                _ => "   ",
+            });
+        }
+        if glued && runs.last().is_some_and(|r| r.3 != 3) {
+            body = body.trim_end().to_string();
+        }
+        let n = want.len();
+        let text = format!(
+            "SPECGRID\n 1 1 {n} 1 F /\nCOORD\n 0 0 0 0 0 1 1 0 0 1 0 1 0 1 0 0 1 1 1 1 0 1 1 1 /\n\
+             ZCORN\n {}*1 /\nPORO\n{body}/\n",
+            8 * n
+        );
+        let d = parse(&text).unwrap();
+        prop_assert_eq!(&d.grid.properties[0].values, &want);
+    }
+}
+
 #[test]
 fn fuzz_regressions() {
     for t in [

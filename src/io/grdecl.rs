@@ -332,9 +332,9 @@ impl<'r> Lexer<'r> {
         }
     }
 
-    /// Plain numbers straight from the window into `sink`, until anything
-    /// else (a repeat, a comment, `/`, a word, the window's margin): then
-    /// the general path takes over. Same results as `next` + `parse_number`.
+    /// Plain numbers and `N*v` repeats straight from the window into
+    /// `sink`, until anything else (a default `N*`, a comment, `/`, a word,
+    /// the window's margin): then the general path takes over. Same results as `next` + `parse_number`.
     #[inline]
     fn fast_values(&mut self, sink: &mut Sink) {
         if self.pushed.is_some() || self.in_comment {
@@ -362,14 +362,33 @@ impl<'r> Lexer<'r> {
                 p += 1;
                 continue;
             }
-            let Some((v, len)) = parse_prefix(&b[p..]) else {
+            let Some((mut v, len)) = parse_prefix(&b[p..]) else {
                 break;
             };
-            let q = p + len;
+            let mut q = p + len;
+            let mut count = 1;
+            if q < end && b[q] == b'*' {
+                // `N*v` with N a plain positive integer (as `repeat_count`
+                // takes it) and v a plain number; anything else (`N*`,
+                // errors) is left to the general path.
+                let n = &b[p..q];
+                if n.len() > 12 || !n.iter().all(u8::is_ascii_digit) {
+                    break;
+                }
+                count = n.iter().fold(0usize, |a, &c| a * 10 + (c - b'0') as usize);
+                let Some((w, l)) = parse_prefix(&b[q + 1..]) else {
+                    break;
+                };
+                if count == 0 {
+                    break;
+                }
+                v = w;
+                q += 1 + l;
+            }
             if q < end && b[q] > b' ' && b[q] != b'/' {
                 break;
             }
-            sink.push(v, 1);
+            sink.push(v, count);
             bol = false;
             p = q;
         }
