@@ -350,7 +350,6 @@ proptest! {
     }
 }
 
-/// Inputs found by the fuzzers above (or written as their likely cousins), kept as regressions.
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
 
@@ -395,6 +394,7 @@ proptest! {
     }
 }
 
+/// Inputs found by the fuzzers above (or written as their likely cousins), kept as regressions.
 #[test]
 fn fuzz_regressions() {
     for t in [
