@@ -613,8 +613,31 @@ fn reek_grdecl_counts_volume_and_cavalieri() {
     let cp = &deck.grid;
     assert_eq!(cp.dims, [40, 64, 14]);
     let names: Vec<&str> = cp.properties.iter().map(|p| p.name.as_str()).collect();
-    assert_eq!(names, ["PORO", "PERMX", "PERMY", "PERMZ"]);
-    assert!(deck.skipped.contains(&"MULTIPLY".to_string()));
+    // The GRID section's MULTIPLY (PERMZ × 0.3) and EQUALS (MULTZ) apply.
+    assert_eq!(names, ["PORO", "PERMX", "PERMY", "PERMZ", "MULTZ"]);
+    assert!(
+        !deck
+            .skipped
+            .iter()
+            .any(|s| s == "MULTIPLY" || s == "EQUALS")
+    );
+    let raw = stratasweep::io::grdecl::read_grdecl_from(
+        format!(
+            "INCLUDE\n '{}' /\nINCLUDE\n '{}' /\n",
+            data.join("reek/reek.grid").display(),
+            data.join("reek/reek.perm").display()
+        )
+        .as_bytes(),
+        std::path::Path::new("raw.grdecl"),
+    )
+    .unwrap();
+    let raw_z: Vec<f64> = raw.grid.properties[2]
+        .values
+        .iter()
+        .map(|v| v * 0.3)
+        .collect();
+    assert_eq!(raw.grid.properties[2].name, "PERMZ");
+    assert_eq!(cp.properties[3].values, raw_z);
     let (grid, rep) = cp.to_grid().unwrap();
     assert_eq!((rep.active, rep.inactive), (35_820, 20));
     assert_eq!(
@@ -752,7 +775,8 @@ fn spe9_and_spe10_load() {
         ([24, 25, 15], 9000, 9000)
     );
     let names: Vec<&str> = d.grid.properties.iter().map(|p| p.name.as_str()).collect();
-    assert_eq!(names, ["PORO", "PERMX"]);
+    // PERMY and PERMZ come from the deck's COPY (and MULTIPLY).
+    assert_eq!(names, ["PORO", "PERMX", "PERMY", "PERMZ"]);
     assert_eq!(d.grid.properties[0].values[0], 0.087);
     assert_eq!(d.grid.properties[0].values[8999], 0.157);
     let d =

@@ -101,17 +101,15 @@ fn deck_reads_only_the_grid_section_and_reports_skips_once() {
     let t = format!(
         "RUNSPEC\nTITLE\n  My model 1 2 3\nDIMENS\n 2 1 1 /\nOIL\nWATER\nSTART\n 1 'JAN' 2000 /\n\
          TABDIMS\n 1 1 /\nTABDIMS\n 2 2 /\nGRID\nNOECHO\n{}\
-         MULTIPLY\nPORO 2 /\n/\nEQUALS\n 'PORO' 0.3 /\n/\nGDORIENT\nINC INC INC DOWN RIGHT /\n\
-         PORO\n 0.1 0.2 /\nPROPS\nPERMX\n 1 2 3 /\n",
+         GDORIENT\nINC INC INC DOWN RIGHT /\n\
+         PORO\n 0.1 0.2 /\nMULTIPLY\nPORO 2 /\n/\nPROPS\nPERMX\n 1 2 3 /\nMULTIPLY\nPORO 2 /\n/\n",
         small("")
     );
     let d = parse(&t).unwrap();
     assert_eq!(d.grid.properties.len(), 1, "{:?}", d.grid.properties);
-    assert_eq!(d.grid.properties[0].values, [0.1, 0.2]);
-    assert_eq!(
-        d.skipped,
-        ["START", "TABDIMS", "MULTIPLY", "EQUALS", "GDORIENT"]
-    );
+    // MULTIPLY in the GRID section applies; the PROPS section is not read.
+    assert_eq!(d.grid.properties[0].values, [0.2, 0.4]);
+    assert_eq!(d.skipped, ["START", "TABDIMS", "GDORIENT"]);
 }
 
 #[test]
@@ -425,4 +423,152 @@ fn fuzz_regressions() {
     let d = parse("SPECGRID\n 1 1 1 /\nCOORD\n 24*0 /\nZCORN\n 8*0 /\n").unwrap();
     let (g, r) = d.grid.to_grid().unwrap();
     assert_eq!((g.cell_count(), r.zero_volume), (0, 1));
+}
+
+/// A 3×2×2 grid of unit cells (vertical pillars) followed by `extra`.
+fn box_grid(extra: &str) -> String {
+    let mut coord = String::new();
+    for j in 0..3 {
+        for i in 0..4 {
+            coord.push_str(&format!("{i} {j} 0 {i} {j} 10\n"));
+        }
+    }
+    format!(
+        "SPECGRID\n 3 2 2 1 F /\nCOORD\n{coord}/\nZCORN\n 24*0 24*1 24*1 24*2 /\n\
+         PORO\n 0.1 0.2 0.3 0.4 0.5 0.6 0.7 0.8 0.9 1.0 1.1 1.2 /\n{extra}"
+    )
+}
+
+#[test]
+fn equals_multiply_add_copy_in_boxes() {
+    let d = parse(&box_grid(
+        "EQUALS\n 'PERMX' 100 / whole grid\n/\n\
+         MULTIPLY\n PERMX 0.5 1 2 1 1 1 1 /\n PERMX 2 2* 2 2 / I 1-2 of row J = 2, same K\n/\n\
+         ADD\n PORO 1 3 3 /\n/\n\
+         COPY\n PORO PERMZ /\n/\n\
+         EQUALS\n MULTZ 0.01 1 3 1 2 2 2 /\n/\n\
+         BOX\n 2 2 1 2 1 2 /\nEQUALS\n NTG 0.5 /\n/\nENDBOX\n\
+         EQUALS\n ACTNUM 0 3 3 2 2 2 2 /\n/\n",
+    ))
+    .unwrap();
+    let g = &d.grid;
+    let prop = |n: &str| {
+        g.properties
+            .iter()
+            .find(|p| p.name == n)
+            .unwrap_or_else(|| panic!("no {n}"))
+            .values
+            .clone()
+    };
+    let idx = |i: usize, j: usize, k: usize| i + 3 * (j + 2 * k);
+    let mut permx = vec![100.0; 12];
+    for i in 0..2 {
+        permx[idx(i, 0, 0)] *= 0.5;
+        permx[idx(i, 1, 0)] *= 2.0;
+    }
+    assert_eq!(prop("PERMX"), permx);
+    // PORO + 1 in column I = 3 (J, K defaulted to the whole grid), PERMZ a copy.
+    let mut poro: Vec<f64> = (1..=12).map(|x| x as f64 / 10.0).collect();
+    for j in 0..2 {
+        for k in 0..2 {
+            poro[idx(2, j, k)] += 1.0;
+        }
+    }
+    assert_eq!(prop("PORO"), poro);
+    assert_eq!(prop("PERMZ"), poro);
+    let multz: Vec<f64> = (0..12).map(|c| if c >= 6 { 0.01 } else { 1.0 }).collect();
+    assert_eq!(prop("MULTZ"), multz);
+    let ntg: Vec<f64> = (0..12)
+        .map(|c| if c % 3 == 1 { 0.5 } else { 1.0 })
+        .collect();
+    assert_eq!(prop("NTG"), ntg);
+    let mut act = [1u8; 12];
+    act[idx(2, 1, 1)] = 0;
+    assert_eq!(g.actnum.as_deref(), Some(&act[..]));
+}
+
+#[test]
+fn operator_errors_name_file_line_and_keyword() {
+    let cases = [
+        (
+            "MULTIPLY\n PERMX 2 /\n/\n",
+            "mem.grdecl:22: MULTIPLY: MULTIPLY on PERMX, which is not defined",
+        ),
+        (
+            "EQUALS\n PERMY 7 2 3 1* 1* 2 2 /\n/\n",
+            "EQUALS defines PERMY in part of the grid only",
+        ),
+        ("ADD\n PORO 1 1 4 /\n/\n", "box I 1..4 is not within 1..3"),
+        ("ADD\n PORO 1 2 1 /\n/\n", "box I 2..1 is not within 1..3"),
+        ("MULTIPLY\n PORO x /\n/\n", "'x' is not a finite number"),
+        (
+            "MULTIPLY\n PORO 2 1 1 1 1 1 0.5 /\n/\n",
+            "box index '0.5' is not a positive integer",
+        ),
+        (
+            "COPY\n PERMX PORO /\n/\n",
+            "COPY from PERMX, which is not defined",
+        ),
+        ("COPY\n PORO /\n/\n", "found 1 item(s)"),
+        ("EQUALS\n ZCORN 1 /\n/\n", "EQUALS cannot change ZCORN"),
+        (
+            "MULTIPLY\n ACTNUM 2 /\n/\n",
+            "MULTIPLY cannot change ACTNUM",
+        ),
+        (
+            "EQUALS\n ACTNUM 2 /\n/\n",
+            "EQUALS ACTNUM: value 2 at cell 0 is not 0 or 1",
+        ),
+        ("EQUALS\n PORO 1 /\n", "end of file before the closing '/'"),
+        ("BOX\n 1 2 1 2 1 3 /\n", "box K 1..3 is not within 1..2"),
+    ];
+    for (extra, want) in cases {
+        let e = parse(&box_grid(extra)).unwrap_err().to_string();
+        assert!(e.contains(want), "{extra:?}: got '{e}', want '{want}'");
+        assert!(e.contains("mem.grdecl:"), "{e}");
+    }
+}
+
+#[test]
+fn spe9_and_reek_operators() {
+    let Some(data) = std::env::var_os("STRATASWEEP_DATA").map(PathBuf::from) else {
+        eprintln!("\n*** SKIP spe9_and_reek_operators: STRATASWEEP_DATA is not set ***\n");
+        return;
+    };
+    // SPE9's deck: COPY PERMX to PERMY and PERMZ, then MULTIPLY PERMZ 0.01.
+    let d = read_grdecl(data.join("spe9/SPE9_CP.DATA")).unwrap();
+    let prop = |g: &CornerPointGrid, n: &str| {
+        g.properties
+            .iter()
+            .find(|p| p.name == n)
+            .unwrap_or_else(|| panic!("no {n}"))
+            .values
+            .clone()
+    };
+    let px = prop(&d.grid, "PERMX");
+    assert_eq!(prop(&d.grid, "PERMY"), px);
+    let pz: Vec<f64> = px.iter().map(|x| x * 0.01).collect();
+    assert_eq!(prop(&d.grid, "PERMZ"), pz);
+    assert!(!d.skipped.iter().any(|s| s == "COPY" || s == "MULTIPLY"));
+    // Reek's MULTZ barrier: EQUALS 'MULTZ' 0.01 1 40 1 64 5 5 / (a comment
+    // after the '/'): layer 5 only, 1 elsewhere.
+    let dir = std::env::temp_dir().join(format!("stratasweep-multz-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let deck = dir.join("reek_multz.grdecl");
+    std::fs::write(
+        &deck,
+        format!(
+            "INCLUDE\n '{}' /\nINCLUDE\n '{}' /\n",
+            data.join("reek/reek.grid").display(),
+            data.join("reek/reek.multz").display()
+        ),
+    )
+    .unwrap();
+    let d = read_grdecl(&deck).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    let m = prop(&d.grid, "MULTZ");
+    assert_eq!(m.len(), 40 * 64 * 14);
+    for (c, &v) in m.iter().enumerate() {
+        assert_eq!(v, if c / (40 * 64) == 4 { 0.01 } else { 1.0 }, "cell {c}");
+    }
 }
