@@ -270,20 +270,49 @@ fn three_collapsed_pillar_edges() {
     // edges: such zero-area two-point loops must not be emitted.
     for axis in 0..3 {
         let req = SliceRequest {
-            field: FieldSpec::Axis {
-                axis,
-                negative: false,
-            },
-            levels: LevelSpec::Count(97),
-            attribute: None,
-            threads: 1,
-            brute_force: false,
             collect_mesh: true,
+            ..axis_request(axis, 97)
         };
         let m = slice(&grid, &s, &req, &|_| {}).unwrap().mesh.unwrap();
         assert!(m.polygon_count() > 0);
         assert!((0..m.polygon_count()).all(|p| m.polygon(p).len() >= 3));
     }
+}
+
+/// A one-thread sweep request for `count` levels along `axis`.
+fn axis_request(axis: usize, count: usize) -> SliceRequest {
+    SliceRequest {
+        field: FieldSpec::Axis {
+            axis,
+            negative: false,
+        },
+        levels: LevelSpec::Count(count),
+        attribute: None,
+        threads: 1,
+        brute_force: false,
+        collect_mesh: false,
+    }
+}
+
+/// Slices `grid` along `axis` at `count` levels by the sweep and by the
+/// brute force, checks that they cut the same cells per level, and returns
+/// the sweep's result.
+fn sweep_matches_brute_force(
+    grid: &stratasweep::grid::Grid,
+    s: &Structure,
+    axis: usize,
+    count: usize,
+    what: &str,
+) -> stratasweep::pipeline::SliceResult {
+    let mut req = axis_request(axis, count);
+    let a = slice(grid, s, &req, &|_| {}).unwrap();
+    req.brute_force = true;
+    let b = slice(grid, s, &req, &|_| {}).unwrap();
+    let cells = |r: &stratasweep::pipeline::SliceResult| {
+        r.stats.iter().map(|s| s.cells).collect::<Vec<_>>()
+    };
+    assert_eq!(cells(&a), cells(&b), "{what}: axis {axis}");
+    a
 }
 
 /// Area of the convex polygon spanned by `p` (monotone-chain hull + shoelace).
@@ -398,17 +427,7 @@ fn check_collapsed(
         let Structure::CGraph(cg) = &s else { panic!() };
         assert_eq!(cg.class_counts, [grid.cell_count(), 0, 0, 0, 0], "{what}");
         for axis in 0..3 {
-            let req = SliceRequest {
-                field: FieldSpec::Axis {
-                    axis,
-                    negative: false,
-                },
-                levels: LevelSpec::Count(40),
-                attribute: None,
-                threads: 1,
-                brute_force: false,
-                collect_mesh: false,
-            };
+            let req = axis_request(axis, 40);
             let r = slice(&grid, &s, &req, &|_| {}).unwrap();
             let mut top = 0.0f64;
             let mut sum = 0.0;
@@ -454,16 +473,17 @@ fn collapse_patterns_become_catalog_cells() {
     check_collapsed("pinch-out wedge", &pinch, [0, 1, 0, 0, 0], 1.0);
     // Pillars (0,0) and (1,0) coincide: corners 0 = 1 and 4 = 5 merge
     // across pillars, a triangular prism (wedge) of base 1/2 and height 2.
+    let side_pillars = |pi: usize, pj: usize| {
+        let (x, y) = if pj == 0 {
+            (0.5, 0.0)
+        } else {
+            (pi as f64, 1.0)
+        };
+        ([x, y, 0.0], [x, y, 100.0])
+    };
     let side = build_pillars(
         [1, 1, 1],
-        |pi, pj| {
-            let (x, y) = if pj == 0 {
-                (0.5, 0.0)
-            } else {
-                (pi as f64, 1.0)
-            };
-            ([x, y, 0.0], [x, y, 100.0])
-        },
+        side_pillars,
         |_, _, _, c| if c < 4 { 10.0 } else { 12.0 },
     );
     check_collapsed("collapsed-side wedge", &side, [0, 1, 0, 0, 0], 1.0);
@@ -495,18 +515,9 @@ fn collapse_patterns_become_catalog_cells() {
     // pillars (0,0) = (1,0) and its pillar edges at j = 1, i = 0 collapsed
     // (corners 2 = 6) keeps 5 distinct corners and is a pyramid: base the
     // vertical quad on pillars (1,0) and (1,1), apex at corner 2.
-    let mixed = build_pillars(
-        [1, 1, 1],
-        |pi, pj| {
-            let (x, y) = if pj == 0 {
-                (0.5, 0.0)
-            } else {
-                (pi as f64, 1.0)
-            };
-            ([x, y, 0.0], [x, y, 100.0])
-        },
-        |_, _, _, c| if c < 4 || c == 6 { 10.0 } else { 12.0 },
-    );
+    let mixed = build_pillars([1, 1, 1], side_pillars, |_, _, _, c| {
+        if c < 4 || c == 6 { 10.0 } else { 12.0 }
+    });
     // Prism of base 1/2 and height 2 less the tetrahedron at the pinched
     // corner (1/3).
     check_collapsed(
@@ -550,24 +561,7 @@ fn converging_pillars_give_sewn_pyramids_and_tetrahedra() {
     // The sweep cuts exactly the cells the brute force cuts.
     let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
     for axis in 0..3 {
-        let mut req = SliceRequest {
-            field: FieldSpec::Axis {
-                axis,
-                negative: false,
-            },
-            levels: LevelSpec::Count(31),
-            attribute: None,
-            threads: 1,
-            brute_force: false,
-            collect_mesh: false,
-        };
-        let a = slice(&grid, &s, &req, &|_| {}).unwrap();
-        req.brute_force = true;
-        let b = slice(&grid, &s, &req, &|_| {}).unwrap();
-        let cells = |r: &stratasweep::pipeline::SliceResult| {
-            r.stats.iter().map(|s| s.cells).collect::<Vec<_>>()
-        };
-        assert_eq!(cells(&a), cells(&b), "axis {axis}");
+        let a = sweep_matches_brute_force(&grid, &s, axis, 31, "converging pillars");
         assert_eq!(a.minima, 1, "axis {axis}: a sewn grid has one minimum");
     }
 }
@@ -669,32 +663,16 @@ fn reek_grdecl_counts_volume_and_cavalieri() {
     );
     // Every emitted polygon has at least 3 vertices (pinched cells included).
     let req = SliceRequest {
-        field: FieldSpec::Axis {
-            axis: 2,
-            negative: false,
-        },
-        levels: LevelSpec::Count(50),
         attribute: Some("PORO".into()),
-        threads: 1,
-        brute_force: false,
         collect_mesh: true,
+        ..axis_request(2, 50)
     };
     let m = slice(&grid, &s, &req, &|_| {}).unwrap().mesh.unwrap();
     assert!((0..m.polygon_count()).all(|p| m.polygon(p).len() >= 3));
     // Cavalieri: Σ area_k · Δ → bulk volume.
     let mut errs = Vec::new();
     for k in [50, 400] {
-        let req = SliceRequest {
-            field: FieldSpec::Axis {
-                axis: 2,
-                negative: false,
-            },
-            levels: LevelSpec::Count(k),
-            attribute: None,
-            threads: 1,
-            brute_force: false,
-            collect_mesh: false,
-        };
+        let req = axis_request(2, k);
         let r = slice(&grid, &s, &req, &|_| {}).unwrap();
         let dz = r.level_values[1] - r.level_values[0];
         let v: f64 = r.stats.iter().map(|s| s.area).sum::<f64>() * dz;
@@ -789,16 +767,19 @@ fn spe9_and_spe10_load() {
     assert_eq!(s.live_cells(), 2000);
 }
 
+/// `g` written as GRDECL and read back.
+fn grdecl_round_trip(g: &CornerPointGrid) -> CornerPointGrid {
+    let mut buf = Vec::new();
+    stratasweep::io::grdecl::write_grdecl(&mut buf, g).unwrap();
+    stratasweep::io::grdecl::read_grdecl_from(&buf[..], std::path::Path::new("gen.grdecl"))
+        .unwrap()
+        .grid
+}
+
 #[test]
 fn generated_faulted_grid_round_trips_and_sweeps() {
     let g = stratasweep::generate::faulted([30, 20, 12], 3, 7);
-    let mut buf = Vec::new();
-    stratasweep::io::grdecl::write_grdecl(&mut buf, &g).unwrap();
-    let back =
-        stratasweep::io::grdecl::read_grdecl_from(&buf[..], std::path::Path::new("gen.grdecl"))
-            .unwrap()
-            .grid;
-    assert_eq!(back, g);
+    assert_eq!(grdecl_round_trip(&g), g);
     let (grid, rep) = g.to_grid().unwrap();
     assert!(
         rep.inactive > 0 && rep.wedges > 0 && rep.polyhedra > 0 && rep.hexahedra > 0,
@@ -815,15 +796,8 @@ fn generated_faulted_grid_round_trips_and_sweeps() {
     );
     // The sweep cuts exactly the cells the brute force cuts, on a faulted grid.
     let mut req = SliceRequest {
-        field: FieldSpec::Axis {
-            axis: 2,
-            negative: false,
-        },
-        levels: LevelSpec::Count(40),
         attribute: Some("PORO".into()),
-        threads: 1,
-        brute_force: false,
-        collect_mesh: false,
+        ..axis_request(2, 40)
     };
     let a = slice(&grid, &s, &req, &|_| {}).unwrap();
     req.brute_force = true;
@@ -907,13 +881,7 @@ fn generated_faults_vertical_or_inclined() {
             None => assert!(min <= 0.06 && max > 0.15, "mix: leans {min}..{max}"),
         }
         // Inclined pillars are written and read back exactly.
-        let mut buf = Vec::new();
-        stratasweep::io::grdecl::write_grdecl(&mut buf, &g).unwrap();
-        let back =
-            stratasweep::io::grdecl::read_grdecl_from(&buf[..], std::path::Path::new("f.grdecl"))
-                .unwrap()
-                .grid;
-        assert_eq!(back, g, "{dip:?}");
+        assert_eq!(grdecl_round_trip(&g), g, "{dip:?}");
         // No cell turns over; the sweep cuts what the brute force cuts.
         let (grid, rep) = g.to_grid().unwrap();
         assert_eq!(rep.inverted, 0, "{dip:?}: {rep:?}");
@@ -921,24 +889,7 @@ fn generated_faults_vertical_or_inclined() {
         let Structure::CGraph(cg) = &s else { panic!() };
         assert_eq!(cg.class_counts[0], grid.cell_count(), "{dip:?}");
         for axis in [0, 2] {
-            let mut req = SliceRequest {
-                field: FieldSpec::Axis {
-                    axis,
-                    negative: false,
-                },
-                levels: LevelSpec::Count(60),
-                attribute: None,
-                threads: 1,
-                brute_force: false,
-                collect_mesh: false,
-            };
-            let a = slice(&grid, &s, &req, &|_| {}).unwrap();
-            req.brute_force = true;
-            let b = slice(&grid, &s, &req, &|_| {}).unwrap();
-            let cells = |r: &stratasweep::pipeline::SliceResult| {
-                r.stats.iter().map(|s| s.cells).collect::<Vec<_>>()
-            };
-            assert_eq!(cells(&a), cells(&b), "{dip:?} axis {axis}");
+            let a = sweep_matches_brute_force(&grid, &s, axis, 60, &format!("{dip:?}"));
             let d = a.level_values[1] - a.level_values[0];
             let v: f64 = a.stats.iter().map(|s| s.area).sum::<f64>() * d;
             assert!(

@@ -425,6 +425,16 @@ fn fuzz_regressions() {
     assert_eq!((g.cell_count(), r.zero_volume), (0, 1));
 }
 
+/// The values of cell array `name`.
+fn prop(g: &CornerPointGrid, name: &str) -> Vec<f64> {
+    g.properties
+        .iter()
+        .find(|p| p.name == name)
+        .unwrap_or_else(|| panic!("no {name}"))
+        .values
+        .clone()
+}
+
 /// A 3×2×2 grid of unit cells (vertical pillars) followed by `extra`.
 fn box_grid(extra: &str) -> String {
     let mut coord = String::new();
@@ -451,15 +461,8 @@ fn equals_multiply_add_copy_in_boxes() {
          EQUALS\n ACTNUM 0 3 3 2 2 2 2 /\n/\n",
     ))
     .unwrap();
+    let prop = |n: &str| prop(&d.grid, n);
     let g = &d.grid;
-    let prop = |n: &str| {
-        g.properties
-            .iter()
-            .find(|p| p.name == n)
-            .unwrap_or_else(|| panic!("no {n}"))
-            .values
-            .clone()
-    };
     let idx = |i: usize, j: usize, k: usize| i + 3 * (j + 2 * k);
     let mut permx = vec![100.0; 12];
     for i in 0..2 {
@@ -537,14 +540,6 @@ fn spe9_and_reek_operators() {
     };
     // SPE9's deck: COPY PERMX to PERMY and PERMZ, then MULTIPLY PERMZ 0.01.
     let d = read_grdecl(data.join("spe9/SPE9_CP.DATA")).unwrap();
-    let prop = |g: &CornerPointGrid, n: &str| {
-        g.properties
-            .iter()
-            .find(|p| p.name == n)
-            .unwrap_or_else(|| panic!("no {n}"))
-            .values
-            .clone()
-    };
     let px = prop(&d.grid, "PERMX");
     assert_eq!(prop(&d.grid, "PERMY"), px);
     let pz: Vec<f64> = px.iter().map(|x| x * 0.01).collect();

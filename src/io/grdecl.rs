@@ -313,6 +313,17 @@ impl<'r> Lexer<'r> {
         }
     }
 
+    /// The repeat count `n` of token `t` (`n*...`) in keyword `kw`.
+    fn repeat(&self, t: &Tok, kw: &str, n: &[u8]) -> Result<usize, GrdeclError> {
+        repeat_count(n).map_err(|why| GrdeclError::BadRepeat {
+            file: self.file.clone(),
+            line: t.line,
+            keyword: kw.into(),
+            token: self.text_string(t),
+            why,
+        })
+    }
+
     fn push_back(&mut self, t: Tok) {
         self.pushed = Some(t);
     }
@@ -1328,13 +1339,7 @@ fn read_values(
                 token: lx.text_string(&t),
             });
         };
-        let r = repeat_count(&s[..k]).map_err(|why| GrdeclError::BadRepeat {
-            file: lx.file.clone(),
-            line: t.line,
-            keyword: kw.into(),
-            token: lx.text_string(&t),
-            why,
-        })?;
+        let r = lx.repeat(&t, kw, &s[..k])?;
         let v = if k + 1 == s.len() {
             match default {
                 Some(d) => d,
@@ -1428,13 +1433,7 @@ fn read_small(
                 }
                 match s.iter().position(|&c| c == b'*') {
                     Some(k) => {
-                        let r = repeat_count(&s[..k]).map_err(|why| GrdeclError::BadRepeat {
-                            file: lx.file.clone(),
-                            line: t.line,
-                            keyword: kw.into(),
-                            token: lx.text_string(&t),
-                            why,
-                        })?;
+                        let r = lx.repeat(&t, kw, &s[..k])?;
                         let val = if k + 1 == s.len() {
                             None
                         } else {
@@ -1517,13 +1516,7 @@ fn read_record(
                 let s = lx.text(&t);
                 match s.iter().position(|&c| c == b'*') {
                     Some(k) if t.kind == Kind::Word => {
-                        let r = repeat_count(&s[..k]).map_err(|why| GrdeclError::BadRepeat {
-                            file: lx.file.clone(),
-                            line: t.line,
-                            keyword: kw.into(),
-                            token: lx.text_string(&t),
-                            why,
-                        })?;
+                        let r = lx.repeat(&t, kw, &s[..k])?;
                         if r > 8 {
                             return Err(lx.bad(t.line, kw, "a record has at most 8 items"));
                         }
