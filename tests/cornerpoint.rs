@@ -767,6 +767,17 @@ fn spe9_and_spe10_load() {
     assert_eq!(s.live_cells(), 2000);
 }
 
+/// Slice areas × spacing (evenly spaced levels) within `tol` (relative)
+/// of `volume`.
+fn assert_cavalieri(r: &stratasweep::pipeline::SliceResult, volume: f64, tol: f64, what: &str) {
+    let d = r.level_values[1] - r.level_values[0];
+    let v: f64 = r.stats.iter().map(|s| s.area).sum::<f64>() * d;
+    assert!(
+        (v - volume).abs() / volume < tol,
+        "{what}: Cavalieri {v} vs {volume}"
+    );
+}
+
 /// `g` written as GRDECL and read back.
 fn grdecl_round_trip(g: &CornerPointGrid) -> CornerPointGrid {
     let mut buf = Vec::new();
@@ -807,13 +818,7 @@ fn generated_faulted_grid_round_trips_and_sweeps() {
     };
     assert_eq!(cells(&a), cells(&b));
     // Cavalieri on the generated grid too.
-    let dz = a.level_values[1] - a.level_values[0];
-    let v: f64 = a.stats.iter().map(|s| s.area).sum::<f64>() * dz;
-    assert!(
-        (v - rep.bulk_volume).abs() / rep.bulk_volume < 0.02,
-        "{v} vs {}",
-        rep.bulk_volume
-    );
+    assert_cavalieri(&a, rep.bulk_volume, 0.02, "generated");
 }
 
 /// Horizontal lean (per unit depth) of the pillars that carry a fault: a
@@ -890,13 +895,7 @@ fn generated_faults_vertical_or_inclined() {
         assert_eq!(cg.class_counts[0], grid.cell_count(), "{dip:?}");
         for axis in [0, 2] {
             let a = sweep_matches_brute_force(&grid, &s, axis, 60, &format!("{dip:?}"));
-            let d = a.level_values[1] - a.level_values[0];
-            let v: f64 = a.stats.iter().map(|s| s.area).sum::<f64>() * d;
-            assert!(
-                (v - rep.bulk_volume).abs() / rep.bulk_volume < 0.02,
-                "{dip:?} axis {axis}: Cavalieri {v} vs {}",
-                rep.bulk_volume
-            );
+            assert_cavalieri(&a, rep.bulk_volume, 0.02, &format!("{dip:?} axis {axis}"));
         }
     }
 }
