@@ -844,9 +844,11 @@ impl CornerPointGrid {
             &row_depths[p / npx].0[start[p] - base..start[p + 1] - base]
         };
         let vid = |zcorn: &[f64], i: usize, j: usize, k: usize, corner: usize| -> u32 {
-            let p = this.pillar_index(i + (corner & 1), j + (corner >> 1 & 1));
+            let (pi, pj) = (i + (corner & 1), j + (corner >> 1 & 1));
+            let p = pi + npx * pj;
+            let base = start[npx * pj];
+            let d = &row_depths[pj].0[start[p] - base..start[p + 1] - base];
             let z = zcorn[this.zcorn_index(i, j, k, corner)];
-            let d = depths(p);
             // Layer k's corners sit near index k·len/(nz+1) of a pillar.
             let guess = (k + (corner >> 2)) * d.len() / (nz + 1);
             (start[p] + search_from(d, z, guess)) as u32
@@ -913,6 +915,10 @@ impl CornerPointGrid {
                     let row = j + ny * k;
                     let (mut x, mut ce, mut fe) = (0usize, 0usize, 0usize);
                     let mut ids: Vec<u32> = Vec::with_capacity(8);
+                    // The previous kept cell of the row: its corner depths
+                    // and vertex ids (a corner on the shared pillar at the
+                    // same depth is the same vertex).
+                    let mut prev: Option<(usize, [f64; 8], [u32; 8])> = None;
                     for i in 0..nx {
                         let c = i + nx * row;
                         let code = codes[c];
@@ -920,7 +926,17 @@ impl CornerPointGrid {
                             continue;
                         }
                         let (shape, merged) = shape_at(c, code);
-                        let mut w: [u32; 8] = std::array::from_fn(|q| vid(zc, i, j, k, q));
+                        let z: [f64; 8] = std::array::from_fn(|q| zc[this.zcorn_index(i, j, k, q)]);
+                        let raw: [u32; 8] = std::array::from_fn(|q| match prev {
+                            Some((pi, pz, pw))
+                                if pi + 1 == i && q & 1 == 0 && pz[q + 1] == z[q] =>
+                            {
+                                pw[q + 1]
+                            }
+                            _ => vid(zc, i, j, k, q),
+                        });
+                        prev = Some((i, z, raw));
+                        let mut w = raw;
                         if let (Some(cm), true) = (&canon, merged || code & CODE_CROSS == 0) {
                             w = w.map(|v| cm[v as usize]);
                         }
