@@ -346,6 +346,25 @@ proptest! {
             let _ = d.grid.to_grid();
         }
     }
+
+    /// Operator keywords with random records: an error or a result, never a panic.
+    #[test]
+    fn fuzz_operators_never_panic(records in proptest::collection::vec(proptest::collection::vec(
+        prop_oneof![Just("PORO"), Just("'PERMX'"), Just("ACTNUM"), Just("MULTZ"), Just("ZCORN"),
+            Just("1"), Just("0"), Just("2"), Just("3"), Just("-1"), Just("0.5"), Just("1*"), Just("3*"),
+            Just("2*2"), Just("9*"), Just("1e400"), Just("x"), Just("/")], 0..10), 0..5),
+        kw in prop_oneof![Just("EQUALS"), Just("MULTIPLY"), Just("ADD"), Just("COPY"), Just("BOX")]) {
+        let mut extra = format!("{kw}\n");
+        for r in &records {
+            extra.push_str(&r.join(" "));
+            extra.push_str(" /\n");
+        }
+        extra.push_str("/\n");
+        let t = box_grid(&extra);
+        if let Ok(d) = read_grdecl_from(t.as_bytes(), Path::new("fuzz.grdecl")) {
+            let _ = d.grid.to_grid();
+        }
+    }
 }
 
 proptest! {
