@@ -13,15 +13,23 @@
 //! * World coordinates: MAPAXES (origin, a point on the Y axis, a point on
 //!   the X axis) maps the grid's x, y to the map; z = −depth (elevation).
 //! * Corners on the same pillar with the same depth are welded into one
-//!   vertex; nothing else is. So cells on the two sides of a fault share no
-//!   vertex, and the CGraph sews only faces that match exactly.
+//!   vertex. Corners of one cell on different pillars that coincide (within
+//!   1e-9 of the cell's extent: pillars that meet or coincide) are merged
+//!   too, through one union-find over the vertices, so the neighbours see the
+//!   same vertex. Nothing else is welded: cells on the two sides of a fault
+//!   share no vertex, and the CGraph sews only faces that match exactly.
 //! * Each cell's volume is the exact volume of its trilinear hexahedron
 //!   (2×2×2 Gauss quadrature of det J, which is exact: det J has degree ≤ 2
 //!   in each parameter).
-//! * A cell with collapsed pillar edges (pinch-outs) loses its repeated
-//!   corners and becomes what it really is: a wedge (two adjacent edges
-//!   collapsed), or a polyhedron for other patterns; faces with fewer than
-//!   three distinct corners vanish. Cells of (near) zero volume are dropped.
+//! * A cell with merged corners (pinch-outs, meeting pillars) loses its
+//!   repeated corners and becomes what it really is: faces with fewer than
+//!   three distinct corners vanish, and a closed surface of 2 triangles + 3
+//!   quads, 1 quad + 4 triangles or 4 triangles is the catalog's wedge,
+//!   pyramid or tetrahedron; other closed surfaces are polyhedra. A merge
+//!   that leaves a face passing twice through a corner is not applied (the
+//!   cell keeps its pillar-only shape; counted). Cells of (near) zero volume
+//!   are dropped and counted; cells oriented against the grid are kept and
+//!   counted as inverted.
 
 use rayon::prelude::*;
 use thiserror::Error;
@@ -115,6 +123,9 @@ pub struct CornerPointReport {
     pub inverted: usize,
     /// Active cells with at least one collapsed pillar edge.
     pub collapsed: usize,
+    /// Kept cells with corners coinciding across pillars whose merged faces
+    /// are not a valid cell (kept with their pillar-only shape, unmerged).
+    pub merge_fallback: usize,
     /// Welded vertices.
     pub vertices: usize,
     /// Whether I, J, K (with K down) is a right-handed frame in world
@@ -140,6 +151,7 @@ impl CornerPointReport {
             ("zero_volume_dropped", self.zero_volume),
             ("inverted", self.inverted),
             ("collapsed", self.collapsed),
+            ("merge_fallback", self.merge_fallback),
         ]
     }
 }
@@ -201,31 +213,42 @@ enum Shape {
     Typed(u8, Vec<u8>),
     /// Polyhedron: outward faces as loops of corner numbers.
     Poly(Vec<Vec<u8>>),
-    /// Fewer than four faces or a malformed face: no volume.
+    /// Fewer than four faces: no volume.
     Flat,
 }
 
-/// Classifies a cell from which pillar edges are collapsed (bit `p` for
-/// pillar corner `p = ii + 2·jj`: the corners `p` and `p + 4` coincide),
-/// given the VTK order in use.
-fn shape_of(collapsed: u8, order: &[usize; 8]) -> Shape {
-    if collapsed == 0 {
-        return Shape::Typed(
+/// The merge pattern of a cell whose only coincident corners are on
+/// collapsed pillar edges (bit `p` of `collapsed` for pillar corner
+/// `p = ii + 2·jj`: corners `p` and `p + 4` coincide).
+fn pillar_pattern(collapsed: u8) -> [u8; 8] {
+    std::array::from_fn(|c| {
+        if c >= 4 && collapsed >> (c - 4) & 1 == 1 {
+            (c - 4) as u8
+        } else {
+            c as u8
+        }
+    })
+}
+
+/// Classifies a cell from its merge pattern (`rep[c]`: the smallest corner
+/// coinciding with corner `c`, corner-point numbering), given the VTK order
+/// in use. The faces are the hexahedron's with merged corners removed;
+/// faces left with fewer than three corners vanish. 8 distinct corners give
+/// a hexahedron; a closed surface of 2 triangles and 3 quads, of 4
+/// triangles and 1 quad, or of 4 triangles gives a wedge, a pyramid or a
+/// tetrahedron; other closed surfaces a polyhedron. `None` when the merged
+/// faces are not a closed, consistently oriented surface (a face passing
+/// twice through a corner, an edge used twice in one direction).
+fn shape_of(rep: &[u8; 8], order: &[usize; 8]) -> Option<Shape> {
+    if rep.iter().enumerate().all(|(c, &r)| r as usize == c) {
+        return Some(Shape::Typed(
             vtk_type::HEXAHEDRON,
             order.iter().map(|&c| c as u8).collect(),
-        );
+        ));
     }
-    // Representative corner of each corner: the shallower one of a collapsed pair.
-    let rep = |c: u8| -> u8 {
-        if c >= 4 && collapsed >> (c - 4) & 1 == 1 {
-            c - 4
-        } else {
-            c
-        }
-    };
     let mut faces: Vec<Vec<u8>> = Vec::new();
     for f in HEXAHEDRON_FACES {
-        let mut loop_: Vec<u8> = f.iter().map(|&l| rep(order[l as usize] as u8)).collect();
+        let mut loop_: Vec<u8> = f.iter().map(|&l| rep[order[l as usize]]).collect();
         loop_.dedup();
         while loop_.len() > 1 && loop_.first() == loop_.last() {
             loop_.pop();
@@ -236,34 +259,35 @@ fn shape_of(collapsed: u8, order: &[usize; 8]) -> Shape {
         let mut s = loop_.clone();
         s.sort_unstable();
         if s.windows(2).any(|w| w[0] == w[1]) {
-            return Shape::Flat;
+            return None;
         }
         faces.push(loop_);
     }
     if faces.len() < 4 {
-        return Shape::Flat;
+        return Some(Shape::Flat);
+    }
+    // Closed and consistently oriented: each directed edge once, with its reverse.
+    let mut directed: Vec<(u8, u8)> = faces
+        .iter()
+        .flat_map(|f| (0..f.len()).map(move |i| (f[i], f[(i + 1) % f.len()])))
+        .collect();
+    directed.sort_unstable();
+    if directed.windows(2).any(|w| w[0] == w[1])
+        || directed
+            .iter()
+            .any(|&(a, b)| directed.binary_search(&(b, a)).is_err())
+    {
+        return None;
     }
     let mut verts: Vec<u8> = faces.iter().flatten().copied().collect();
     verts.sort_unstable();
     verts.dedup();
     let tris: Vec<&Vec<u8>> = faces.iter().filter(|f| f.len() == 3).collect();
     let quads: Vec<&Vec<u8>> = faces.iter().filter(|f| f.len() == 4).collect();
-    let other = |f: &[&Vec<u8>]| -> Vec<u8> {
-        verts
-            .iter()
-            .copied()
-            .filter(|v| !f.iter().any(|x| x.contains(v)))
-            .collect()
-    };
-    let has_edge = |a: u8, b: u8| {
-        faces.iter().any(|f| {
-            (0..f.len()).any(|i| {
-                let (x, y) = (f[i], f[(i + 1) % f.len()]);
-                (x == a && y == b) || (x == b && y == a)
-            })
-        })
-    };
-    match (verts.len(), tris.len(), quads.len()) {
+    let not_on =
+        |f: &[u8]| -> Vec<u8> { verts.iter().copied().filter(|v| !f.contains(v)).collect() };
+    let has_edge = |a: u8, b: u8| directed.binary_search(&(a, b)).is_ok();
+    Some(match (verts.len(), tris.len(), quads.len()) {
         (6, 2, 3) => {
             // VTK wedge: face (0, 2, 1) outward, (3, 4, 5) outward,
             // vertex i+3 joined to vertex i.
@@ -281,17 +305,127 @@ fn shape_of(collapsed: u8, order: &[usize; 8]) -> Shape {
         (5, 4, 1) => {
             // VTK pyramid: base (0, 3, 2, 1) outward, apex 4.
             let q = quads[0];
-            let apex = other(&[q]);
+            let apex = not_on(q);
             Shape::Typed(vtk_type::PYRAMID, vec![q[0], q[3], q[2], q[1], apex[0]])
         }
         (4, 4, 0) => {
+            // VTK tetra: (0, 2, 1) outward, apex 3.
             let t = tris[0];
-            let apex = other(&[t]);
+            let apex = not_on(t);
             Shape::Typed(vtk_type::TETRA, vec![t[0], t[2], t[1], apex[0]])
         }
         (n, _, _) if n <= MAX_META_VERTICES => Shape::Poly(faces),
-        _ => Shape::Flat,
+        _ => return None,
+    })
+}
+
+/// Per-cell code of the conversion's first pass: bits 0–3 the collapsed
+/// pillar edges, then the flags below.
+const CODE_ACTIVE: u8 = 0x80;
+/// (Near) zero volume, or a flat merge pattern: dropped.
+const CODE_ZERO: u8 = 0x40;
+/// Negative signed trilinear volume.
+const CODE_NEG: u8 = 0x20;
+/// Corners on different pillars coincide (merged through the side list).
+const CODE_CROSS: u8 = 0x10;
+
+/// Whether a first-pass code is a kept cell.
+#[inline(always)]
+fn kept(code: u8) -> bool {
+    code & (CODE_ACTIVE | CODE_ZERO) == CODE_ACTIVE
+}
+
+/// A cell whose corners coincide across pillars.
+struct CrossCell {
+    /// IJK index.
+    cell: usize,
+    /// Merge pattern (see [`shape_of`]).
+    rep: [u8; 8],
+    /// |trilinear volume|.
+    volume: f64,
+}
+
+/// The merge pattern of a cell (see [`shape_of`]) when corners on
+/// different pillars coincide (within `tol` in every coordinate), else
+/// `None`. Corners on the same pillar merge only at equal depths, as the
+/// welding does.
+fn cross_pattern(corners: &[[f64; 3]; 8], z: &[f64; 8], tol: f64) -> Option<[u8; 8]> {
+    let mut rep = [0u8; 8];
+    let mut cross = false;
+    for a in 0..8 {
+        rep[a] = a as u8;
+        for b in 0..a {
+            if rep[b] as usize != b {
+                continue;
+            }
+            let same = if a ^ b == 4 {
+                z[a] == z[b]
+            } else {
+                (0..3).all(|d| (corners[a][d] - corners[b][d]).abs() <= tol)
+            };
+            if same {
+                rep[a] = b as u8;
+                cross |= a ^ b != 4;
+                break;
+            }
+        }
     }
+    cross.then_some(rep)
+}
+
+/// Splits `v` into consecutive pieces of the lengths `start[i+1] - start[i]`.
+fn split_by<'a, T>(mut v: &'a mut [T], start: &[usize]) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(start.len().saturating_sub(1));
+    for w in start.windows(2) {
+        let (a, b) = std::mem::take(&mut v).split_at_mut(w[1] - w[0]);
+        out.push(a);
+        v = b;
+    }
+    out
+}
+
+/// Index of the first element of the sorted `d` not below `z` (total
+/// order), searched by galloping from `guess`.
+fn search_from(d: &[f64], z: f64, guess: usize) -> usize {
+    let below = |x: &f64| x.total_cmp(&z).is_lt();
+    let n = d.len();
+    if n == 0 {
+        return 0;
+    }
+    let g = guess.min(n - 1);
+    let (mut lo, mut hi, mut step) = (g, g, 1);
+    if below(&d[g]) {
+        // Answer in (g, n]: d[..lo] below z.
+        lo = g + 1;
+        hi = lo;
+        while hi < n && below(&d[hi]) {
+            lo = hi + 1;
+            hi += step;
+            step *= 2;
+        }
+        hi = hi.min(n);
+    } else {
+        // Answer in [0, g]: d[hi] not below z.
+        while lo > 0 {
+            lo = hi.saturating_sub(step);
+            if below(&d[lo]) {
+                break;
+            }
+            hi = lo;
+            step *= 2;
+        }
+    }
+    lo + d[lo..hi].partition_point(below)
+}
+
+/// Union-find root with path halving.
+fn find(parent: &mut [u32], mut v: u32) -> u32 {
+    while parent[v as usize] != v {
+        let p = parent[parent[v as usize] as usize];
+        parent[v as usize] = p;
+        v = p;
+    }
+    v
 }
 
 impl CornerPointGrid {
@@ -446,191 +580,474 @@ impl CornerPointGrid {
 
     /// Converts to a zoo [`Grid`] of the active, non-degenerate cells
     /// (world f64 positions, welded vertices, cell properties restricted to
-    /// the output cells) and reports the classes found.
+    /// the output cells) and reports the classes found. Works on a copy;
+    /// [`CornerPointGrid::into_grid`] avoids holding input and output at once.
     pub fn to_grid(&self) -> Result<(Grid, CornerPointReport), CornerPointError> {
+        self.clone().into_grid()
+    }
+
+    /// [`CornerPointGrid::to_grid`], consuming the corner-point arrays:
+    /// ZCORN is released layer by layer (deepest first) while the cells are
+    /// written, points are computed after it is gone, and the properties are
+    /// restricted in place, so the conversion peaks near the larger of the
+    /// input and the output instead of their sum.
+    pub fn into_grid(mut self) -> Result<(Grid, CornerPointReport), CornerPointError> {
         self.validate()?;
         let [nx, ny, nz] = self.dims;
         let n = nx * ny * nz;
-        // Pass 1 (parallel): signed volume, extent and collapse pattern.
+        let nrows = ny * nz;
         let tr = self.transform();
-        let per_cell: Vec<(f64, f64, u8)> = (0..n)
-            .into_par_iter()
-            .map(|c| {
-                if !self.is_active(c) {
-                    return (0.0, 0.0, 0);
-                }
-                let (i, j, k) = (c % nx, c / nx % ny, c / (nx * ny));
-                let corners = self.corners_with(&tr, i, j, k);
-                let mut ext = 0.0f64;
-                for q in &corners {
-                    for a in 0..3 {
-                        ext = ext.max((q[a] - corners[0][a]).abs());
+        let mut zcorn = std::mem::take(&mut self.zcorn);
+        let this = &self;
+        // Pass 1 (parallel over IJ rows): per cell a code (collapsed pillar
+        // edges and flags), per row the signed volume and the |volume| of
+        // its kept cells, and the cells whose corners coincide across pillars.
+        let flat_pillar: [bool; 16] = std::array::from_fn(|m| {
+            matches!(
+                shape_of(&pillar_pattern(m as u8), &VTK_ORDER_LEFT),
+                Some(Shape::Flat)
+            )
+        });
+        let mut codes = vec![0u8; n];
+        let rows: Vec<(f64, f64, Vec<CrossCell>)> = codes
+            .par_chunks_mut(nx)
+            .enumerate()
+            .map(|(row, out)| {
+                let (j, k) = (row % ny, row / ny);
+                let (mut signed, mut kept_abs, mut cross) = (0.0, 0.0, Vec::new());
+                for (i, code) in out.iter_mut().enumerate() {
+                    let c = i + nx * row;
+                    if !this.is_active(c) {
+                        continue;
                     }
-                }
-                let mut m = 0u8;
-                for p in 0..4 {
-                    if self.zcorn[self.zcorn_index(i, j, k, p)]
-                        == self.zcorn[self.zcorn_index(i, j, k, p + 4)]
-                    {
-                        m |= 1 << p;
+                    let z: [f64; 8] = std::array::from_fn(|q| zcorn[this.zcorn_index(i, j, k, q)]);
+                    let corners: [[f64; 3]; 8] = std::array::from_fn(|q| {
+                        let p = this.pillar_index(i + (q & 1), j + (q >> 1 & 1));
+                        Self::apply(&tr, this.on_pillar(p, z[q]))
+                    });
+                    let mut ext = 0.0f64;
+                    for q in &corners[1..] {
+                        for a in 0..3 {
+                            ext = ext.max((q[a] - corners[0][a]).abs());
+                        }
                     }
+                    let mut m = 0u8;
+                    for p in 0..4 {
+                        if z[p] == z[p + 4] {
+                            m |= 1 << p;
+                        }
+                    }
+                    let vol = trilinear_volume(&corners);
+                    let mut cd = CODE_ACTIVE | m;
+                    if vol < 0.0 {
+                        cd |= CODE_NEG;
+                    }
+                    signed += vol;
+                    if flat_pillar[m as usize] || vol.abs() <= 1e-12 * ext * ext * ext {
+                        cd |= CODE_ZERO;
+                    } else if let Some(rep) = cross_pattern(&corners, &z, 1e-9 * ext) {
+                        cd |= CODE_CROSS;
+                        cross.push(CrossCell {
+                            cell: c,
+                            rep,
+                            volume: vol.abs(),
+                        });
+                    } else {
+                        kept_abs += vol.abs();
+                    }
+                    *code = cd;
                 }
-                (trilinear_volume(&corners), ext, m)
+                (signed, kept_abs, cross)
             })
             .collect();
-        let total: f64 = per_cell.iter().map(|x| x.0).sum();
+        let total: f64 = rows.iter().map(|r| r.0).sum();
         let left = total <= 0.0;
         let order = if left {
             &VTK_ORDER_LEFT
         } else {
             &VTK_ORDER_RIGHT
         };
-        let sign = if left { -1.0 } else { 1.0 };
-        // Shapes per collapse pattern (16 patterns).
-        let shapes: Vec<Shape> = (0..16u8).map(|m| shape_of(m, order)).collect();
+        // Pillar-only patterns always give a closed surface (or a flat one).
+        let shapes: Vec<Shape> = (0..16u8)
+            .map(|m| shape_of(&pillar_pattern(m), order).unwrap_or(Shape::Flat))
+            .collect();
         let mut rep = CornerPointReport {
             cells: n,
             ijk_right_handed_up: !left,
+            bulk_volume: rows.iter().map(|r| r.1).sum(),
             ..Default::default()
         };
-        // Pass 2: classify; keep[c] = collapse pattern + 1 (0 = dropped).
-        let mut keep = vec![0u8; n];
-        for c in 0..n {
-            if !self.is_active(c) {
-                rep.inactive += 1;
-                continue;
-            }
-            rep.active += 1;
-            let (vol, ext, m) = per_cell[c];
-            if m != 0 {
-                rep.collapsed += 1;
-            }
-            let v = vol * sign;
-            if matches!(shapes[m as usize], Shape::Flat) || v.abs() <= 1e-12 * ext * ext * ext {
-                rep.zero_volume += 1;
-                continue;
-            }
-            if v < 0.0 {
-                rep.inverted += 1;
-            }
-            rep.bulk_volume += v.abs();
-            keep[c] = m + 1;
+        // Cross-pillar merges that give a valid shape keep it; the others
+        // (a face through a corner twice, an open surface) keep their
+        // pillar-only shape and their unmerged vertices.
+        let mut cross_shapes: Vec<([u8; 8], Shape)> = Vec::new();
+        let mut cross_cells: Vec<(usize, usize)> = Vec::new();
+        for cc in rows.into_iter().flat_map(|r| r.2) {
+            rep.bulk_volume += cc.volume;
+            let s = match cross_shapes.iter().position(|(r, _)| *r == cc.rep) {
+                Some(s) => s,
+                None => match shape_of(&cc.rep, order) {
+                    Some(Shape::Flat) | None => {
+                        rep.merge_fallback += 1;
+                        continue;
+                    }
+                    Some(shape) => {
+                        cross_shapes.push((cc.rep, shape));
+                        cross_shapes.len() - 1
+                    }
+                },
+            };
+            cross_cells.push((cc.cell, s));
         }
-        // Pass 3: weld corners per pillar (sorted unique depths of kept cells).
+        // The shape of a kept cell and whether it uses merged vertices.
+        let shape_at = |c: usize, code: u8| -> (&Shape, bool) {
+            if code & CODE_CROSS != 0
+                && let Ok(x) = cross_cells.binary_search_by_key(&c, |e| e.0)
+            {
+                return (&cross_shapes[cross_cells[x].1].1, true);
+            }
+            (&shapes[(code & 15) as usize], false)
+        };
+        // Pass 2 (parallel over rows): class counts and output sizes per row.
+        let counts: Vec<[usize; 11]> = codes
+            .par_chunks(nx)
+            .enumerate()
+            .map(|(row, cs)| {
+                // cells, connectivity, face stream, hex, wedge, pyramid, tetra,
+                // polyhedra, inverted, active, collapsed.
+                let mut r = [0usize; 11];
+                for (i, &code) in cs.iter().enumerate() {
+                    if code & CODE_ACTIVE == 0 {
+                        continue;
+                    }
+                    r[9] += 1;
+                    if code & 15 != 0 {
+                        r[10] += 1;
+                    }
+                    if !kept(code) {
+                        continue;
+                    }
+                    r[0] += 1;
+                    if (code & CODE_NEG != 0) != left {
+                        r[8] += 1;
+                    }
+                    match shape_at(i + nx * row, code).0 {
+                        Shape::Typed(t, ids) => {
+                            r[1] += ids.len();
+                            r[match *t {
+                                vtk_type::HEXAHEDRON => 3,
+                                vtk_type::WEDGE => 4,
+                                vtk_type::PYRAMID => 5,
+                                _ => 6,
+                            }] += 1;
+                        }
+                        Shape::Poly(f) => {
+                            let mut v: Vec<u8> = f.iter().flatten().copied().collect();
+                            v.sort_unstable();
+                            v.dedup();
+                            r[1] += v.len();
+                            r[2] += 1 + f.iter().map(|l| 1 + l.len()).sum::<usize>();
+                            r[7] += 1;
+                        }
+                        Shape::Flat => {}
+                    }
+                }
+                r
+            })
+            .collect();
+        let mut cell_start = Vec::with_capacity(nrows + 1);
+        let mut conn_start = Vec::with_capacity(nrows + 1);
+        let mut face_start = Vec::with_capacity(nrows + 1);
+        let mut acc = [0usize; 11];
+        for r in &counts {
+            cell_start.push(acc[0]);
+            conn_start.push(acc[1]);
+            face_start.push(acc[2]);
+            for (a, b) in acc.iter_mut().zip(r) {
+                *a += b;
+            }
+        }
+        cell_start.push(acc[0]);
+        conn_start.push(acc[1]);
+        face_start.push(acc[2]);
+        drop(counts);
+        let kept_cells = acc[0];
+        if acc[1] >= u32::MAX as usize || acc[2] >= u32::MAX as usize {
+            return Err(CornerPointError::BadDims(self.dims));
+        }
+        rep.active = acc[9];
+        rep.inactive = n - acc[9];
+        rep.collapsed = acc[10];
+        rep.zero_volume = acc[9] - kept_cells;
+        rep.inverted = acc[8];
+        (
+            rep.hexahedra,
+            rep.wedges,
+            rep.pyramids,
+            rep.tetrahedra,
+            rep.polyhedra,
+        ) = (acc[3], acc[4], acc[5], acc[6], acc[7]);
+        // Pass 3: weld corners per pillar (sorted unique depths of kept
+        // cells), in parallel over rows of pillars so that ZCORN is read
+        // row by row; per pillar row one vector of its pillars' depths.
         let npx = nx + 1;
         let npil = npx * (ny + 1);
-        let per_pillar: Vec<Vec<f64>> = (0..npil)
+        let row_depths: Vec<(Vec<f64>, Vec<u32>)> = (0..=ny)
             .into_par_iter()
-            .map(|p| {
-                let (pi, pj) = (p % npx, p / npx);
-                let mut d = Vec::new();
-                for (ci, ii) in [(pi.wrapping_sub(1), 1usize), (pi, 0)] {
-                    for (cj, jj) in [(pj.wrapping_sub(1), 1usize), (pj, 0)] {
-                        if ci >= nx || cj >= ny {
-                            continue;
-                        }
-                        for k in 0..nz {
-                            let c = ci + nx * (cj + ny * k);
-                            if keep[c] == 0 {
+            .map(|pj| {
+                let mut lists: Vec<Vec<f64>> = vec![Vec::new(); npx];
+                for k in 0..nz {
+                    for kk in 0..2 {
+                        for (cj, jj) in [(pj.wrapping_sub(1), 1usize), (pj, 0)] {
+                            if cj >= ny {
                                 continue;
                             }
-                            for kk in 0..2 {
-                                d.push(
-                                    self.zcorn[self.zcorn_index(ci, cj, k, ii + 2 * jj + 4 * kk)],
-                                );
+                            let row = &codes[nx * (cj + ny * k)..][..nx];
+                            let z0 = this.zcorn_index(0, cj, k, 2 * jj + 4 * kk);
+                            let zrow = &zcorn[z0..z0 + 2 * nx];
+                            for (i, &code) in row.iter().enumerate() {
+                                if kept(code) {
+                                    lists[i].push(zrow[2 * i]);
+                                    lists[i + 1].push(zrow[2 * i + 1]);
+                                }
                             }
                         }
                     }
                 }
-                d.sort_unstable_by(|a, b| a.total_cmp(b));
-                d.dedup();
-                d
+                let mut flat = Vec::new();
+                let mut lens = Vec::with_capacity(npx);
+                for mut d in lists {
+                    d.sort_unstable_by(|a, b| a.total_cmp(b));
+                    d.dedup();
+                    lens.push(d.len() as u32);
+                    flat.extend_from_slice(&d);
+                }
+                flat.shrink_to_fit();
+                (flat, lens)
             })
             .collect();
         let mut start = Vec::with_capacity(npil + 1);
-        let mut acc = 0usize;
-        for d in &per_pillar {
-            start.push(acc);
-            acc += d.len();
+        let mut nv = 0usize;
+        for (_, lens) in &row_depths {
+            for &l in lens {
+                start.push(nv);
+                nv += l as usize;
+            }
         }
-        start.push(acc);
-        if acc >= u32::MAX as usize {
+        start.push(nv);
+        if nv >= u32::MAX as usize {
             return Err(CornerPointError::BadDims(self.dims));
         }
-        drop(per_cell);
-        let mut points = Vec::with_capacity(acc);
-        for (p, d) in per_pillar.iter().enumerate() {
-            for &z in d {
-                points.push(Self::apply(&tr, self.on_pillar(p, z)));
-            }
-        }
-        rep.vertices = acc;
-        let vid = |i: usize, j: usize, k: usize, corner: usize| -> u32 {
-            let (ii, jj) = (corner & 1, corner >> 1 & 1);
-            let p = self.pillar_index(i + ii, j + jj);
-            let z = self.zcorn[self.zcorn_index(i, j, k, corner)];
-            let d = &per_pillar[p];
-            let l = d.partition_point(|x| x.total_cmp(&z).is_lt());
-            (start[p] + l) as u32
+        // The depths of pillar `p` (ids `start[p]..start[p + 1]`).
+        let depths = |p: usize| -> &[f64] {
+            let base = start[p - p % npx];
+            &row_depths[p / npx].0[start[p] - base..start[p + 1] - base]
         };
-        // Pass 4: cells.
-        let kept = keep.iter().filter(|&&m| m != 0).count();
-        let mut cells = Cells {
-            types: Vec::with_capacity(kept),
-            offsets: Vec::with_capacity(kept + 1),
-            connectivity: Vec::with_capacity(kept * 8),
-            ..Default::default()
+        let vid = |zcorn: &[f64], i: usize, j: usize, k: usize, corner: usize| -> u32 {
+            let (pi, pj) = (i + (corner & 1), j + (corner >> 1 & 1));
+            let p = pi + npx * pj;
+            let base = start[npx * pj];
+            let d = &row_depths[pj].0[start[p] - base..start[p + 1] - base];
+            let z = zcorn[this.zcorn_index(i, j, k, corner)];
+            // Layer k's corners sit near index k·len/(nz+1) of a pillar.
+            let guess = (k + (corner >> 2)) * d.len() / (nz + 1);
+            (start[p] + search_from(d, z, guess)) as u32
         };
-        cells.offsets.push(0);
-        let mut source = Vec::with_capacity(kept);
-        let mut ids = Vec::with_capacity(8);
-        let mut faces: Vec<Vec<u32>> = Vec::new();
-        for c in 0..n {
-            if keep[c] == 0 {
-                continue;
+        // Cross-pillar merges: union the coincident vertices (smallest id wins).
+        let canon: Option<Vec<u32>> = (!cross_cells.is_empty()).then(|| {
+            let mut parent: Vec<u32> = (0..nv as u32).collect();
+            for &(c, s) in &cross_cells {
+                let (i, j, k) = (c % nx, c / nx % ny, c / (nx * ny));
+                let r = &cross_shapes[s].0;
+                for q in 0..8 {
+                    let (a, b) = (vid(&zcorn, i, j, k, q), vid(&zcorn, i, j, k, r[q] as usize));
+                    let (a, b) = (find(&mut parent, a), find(&mut parent, b));
+                    parent[a.max(b) as usize] = a.min(b);
+                }
             }
-            let (i, j, k) = (c % nx, c / nx % ny, c / (nx * ny));
-            let w: [u32; 8] = std::array::from_fn(|q| vid(i, j, k, q));
-            match &shapes[(keep[c] - 1) as usize] {
-                Shape::Typed(t, local) => {
-                    ids.clear();
-                    ids.extend(local.iter().map(|&l| w[l as usize]));
-                    cells.push(*t, &ids);
-                    match *t {
-                        vtk_type::HEXAHEDRON => rep.hexahedra += 1,
-                        vtk_type::WEDGE => rep.wedges += 1,
-                        vtk_type::PYRAMID => rep.pyramids += 1,
-                        _ => rep.tetrahedra += 1,
+            for v in 0..nv as u32 {
+                parent[v as usize] = find(&mut parent, v);
+            }
+            parent
+        });
+        // Pass 4: cells, deepest layer first, each layer's rows in parallel;
+        // ZCORN shrinks behind.
+        let mut types = vec![0u8; kept_cells];
+        let mut offsets = vec![0u32; kept_cells + 1];
+        let mut connectivity = vec![0u32; acc[1]];
+        let mut source = vec![0u32; kept_cells];
+        let mut face_offsets = if acc[2] > 0 {
+            vec![0u32; kept_cells + 1]
+        } else {
+            Vec::new()
+        };
+        let mut face_stream = vec![0u32; acc[2]];
+        for k in (0..nz).rev() {
+            let rs = k * ny..(k + 1) * ny + 1;
+            let (c0, c1) = (cell_start[k * ny], cell_start[(k + 1) * ny]);
+            let t = split_by(&mut types[c0..c1], &cell_start[rs.clone()]);
+            let o = split_by(&mut offsets[c0 + 1..c1 + 1], &cell_start[rs.clone()]);
+            let s = split_by(&mut source[c0..c1], &cell_start[rs.clone()]);
+            let fo = if face_offsets.is_empty() {
+                (0..ny).map(|_| &mut [][..]).collect()
+            } else {
+                split_by(&mut face_offsets[c0 + 1..c1 + 1], &cell_start[rs.clone()])
+            };
+            let cn = split_by(
+                &mut connectivity[conn_start[k * ny]..conn_start[(k + 1) * ny]],
+                &conn_start[rs.clone()],
+            );
+            let fs = split_by(
+                &mut face_stream[face_start[k * ny]..face_start[(k + 1) * ny]],
+                &face_start[rs.clone()],
+            );
+            let jobs: Vec<_> = t
+                .into_iter()
+                .zip(o)
+                .zip(s)
+                .zip(fo)
+                .zip(cn.into_iter().zip(fs))
+                .enumerate()
+                .collect();
+            let zc = &zcorn[..];
+            jobs.into_par_iter()
+                .for_each(|(j, ((((t, o), s), fo), (cn, fs)))| {
+                    let row = j + ny * k;
+                    let (mut x, mut ce, mut fe) = (0usize, 0usize, 0usize);
+                    let mut ids: Vec<u32> = Vec::with_capacity(8);
+                    // The previous kept cell of the row: its corner depths
+                    // and vertex ids (a corner on the shared pillar at the
+                    // same depth is the same vertex).
+                    let mut prev: Option<(usize, [f64; 8], [u32; 8])> = None;
+                    for i in 0..nx {
+                        let c = i + nx * row;
+                        let code = codes[c];
+                        if !kept(code) {
+                            continue;
+                        }
+                        let (shape, merged) = shape_at(c, code);
+                        let z: [f64; 8] = std::array::from_fn(|q| zc[this.zcorn_index(i, j, k, q)]);
+                        let raw: [u32; 8] = std::array::from_fn(|q| match prev {
+                            Some((pi, pz, pw))
+                                if pi + 1 == i && q & 1 == 0 && pz[q + 1] == z[q] =>
+                            {
+                                pw[q + 1]
+                            }
+                            _ => vid(zc, i, j, k, q),
+                        });
+                        prev = Some((i, z, raw));
+                        let mut w = raw;
+                        if let (Some(cm), true) = (&canon, merged || code & CODE_CROSS == 0) {
+                            w = w.map(|v| cm[v as usize]);
+                        }
+                        match shape {
+                            Shape::Typed(ty, local) => {
+                                t[x] = *ty;
+                                for &l in local {
+                                    cn[ce] = w[l as usize];
+                                    ce += 1;
+                                }
+                            }
+                            Shape::Poly(f) => {
+                                t[x] = vtk_type::POLYHEDRON;
+                                ids.clear();
+                                ids.extend(f.iter().flatten().map(|&l| w[l as usize]));
+                                ids.sort_unstable();
+                                ids.dedup();
+                                cn[ce..ce + ids.len()].copy_from_slice(&ids);
+                                ce += ids.len();
+                                fs[fe] = f.len() as u32;
+                                fe += 1;
+                                for l in f {
+                                    fs[fe] = l.len() as u32;
+                                    fe += 1;
+                                    for &q in l {
+                                        fs[fe] = w[q as usize];
+                                        fe += 1;
+                                    }
+                                }
+                            }
+                            Shape::Flat => unreachable!("flat cells are not kept"),
+                        }
+                        o[x] = (conn_start[row] + ce) as u32;
+                        if !fo.is_empty() {
+                            fo[x] = (face_start[row] + fe) as u32;
+                        }
+                        s[x] = c as u32;
+                        x += 1;
                     }
-                }
-                Shape::Poly(f) => {
-                    faces.clear();
-                    faces.extend(f.iter().map(|l| l.iter().map(|&x| w[x as usize]).collect()));
-                    cells.push_polyhedron(&faces);
-                    rep.polyhedra += 1;
-                }
-                // Flat cells were dropped in pass 2.
-                Shape::Flat => continue,
+                });
+            zcorn.truncate(8 * nx * ny * k);
+            if zcorn.capacity() - zcorn.len() >= 1 << 17 {
+                zcorn.shrink_to_fit();
             }
-            source.push(c as u32);
         }
-        let cell_data = self
-            .properties
-            .iter()
-            .map(|p| {
-                let k = p.components.max(1);
-                let mut v = Vec::with_capacity(source.len() * k);
-                for &s in &source {
-                    v.extend_from_slice(&p.values[s as usize * k..(s as usize + 1) * k]);
+        drop(zcorn);
+        drop(codes);
+        // Points, after ZCORN is gone.
+        let mut points = vec![[0.0f64; 3]; nv];
+        split_by(&mut points, &start)
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(p, out)| {
+                for (o, &z) in out.iter_mut().zip(depths(p)) {
+                    *o = Self::apply(&tr, this.on_pillar(p, z));
                 }
-                Property {
-                    name: p.name.clone(),
-                    components: k,
-                    values: v,
+            });
+        drop(row_depths);
+        // Vertices merged away: renumber the used ones, keeping their order.
+        if canon.is_some() {
+            let mut new_id = vec![u32::MAX; nv];
+            for &v in &connectivity {
+                new_id[v as usize] = 0;
+            }
+            let mut next = 0u32;
+            for (v, id) in new_id.iter_mut().enumerate() {
+                if *id == 0 {
+                    *id = next;
+                    points[next as usize] = points[v];
+                    next += 1;
                 }
-            })
-            .collect();
+            }
+            points.truncate(next as usize);
+            points.shrink_to_fit();
+            for v in &mut connectivity {
+                *v = new_id[*v as usize];
+            }
+            let mut f = 0;
+            while f < face_stream.len() {
+                let nf = face_stream[f] as usize;
+                f += 1;
+                for _ in 0..nf {
+                    let len = face_stream[f] as usize;
+                    for v in &mut face_stream[f + 1..f + 1 + len] {
+                        *v = new_id[*v as usize];
+                    }
+                    f += 1 + len;
+                }
+            }
+        }
+        rep.vertices = points.len();
+        // Properties restricted to the kept cells, in place (source ascends).
+        let mut cell_data = std::mem::take(&mut self.properties);
+        for p in &mut cell_data {
+            let k = p.components.max(1);
+            p.components = k;
+            for (o, &s) in source.iter().enumerate() {
+                let s = s as usize;
+                p.values.copy_within(s * k..(s + 1) * k, o * k);
+            }
+            p.values.truncate(source.len() * k);
+            p.values.shrink_to_fit();
+        }
         rep.source_cell = source;
+        let cells = Cells {
+            types,
+            offsets,
+            connectivity,
+            face_offsets,
+            face_stream,
+        };
         Ok((
             Grid {
                 points,
@@ -650,5 +1067,33 @@ impl CornerPointGrid {
             .filter(|&c| self.is_active(c))
             .map(|c| self.cell_volume(c % nx, c / nx % ny, c / (nx * ny)).abs())
             .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::search_from;
+
+    #[test]
+    fn search_from_matches_partition_point() {
+        let mut seed = 0x1234_5678_9abc_def0u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for n in 0..40usize {
+            let mut d: Vec<f64> = (0..n).map(|_| (next() % 50) as f64).collect();
+            d.sort_by(f64::total_cmp);
+            d.dedup();
+            for z in -1..52 {
+                let z = z as f64;
+                let want = d.partition_point(|x| *x < z);
+                for guess in 0..n + 3 {
+                    assert_eq!(search_from(&d, z, guess), want, "{d:?} z {z} guess {guess}");
+                }
+            }
+        }
     }
 }

@@ -363,9 +363,10 @@ pub fn zoo(cells: usize, seed: u64) -> Grid {
 
 /// A synthetic faulted corner-point reservoir of `dims` cells (NI, NJ, NK):
 /// gently folded layers of varying thickness that pinch out (zero-thickness
-/// corners, so wedges and collapsed cells appear), `faults` vertical faults
-/// along cell faces with throws of 5–40 m, inactive cells (a few percent,
-/// plus every cell pinched to zero thickness), slightly inclined pillars, a
+/// corners, so wedges and collapsed cells appear), `faults` faults along
+/// cell faces with throws of 5–40 m (the first vertical, the others
+/// inclined, see [`faulted_with_dip`]), inactive cells (a few percent, plus
+/// every cell pinched to zero thickness), slightly inclined pillars, a
 /// MAPAXES to UTM-like coordinates, and a `PORO` field correlated with the
 /// layers (per-layer mean and a lateral trend, plus a little noise).
 ///
@@ -375,22 +376,42 @@ pub fn zoo(cells: usize, seed: u64) -> Grid {
 /// # Panics
 /// If any of `dims` is zero.
 pub fn faulted(dims: [usize; 3], faults: usize, seed: u64) -> crate::cornerpoint::CornerPointGrid {
+    faulted_with_dip(dims, faults, None, seed)
+}
+
+/// Smallest fault dip [`faulted_with_dip`] accepts, in degrees.
+pub const MIN_FAULT_DIP: f64 = 45.0;
+
+/// [`faulted`] with the faults' dip chosen: `Some(d)` gives every fault
+/// the dip `d` degrees (`90` = vertical, at least [`MIN_FAULT_DIP`]);
+/// `None` a mix: the first fault vertical, the others dipping 50–80°.
+///
+/// An inclined fault dips toward the side that drops (a normal fault): the
+/// pillars on its trace lean by `cot(dip)` horizontally per unit of depth,
+/// anchored at the reservoir's mid depth, and the lean fades linearly away
+/// from the trace over a distance long enough that no cell turns over, so
+/// every fault face (spanned by two fault pillars) lies on the inclined
+/// fault plane. The pillars stay straight lines (COORD top ≠ bottom).
+///
+/// # Panics
+/// If any of `dims` is zero, or `dip` is outside `[MIN_FAULT_DIP, 90]`.
+pub fn faulted_with_dip(
+    dims: [usize; 3],
+    faults: usize,
+    dip: Option<f64>,
+    seed: u64,
+) -> crate::cornerpoint::CornerPointGrid {
     let [nx, ny, nz] = dims;
     assert!(nx > 0 && ny > 0 && nz > 0, "dims must be positive");
+    assert!(
+        dip.is_none_or(|d| (MIN_FAULT_DIP..=90.0).contains(&d)),
+        "fault dip must be in [{MIN_FAULT_DIP}, 90] degrees"
+    );
     let mut rng = SplitMix64::new(seed, 0xFA17);
     let (dx, dy) = (50.0, 50.0);
     let (lx, ly) = (nx as f64 * dx, ny as f64 * dy);
     // Pillars: tops at depth 1500, bottoms at 2500, tilted a little.
     let tilt = [rng.range(-40.0, 40.0), rng.range(-40.0, 40.0)];
-    let mut coord = Vec::with_capacity(6 * (nx + 1) * (ny + 1));
-    for pj in 0..=ny {
-        for pi in 0..=nx {
-            let (x, y) = (pi as f64 * dx, pj as f64 * dy);
-            let s = 0.5 * ((x / lx) + (y / ly));
-            coord.extend_from_slice(&[x, y, 1500.0]);
-            coord.extend_from_slice(&[x + tilt[0] * s, y + tilt[1] * s, 2500.0]);
-        }
-    }
     // Folding and thickness fields as functions of the pillar position.
     let (ax, ay) = (rng.range(0.6, 1.6), rng.range(0.6, 1.6));
     let (phx, phy) = (
@@ -433,6 +454,21 @@ pub fn faulted(dims: [usize; 3], faults: usize, seed: u64) -> crate::cornerpoint
             ([a, b, a * cx + b * cy], rng.sign() * rng.range(5.0, 40.0))
         })
         .collect();
+    // Horizontal lean per unit depth (cot dip) of each fault's pillars.
+    let lean: Vec<f64> = (0..faults)
+        .map(|f| {
+            let d = dip.unwrap_or(if f == 0 {
+                90.0
+            } else {
+                50.0 + 30.0 * hash_unit(seed, 0xD1B, f as u64)
+            });
+            if d >= 90.0 {
+                0.0
+            } else {
+                1.0 / d.to_radians().tan()
+            }
+        })
+        .collect();
     let throw_of = |i: usize, j: usize| -> f64 {
         flines
             .iter()
@@ -451,6 +487,47 @@ pub fn faulted(dims: [usize; 3], faults: usize, seed: u64) -> crate::cornerpoint
         for k in 0..nz {
             d += thick(k, x, y);
             h[(k + 1) * np + p] = d;
+        }
+    }
+    // Pillars: the global tilt, plus the faults' lean anchored at the
+    // reservoir's mid depth `d0`. The lean fades over `fade` metres from a
+    // fault trace, so that two neighbouring pillars drift apart by at most
+    // a quarter cell within `span` (horizons and throws) of `d0`.
+    let (dmin, dmax) = h
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &d| (a.min(d), b.max(d)));
+    let d0 = 0.5 * (dmin + dmax);
+    let span = 0.5 * (dmax - dmin) + flines.iter().map(|f| f.1.abs()).sum::<f64>();
+    let fade = (4.0 * span * lean.iter().sum::<f64>()).max(6.0 * dx);
+    let max_lean = lean.iter().cloned().fold(0.0, f64::max);
+    let mut coord = Vec::with_capacity(6 * (nx + 1) * (ny + 1));
+    for pj in 0..=ny {
+        for pi in 0..=nx {
+            let (x, y) = (pi as f64 * dx, pj as f64 * dy);
+            let s = 0.5 * ((x / lx) + (y / ly));
+            // Sum of the faded leans, clipped to the steepest lean (the
+            // clip keeps the drift bound, and a fault's own lean on its
+            // trace where others add to it).
+            let mut l = [0.0f64; 2];
+            for ((f, t), &c) in flines.iter().zip(&lean) {
+                let dist = (f[0] * pi as f64 + f[1] * pj as f64 - f[2]).abs() * dx;
+                let w = (1.0 - dist / fade).max(0.0) * c * t.signum();
+                l[0] += w * f[0];
+                l[1] += w * f[1];
+            }
+            let norm = l[0].hypot(l[1]);
+            let l = if norm > max_lean {
+                l.map(|v| v * max_lean / norm)
+            } else {
+                l
+            };
+            let (up, down) = (d0 - 1500.0, 2500.0 - d0);
+            coord.extend_from_slice(&[x - l[0] * up, y - l[1] * up, 1500.0]);
+            coord.extend_from_slice(&[
+                x + tilt[0] * s + l[0] * down,
+                y + tilt[1] * s + l[1] * down,
+                2500.0,
+            ]);
         }
     }
     let round = |v: f64| (v * 1000.0).round() / 1000.0;

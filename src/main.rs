@@ -225,6 +225,10 @@ enum GenCmd {
         /// Number of faults.
         #[arg(long, default_value_t = 3)]
         faults: usize,
+        /// Dip of every fault in degrees (45–90; 90 = vertical). Default: the
+        /// first fault vertical, the others inclined 50–80°.
+        #[arg(long)]
+        fault_dip: Option<f64>,
         /// Random seed.
         #[arg(long, default_value_t = 1)]
         seed: u64,
@@ -284,6 +288,10 @@ struct BenchArgs {
     /// conversion to a zoo grid, then stop.
     #[arg(long)]
     load_only: bool,
+    /// With --load-only: stop before building the sweep structure (so that
+    /// `/usr/bin/time -v` measures the load alone).
+    #[arg(long)]
+    skip_build: bool,
 }
 
 fn main() {
@@ -342,15 +350,17 @@ fn load_cornerpoint(path: &Path) -> Result<(Grid, Value)> {
         (d.grid, extra)
     };
     let read_s = t.elapsed().as_secs_f64();
-    let (grid, rep) = cp.to_grid()?;
+    let (dims, mapaxes) = (cp.dims, cp.mapaxes);
+    let (mapunits, gridunit) = (cp.mapunits.clone(), cp.gridunit.clone());
+    let (grid, rep) = cp.into_grid()?;
     let mut classes = serde_json::Map::new();
     for (k, v) in rep.class_counts() {
         classes.insert(k.into(), json!(v));
     }
     let info = json!({
-        "dims": cp.dims, "classes": classes, "vertices": rep.vertices,
-        "bulk_volume": rep.bulk_volume, "mapaxes": cp.mapaxes, "mapunits": cp.mapunits,
-        "gridunit": cp.gridunit, "ijk_right_handed_up": rep.ijk_right_handed_up,
+        "dims": dims, "classes": classes, "vertices": rep.vertices,
+        "bulk_volume": rep.bulk_volume, "mapaxes": mapaxes, "mapunits": mapunits,
+        "gridunit": gridunit, "ijk_right_handed_up": rep.ijk_right_handed_up,
         "read_s": read_s, "to_grid_s": t.elapsed().as_secs_f64() - read_s, "input": extra,
     });
     Ok((grid, info))
@@ -961,6 +971,7 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
         GenCmd::Faulted {
             dims,
             faults,
+            fault_dip,
             seed,
             output,
         } => {
@@ -968,7 +979,15 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
             if faults > 1000 {
                 bail!("--faults must be at most 1000");
             }
-            let g = generate::faulted(d, faults, seed);
+            if let Some(dip) = fault_dip
+                && !(generate::MIN_FAULT_DIP..=90.0).contains(&dip)
+            {
+                bail!(
+                    "--fault-dip {dip} is outside [{}, 90] degrees",
+                    generate::MIN_FAULT_DIP
+                );
+            }
+            let g = generate::faulted_with_dip(d, faults, fault_dip, seed);
             let sp = spinner(quiet, format!("writing {}", output.display()));
             let f = std::fs::File::create(&output)
                 .with_context(|| format!("cannot create {}", output.display()))?;
@@ -1153,9 +1172,6 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
         _ => None,
     };
     let hwm_parse = peak_rss_bytes();
-    let t = Instant::now();
-    let (grid, rep) = cp.to_grid()?;
-    let grid_s = t.elapsed().as_secs_f64();
     let arrays = cp.coord.len() * 8
         + cp.zcorn.len() * 8
         + cp.actnum.as_ref().map_or(0, |x| x.len())
@@ -1163,22 +1179,44 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
             .iter()
             .map(|p| p.values.len() * 8)
             .sum::<usize>();
+    let cells = cp.cell_count();
+    let t = Instant::now();
+    let (grid, rep) = cp.into_grid()?;
+    let grid_s = t.elapsed().as_secs_f64();
+    let out_arrays = grid_array_bytes(&grid) + rep.source_cell.len() * 4;
+    let peak = peak_rss_bytes();
+    let t = Instant::now();
+    let s = if a.skip_build {
+        None
+    } else {
+        Some(Structure::build(&grid, StructureChoice::Auto)?)
+    };
+    let build_s = t.elapsed().as_secs_f64();
+    let structure_bytes = s.as_ref().map_or(0, |s| memory_json(s, &grid).1);
+    let structure = s.as_ref().map_or("none", |s| s.name());
+    let nv = grid.points.len();
+    let load_build_s = parse_s + grid_s + build_s;
     let out = json!({
-        "file": path.display().to_string(), "bytes": bytes, "cells": cp.cell_count(),
+        "file": path.display().to_string(), "bytes": bytes, "cells": cells,
         "parse_s": parse_s, "parse_mb_per_s": bytes as f64 / parse_s / 1e6,
         "array_bytes": arrays, "to_grid_s": grid_s, "output_cells": grid.cell_count(),
-        "vertices": grid.points.len(), "bulk_volume": rep.bulk_volume,
+        "vertices": nv, "bulk_volume": rep.bulk_volume,
         "parse_cpu_s": parse_cpu_s, "parse_mb_per_cpu_s": parse_cpu_s.map(|c| bytes as f64 / c / 1e6),
-        "peak_rss_after_parse": hwm_parse, "peak_rss_after_to_grid": peak_rss_bytes(),
+        "peak_rss_after_parse": hwm_parse, "peak_rss_after_to_grid": peak,
+        "grid_array_bytes": out_arrays,
+        "peak_rss_over_grid_arrays": peak.map(|p| p as f64 / out_arrays as f64),
+        "structure": structure, "build_s": build_s,
+        "load_build_us_per_vertex": load_build_s * 1e6 / nv as f64,
+        "structure_bytes_per_cell": structure_bytes as f64 / grid.cell_count() as f64,
     });
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         println!(
-            "{}: {} bytes, {} cells; parse {:.3} s = {:.1} MB/s wall (1 thread; {:.1} MB/s per CPU second), arrays {} B, peak RSS after parse {:?} B; to_grid {:.3} s -> {} cells, {} vertices",
+            "{}: {} bytes, {} cells; parse {:.3} s = {:.1} MB/s wall (1 thread; {:.1} MB/s per CPU second), arrays {} B, peak RSS after parse {:?} B; to_grid {:.3} s -> {} cells, {} vertices, grid arrays {} B, peak RSS {:?} B",
             path.display(),
             bytes,
-            cp.cell_count(),
+            cells,
             parse_s,
             bytes as f64 / parse_s / 1e6,
             parse_cpu_s.map_or(f64::NAN, |c| bytes as f64 / c / 1e6),
@@ -1186,10 +1224,41 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
             hwm_parse,
             grid_s,
             grid.cell_count(),
-            grid.points.len()
+            nv,
+            out_arrays,
+            peak
+        );
+        println!(
+            "  build {} {:.3} s; load + build {:.3} s = {:.3} µs/vertex; structure {:.1} B/cell",
+            structure,
+            build_s,
+            load_build_s,
+            load_build_s * 1e6 / nv as f64,
+            structure_bytes as f64 / grid.cell_count() as f64
         );
     }
     Ok(())
+}
+
+/// Bytes of a grid's arrays (points, cells, face streams, properties).
+fn grid_array_bytes(g: &Grid) -> usize {
+    let topo = match &g.topology {
+        Topology::Unstructured(c) => {
+            c.types.len()
+                + 4 * (c.offsets.len()
+                    + c.connectivity.len()
+                    + c.face_offsets.len()
+                    + c.face_stream.len())
+        }
+        Topology::Structured { .. } => 0,
+    };
+    g.points.len() * 24
+        + topo
+        + g.point_data
+            .iter()
+            .chain(&g.cell_data)
+            .map(|p| p.values.len() * 8)
+            .sum::<usize>()
 }
 
 /// CPU time of all threads of this process in ns (Linux schedstat, summed

@@ -32,12 +32,30 @@ fn build(
     shear: [f64; 2],
     depth: impl Fn(usize, usize, usize, usize) -> f64,
 ) -> CornerPointGrid {
+    build_pillars(
+        dims,
+        |pi, pj| {
+            let (x, y) = (pi as f64, pj as f64);
+            ([x, y, 0.0], [x + shear[0], y + shear[1], 100.0])
+        },
+        depth,
+    )
+}
+
+/// An nx×ny×nz grid with pillar `(pi, pj)` from `pillar(pi, pj) = (top,
+/// bottom)` and corner depths from `depth(i, j, k, corner)`.
+fn build_pillars(
+    dims: [usize; 3],
+    pillar: impl Fn(usize, usize) -> ([f64; 3], [f64; 3]),
+    depth: impl Fn(usize, usize, usize, usize) -> f64,
+) -> CornerPointGrid {
     let [nx, ny, nz] = dims;
     let mut coord = Vec::new();
     for pj in 0..=ny {
         for pi in 0..=nx {
-            coord.extend_from_slice(&[pi as f64, pj as f64, 0.0]);
-            coord.extend_from_slice(&[pi as f64 + shear[0], pj as f64 + shear[1], 100.0]);
+            let (t, b) = pillar(pi, pj);
+            coord.extend_from_slice(&t);
+            coord.extend_from_slice(&b);
         }
     }
     let mut g = CornerPointGrid {
@@ -258,20 +276,328 @@ fn three_collapsed_pillar_edges() {
     // edges: such zero-area two-point loops must not be emitted.
     for axis in 0..3 {
         let req = SliceRequest {
-            field: FieldSpec::Axis {
-                axis,
-                negative: false,
-            },
-            levels: LevelSpec::Count(97),
-            attribute: None,
-            threads: 1,
-            brute_force: false,
             collect_mesh: true,
+            ..axis_request(axis, 97)
         };
         let m = slice(&grid, &s, &req, &|_| {}).unwrap().mesh.unwrap();
         assert!(m.polygon_count() > 0);
         assert!((0..m.polygon_count()).all(|p| m.polygon(p).len() >= 3));
     }
+}
+
+/// A one-thread sweep request for `count` levels along `axis`.
+fn axis_request(axis: usize, count: usize) -> SliceRequest {
+    SliceRequest {
+        field: FieldSpec::Axis {
+            axis,
+            negative: false,
+        },
+        levels: LevelSpec::Count(count),
+        attribute: None,
+        threads: 1,
+        brute_force: false,
+        collect_mesh: false,
+    }
+}
+
+/// Slices `grid` along `axis` at `count` levels by the sweep and by the
+/// brute force, checks that they cut the same cells per level, and returns
+/// the sweep's result.
+fn sweep_matches_brute_force(
+    grid: &stratasweep::grid::Grid,
+    s: &Structure,
+    axis: usize,
+    count: usize,
+    what: &str,
+) -> stratasweep::pipeline::SliceResult {
+    let mut req = axis_request(axis, count);
+    let a = slice(grid, s, &req, &|_| {}).unwrap();
+    req.brute_force = true;
+    let b = slice(grid, s, &req, &|_| {}).unwrap();
+    let cells = |r: &stratasweep::pipeline::SliceResult| {
+        r.stats.iter().map(|s| s.cells).collect::<Vec<_>>()
+    };
+    assert_eq!(cells(&a), cells(&b), "{what}: axis {axis}");
+    a
+}
+
+/// Area of the convex polygon spanned by `p` (monotone-chain hull + shoelace).
+fn hull_area(mut p: Vec<[f64; 2]>) -> f64 {
+    p.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    p.dedup();
+    if p.len() < 3 {
+        return 0.0;
+    }
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    };
+    let mut h: Vec<[f64; 2]> = Vec::new();
+    for &x in &p {
+        while h.len() >= 2 && cross(h[h.len() - 2], h[h.len() - 1], x) <= 0.0 {
+            h.pop();
+        }
+        h.push(x);
+    }
+    let lower = h.len() + 1;
+    for &x in p.iter().rev().skip(1) {
+        while h.len() >= lower && cross(h[h.len() - 2], h[h.len() - 1], x) <= 0.0 {
+            h.pop();
+        }
+        h.push(x);
+    }
+    h.pop();
+    let n = h.len();
+    (0..n)
+        .map(|i| h[i][0] * h[(i + 1) % n][1] - h[i][1] * h[(i + 1) % n][0])
+        .sum::<f64>()
+        .abs()
+        / 2.0
+}
+
+/// Independent brute force for a convex cell: the area of the section of
+/// the convex hull of `pts` by the plane `x[axis] = t` (the crossings of
+/// every segment between two points, then their 2D hull).
+fn convex_section_area(pts: &[[f64; 3]], axis: usize, t: f64) -> f64 {
+    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+    let mut q = Vec::new();
+    for a in 0..pts.len() {
+        let da = pts[a][axis] - t;
+        if da == 0.0 {
+            q.push([pts[a][u], pts[a][v]]);
+        }
+        for b in a + 1..pts.len() {
+            let db = pts[b][axis] - t;
+            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+                let s = da / (da - db);
+                q.push([
+                    pts[a][u] + s * (pts[b][u] - pts[a][u]),
+                    pts[a][v] + s * (pts[b][v] - pts[a][v]),
+                ]);
+            }
+        }
+    }
+    hull_area(q)
+}
+
+/// Converts `g` (convex cells with planar faces), checks the class counts
+/// `[hexahedra, wedges, pyramids, tetrahedra, polyhedra]`, the bulk volume
+/// against the analytic `volume` and each cell's trilinear volume, that the
+/// CGraph takes every cell as valid, and the sweep's slice areas along x, y
+/// and z against the convex brute force summed over the cells. Does the
+/// same with y mirrored (the other handedness). Returns the grid and the
+/// CGraph's sewn face count.
+fn check_collapsed(
+    what: &str,
+    g: &CornerPointGrid,
+    classes: [usize; 5],
+    volume: f64,
+) -> (stratasweep::grid::Grid, usize) {
+    let mut mirrored = g.clone();
+    for p in mirrored.coord.chunks_mut(3) {
+        p[1] = -p[1];
+    }
+    let mut first = None;
+    for g in [g, &mirrored] {
+        let [nx, ny, nz] = g.dims;
+        let corners: Vec<[[f64; 3]; 8]> = (0..nz)
+            .flat_map(|k| (0..ny).flat_map(move |j| (0..nx).map(move |i| (i, j, k))))
+            .map(|(i, j, k)| g.cell_corners(i, j, k))
+            .collect();
+        let tri: f64 = corners.iter().map(|c| trilinear_volume(c).abs()).sum();
+        let (grid, rep) = g.to_grid().unwrap();
+        assert_eq!(
+            [
+                rep.hexahedra,
+                rep.wedges,
+                rep.pyramids,
+                rep.tetrahedra,
+                rep.polyhedra
+            ],
+            classes,
+            "{what}: {rep:?}"
+        );
+        assert_eq!(
+            (rep.zero_volume, rep.inverted, rep.merge_fallback),
+            (0, 0, 0)
+        );
+        assert!(
+            (rep.bulk_volume - volume).abs() < 1e-12 * volume.max(1.0),
+            "{what}: bulk {} vs analytic {volume}",
+            rep.bulk_volume
+        );
+        assert!(
+            (tri - volume).abs() < 1e-12 * volume.max(1.0),
+            "{what}: {tri}"
+        );
+        let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+        let Structure::CGraph(cg) = &s else { panic!() };
+        assert_eq!(cg.class_counts, [grid.cell_count(), 0, 0, 0, 0], "{what}");
+        for axis in 0..3 {
+            let req = axis_request(axis, 40);
+            let r = slice(&grid, &s, &req, &|_| {}).unwrap();
+            let mut top = 0.0f64;
+            let mut sum = 0.0;
+            for (l, &t) in r.level_values.iter().enumerate() {
+                let want: f64 = corners
+                    .iter()
+                    .map(|c| convex_section_area(c, axis, t))
+                    .sum();
+                top = top.max(want);
+                let got = r.stats[l].area;
+                assert!(
+                    (got - want).abs() <= 1e-5 * top.max(1e-3),
+                    "{what}: axis {axis} level {l} (t = {t}): sweep area {got} vs brute force {want}"
+                );
+                sum += got;
+            }
+            assert!(sum > 0.0, "{what}: axis {axis} cut nothing");
+        }
+        first.get_or_insert((grid, cg.sewn_faces));
+    }
+    first.unwrap()
+}
+
+#[test]
+fn collapse_patterns_become_catalog_cells() {
+    let lattice = |pi: usize, pj: usize| {
+        let (x, y) = (pi as f64, pj as f64);
+        ([x, y, 0.0], [x, y, 100.0])
+    };
+    // Hexahedron (a box 1 × 1 × 2).
+    let hex = build_pillars(
+        [1, 1, 1],
+        lattice,
+        |_, _, _, c| {
+            if c < 4 { 10.0 } else { 12.0 }
+        },
+    );
+    check_collapsed("hexahedron", &hex, [1, 0, 0, 0, 0], 2.0);
+    // Pinch-out: the two pillar edges at i = 0 collapse, planar bottom: a wedge.
+    let pinch = build_pillars([1, 1, 1], lattice, |_, _, _, c| {
+        if c < 4 || c & 1 == 0 { 10.0 } else { 12.0 }
+    });
+    check_collapsed("pinch-out wedge", &pinch, [0, 1, 0, 0, 0], 1.0);
+    // Pillars (0,0) and (1,0) coincide: corners 0 = 1 and 4 = 5 merge
+    // across pillars, a triangular prism (wedge) of base 1/2 and height 2.
+    let side_pillars = |pi: usize, pj: usize| {
+        let (x, y) = if pj == 0 {
+            (0.5, 0.0)
+        } else {
+            (pi as f64, 1.0)
+        };
+        ([x, y, 0.0], [x, y, 100.0])
+    };
+    let side = build_pillars(
+        [1, 1, 1],
+        side_pillars,
+        |_, _, _, c| if c < 4 { 10.0 } else { 12.0 },
+    );
+    check_collapsed("collapsed-side wedge", &side, [0, 1, 0, 0, 0], 1.0);
+    // Four pillars meeting at depth 13: the bottom corners merge into an
+    // apex, a pyramid of base 1 and height 3.
+    let apex = [0.5, 0.5, 13.0];
+    let pyr = build_pillars(
+        [1, 1, 1],
+        |pi, pj| ([pi as f64, pj as f64, 10.0], apex),
+        |_, _, _, c| if c < 4 { 10.0 } else { 13.0 },
+    );
+    check_collapsed("pyramid", &pyr, [0, 0, 1, 0, 0], 1.0);
+    // Same, with pillars (0,0) and (1,0) starting at the same point: the
+    // top is a triangle of area 1/2, a tetrahedron of volume 1/2.
+    let tet = build_pillars(
+        [1, 1, 1],
+        |pi, pj| {
+            let top = if pj == 0 {
+                [1.0, 0.0, 10.0]
+            } else {
+                [pi as f64, 1.0, 10.0]
+            };
+            (top, apex)
+        },
+        |_, _, _, c| if c < 4 { 10.0 } else { 13.0 },
+    );
+    check_collapsed("tetrahedron", &tet, [0, 0, 0, 1, 0], 0.5);
+    // A pinch-out on a pillar pair next to a collapsed side: the cell with
+    // pillars (0,0) = (1,0) and its pillar edges at j = 1, i = 0 collapsed
+    // (corners 2 = 6) keeps 5 distinct corners and is a pyramid: base the
+    // vertical quad on pillars (1,0) and (1,1), apex at corner 2.
+    let mixed = build_pillars([1, 1, 1], side_pillars, |_, _, _, c| {
+        if c < 4 || c == 6 { 10.0 } else { 12.0 }
+    });
+    // Prism of base 1/2 and height 2 less the tetrahedron at the pinched
+    // corner (1/3).
+    check_collapsed(
+        "pinch-out by a collapsed side",
+        &mixed,
+        [0, 0, 1, 0, 0],
+        2.0 / 3.0,
+    );
+}
+
+#[test]
+fn converging_pillars_give_sewn_pyramids_and_tetrahedra() {
+    // 3×3 columns whose 16 pillars all end at one apex 30 below the top
+    // (pillar (0,0) starts on pillar (1,0)): three layers, 10 thick. The
+    // two upper layers are frusta (hexahedra; wedges in column (0,0)), the
+    // bottom layer pyramids (a tetrahedron in column (0,0)). The grid is the
+    // cone over the top polygon: 3×3 minus a half unit square, V = 8.5·30/3.
+    let apex = [1.5, 1.5, 30.0];
+    let g = build_pillars(
+        [3, 3, 3],
+        |pi, pj| {
+            let top = if (pi, pj) == (0, 0) {
+                [1.0, 0.0, 0.0]
+            } else {
+                [pi as f64, pj as f64, 0.0]
+            };
+            (top, apex)
+        },
+        |_, _, k, c| 10.0 * (k + (c >> 2)) as f64,
+    );
+    let (grid, sewn) = check_collapsed("converging pillars", &g, [16, 2, 8, 1, 0], 85.0);
+    // Coincident corners are one vertex: 15 distinct pillar positions at
+    // depths 0, 10, 20, plus the apex; every interior face is sewn (36
+    // between columns, 18 between layers), each counted from both sides.
+    assert_eq!(grid.points.len(), 15 * 3 + 1);
+    let mut pts = grid.points.clone();
+    pts.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    pts.dedup();
+    assert_eq!(pts.len(), grid.points.len());
+    assert_eq!(sewn, 2 * (36 + 18));
+    // The sweep cuts exactly the cells the brute force cuts.
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    for axis in 0..3 {
+        let a = sweep_matches_brute_force(&grid, &s, axis, 31, "converging pillars");
+        assert_eq!(a.minima, 1, "axis {axis}: a sewn grid has one minimum");
+    }
+}
+
+#[test]
+fn twisted_cell_keeps_its_pillar_shape() {
+    // Pillars (0,0) and (1,1) cross at the top: corners 0 and 3 coincide,
+    // the merged top face would pass twice through one corner. The cell is
+    // not merged (counted as a fallback), keeps its trilinear volume, and
+    // the sweep structure skips it as a cell with a repeated vertex.
+    let g = build_pillars(
+        [1, 1, 1],
+        |pi, pj| {
+            let (x, y) = (pi as f64, pj as f64);
+            let top = if pi == pj {
+                [0.5, 0.5, 10.0]
+            } else {
+                [x, y, 10.0]
+            };
+            (top, [x, y, 20.0])
+        },
+        |_, _, _, c| if c < 4 { 10.0 } else { 20.0 },
+    );
+    let (grid, rep) = g.to_grid().unwrap();
+    assert_eq!((rep.merge_fallback, rep.hexahedra), (1, 1), "{rep:?}");
+    let t = trilinear_volume(&g.cell_corners(0, 0, 0)).abs();
+    assert!(t > 1.0 && (rep.bulk_volume - t).abs() < 1e-12, "{t}");
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let Structure::CGraph(cg) = &s else { panic!() };
+    assert_eq!(cg.class_counts, [0, 0, 0, 1, 0]);
 }
 
 fn reek(data: &std::path::Path) -> stratasweep::io::grdecl::GrdeclDeck {
@@ -287,8 +613,31 @@ fn reek_grdecl_counts_volume_and_cavalieri() {
     let cp = &deck.grid;
     assert_eq!(cp.dims, [40, 64, 14]);
     let names: Vec<&str> = cp.properties.iter().map(|p| p.name.as_str()).collect();
-    assert_eq!(names, ["PORO", "PERMX", "PERMY", "PERMZ"]);
-    assert!(deck.skipped.contains(&"MULTIPLY".to_string()));
+    // The GRID section's MULTIPLY (PERMZ × 0.3) and EQUALS (MULTZ) apply.
+    assert_eq!(names, ["PORO", "PERMX", "PERMY", "PERMZ", "MULTZ"]);
+    assert!(
+        !deck
+            .skipped
+            .iter()
+            .any(|s| s == "MULTIPLY" || s == "EQUALS")
+    );
+    let raw = stratasweep::io::grdecl::read_grdecl_from(
+        format!(
+            "INCLUDE\n '{}' /\nINCLUDE\n '{}' /\n",
+            data.join("reek/reek.grid").display(),
+            data.join("reek/reek.perm").display()
+        )
+        .as_bytes(),
+        std::path::Path::new("raw.grdecl"),
+    )
+    .unwrap();
+    let raw_z: Vec<f64> = raw.grid.properties[2]
+        .values
+        .iter()
+        .map(|v| v * 0.3)
+        .collect();
+    assert_eq!(raw.grid.properties[2].name, "PERMZ");
+    assert_eq!(cp.properties[3].values, raw_z);
     let (grid, rep) = cp.to_grid().unwrap();
     assert_eq!((rep.active, rep.inactive), (35_820, 20));
     assert_eq!(
@@ -317,32 +666,16 @@ fn reek_grdecl_counts_volume_and_cavalieri() {
     assert_eq!(s.live_cells(), grid.cell_count());
     // Every emitted polygon has at least 3 vertices (pinched cells included).
     let req = SliceRequest {
-        field: FieldSpec::Axis {
-            axis: 2,
-            negative: false,
-        },
-        levels: LevelSpec::Count(50),
         attribute: Some("PORO".into()),
-        threads: 1,
-        brute_force: false,
         collect_mesh: true,
+        ..axis_request(2, 50)
     };
     let m = slice(&grid, &s, &req, &|_| {}).unwrap().mesh.unwrap();
     assert!((0..m.polygon_count()).all(|p| m.polygon(p).len() >= 3));
     // Cavalieri: Σ area_k · Δ → bulk volume.
     let mut errs = Vec::new();
     for k in [50, 400] {
-        let req = SliceRequest {
-            field: FieldSpec::Axis {
-                axis: 2,
-                negative: false,
-            },
-            levels: LevelSpec::Count(k),
-            attribute: None,
-            threads: 1,
-            brute_force: false,
-            collect_mesh: false,
-        };
+        let req = axis_request(2, k);
         let r = slice(&grid, &s, &req, &|_| {}).unwrap();
         let dz = r.level_values[1] - r.level_values[0];
         let v: f64 = r.stats.iter().map(|s| s.area).sum::<f64>() * dz;
@@ -423,7 +756,8 @@ fn spe9_and_spe10_load() {
         ([24, 25, 15], 9000, 9000)
     );
     let names: Vec<&str> = d.grid.properties.iter().map(|p| p.name.as_str()).collect();
-    assert_eq!(names, ["PORO", "PERMX"]);
+    // PERMY and PERMZ come from the deck's COPY (and MULTIPLY).
+    assert_eq!(names, ["PORO", "PERMX", "PERMY", "PERMZ"]);
     assert_eq!(d.grid.properties[0].values[0], 0.087);
     assert_eq!(d.grid.properties[0].values[8999], 0.157);
     let d =
@@ -436,16 +770,30 @@ fn spe9_and_spe10_load() {
     assert_eq!(s.live_cells(), 2000);
 }
 
+/// Slice areas × spacing (evenly spaced levels) within `tol` (relative)
+/// of `volume`.
+fn assert_cavalieri(r: &stratasweep::pipeline::SliceResult, volume: f64, tol: f64, what: &str) {
+    let d = r.level_values[1] - r.level_values[0];
+    let v: f64 = r.stats.iter().map(|s| s.area).sum::<f64>() * d;
+    assert!(
+        (v - volume).abs() / volume < tol,
+        "{what}: Cavalieri {v} vs {volume}"
+    );
+}
+
+/// `g` written as GRDECL and read back.
+fn grdecl_round_trip(g: &CornerPointGrid) -> CornerPointGrid {
+    let mut buf = Vec::new();
+    stratasweep::io::grdecl::write_grdecl(&mut buf, g).unwrap();
+    stratasweep::io::grdecl::read_grdecl_from(&buf[..], std::path::Path::new("gen.grdecl"))
+        .unwrap()
+        .grid
+}
+
 #[test]
 fn generated_faulted_grid_round_trips_and_sweeps() {
     let g = stratasweep::generate::faulted([30, 20, 12], 3, 7);
-    let mut buf = Vec::new();
-    stratasweep::io::grdecl::write_grdecl(&mut buf, &g).unwrap();
-    let back =
-        stratasweep::io::grdecl::read_grdecl_from(&buf[..], std::path::Path::new("gen.grdecl"))
-            .unwrap()
-            .grid;
-    assert_eq!(back, g);
+    assert_eq!(grdecl_round_trip(&g), g);
     let (grid, rep) = g.to_grid().unwrap();
     assert!(
         rep.inactive > 0 && rep.wedges > 0 && rep.polyhedra > 0 && rep.hexahedra > 0,
@@ -459,15 +807,8 @@ fn generated_faulted_grid_round_trips_and_sweeps() {
     assert_eq!(s.live_cells(), grid.cell_count());
     // The sweep cuts exactly the cells the brute force cuts, on a faulted grid.
     let mut req = SliceRequest {
-        field: FieldSpec::Axis {
-            axis: 2,
-            negative: false,
-        },
-        levels: LevelSpec::Count(40),
         attribute: Some("PORO".into()),
-        threads: 1,
-        brute_force: false,
-        collect_mesh: false,
+        ..axis_request(2, 40)
     };
     let a = slice(&grid, &s, &req, &|_| {}).unwrap();
     req.brute_force = true;
@@ -477,11 +818,154 @@ fn generated_faulted_grid_round_trips_and_sweeps() {
     };
     assert_eq!(cells(&a), cells(&b));
     // Cavalieri on the generated grid too.
-    let dz = a.level_values[1] - a.level_values[0];
-    let v: f64 = a.stats.iter().map(|s| s.area).sum::<f64>() * dz;
+    assert_cavalieri(&a, rep.bulk_volume, 0.02, "generated");
+}
+
+/// Horizontal lean (per unit depth) of the pillars that carry a fault: a
+/// pillar is on a fault when two cells of one layer around it give it
+/// different depths.
+fn fault_pillar_leans(g: &CornerPointGrid) -> Vec<f64> {
+    let [nx, ny, nz] = g.dims;
+    let mut out = Vec::new();
+    for pj in 0..=ny {
+        for pi in 0..=nx {
+            let mut faulted = false;
+            for k in 0..nz {
+                let mut seen: Option<f64> = None;
+                for (ci, ii) in [(pi.wrapping_sub(1), 1), (pi, 0)] {
+                    for (cj, jj) in [(pj.wrapping_sub(1), 1), (pj, 0)] {
+                        if ci >= nx || cj >= ny {
+                            continue;
+                        }
+                        let z = g.zcorn[g.zcorn_index(ci, cj, k, ii + 2 * jj)];
+                        faulted |= seen.is_some_and(|s| s != z);
+                        seen = Some(z);
+                    }
+                }
+            }
+            if faulted {
+                let c = &g.coord[6 * (pi + (nx + 1) * pj)..][..6];
+                out.push(((c[3] - c[0]).hypot(c[4] - c[1])) / (c[5] - c[2]));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn generated_faults_vertical_or_inclined() {
+    for (dip, seed) in [
+        (Some(90.0), 3),
+        (Some(60.0), 3),
+        (Some(45.0), 11),
+        (None, 5),
+    ] {
+        let g = stratasweep::generate::faulted_with_dip([30, 20, 12], 3, dip, seed);
+        let leans = fault_pillar_leans(&g);
+        assert!(!leans.is_empty(), "{dip:?}: no fault pillar");
+        let mut sorted = leans.clone();
+        sorted.sort_by(f64::total_cmp);
+        let (min, median, max) = (
+            sorted[0],
+            sorted[sorted.len() / 2],
+            sorted[sorted.len() - 1],
+        );
+        match dip {
+            // Only the grid's slight global tilt (≤ 40 m over 1000 m).
+            Some(90.0) => assert!(max <= 0.06, "vertical faults lean {max}"),
+            // cot(dip) on the traces (other faults' fading leans perturb a
+            // few pillars), never more (+ the global tilt).
+            Some(d) => {
+                let cot = 1.0 / f64::to_radians(d).tan();
+                assert!(
+                    median > 0.9 * cot && max < cot + 0.06,
+                    "dip {d}: fault pillars lean {min}..{max}, median {median}, cot = {cot}"
+                );
+            }
+            // The default mix: a vertical fault and inclined ones.
+            None => assert!(min <= 0.06 && max > 0.15, "mix: leans {min}..{max}"),
+        }
+        // Inclined pillars are written and read back exactly.
+        assert_eq!(grdecl_round_trip(&g), g, "{dip:?}");
+        // No cell turns over; the sweep cuts what the brute force cuts.
+        let (grid, rep) = g.to_grid().unwrap();
+        assert_eq!(rep.inverted, 0, "{dip:?}: {rep:?}");
+        let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+        let Structure::CGraph(cg) = &s else { panic!() };
+        assert_eq!(cg.class_counts[0], grid.cell_count(), "{dip:?}");
+        for axis in [0, 2] {
+            let a = sweep_matches_brute_force(&grid, &s, axis, 60, &format!("{dip:?}"));
+            assert_cavalieri(&a, rep.bulk_volume, 0.02, &format!("{dip:?} axis {axis}"));
+        }
+    }
+}
+
+/// The Python of an xtgeo virtual environment: `STRATASWEEP_XTGEO_PYTHON`,
+/// else `../venv-xtgeo/bin/python` beside the crate.
+fn xtgeo_python() -> Option<PathBuf> {
+    let p = std::env::var_os("STRATASWEEP_XTGEO_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../venv-xtgeo/bin/python")
+        });
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!(
+            "\n*** SKIP xtgeo comparison: no {} (python3 -m venv ../venv-xtgeo && ../venv-xtgeo/bin/pip install xtgeo, or set STRATASWEEP_XTGEO_PYTHON) ***\n",
+            p.display()
+        );
+        None
+    }
+}
+
+#[test]
+fn generated_faulted_grids_read_by_xtgeo() {
+    let Some(py) = xtgeo_python() else { return };
+    let dir = std::env::temp_dir().join(format!("stratasweep-xtgeo-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cases = [(None, 5), (Some(90.0), 3), (Some(45.0), 11)];
+    let mut files = Vec::new();
+    let mut ours = Vec::new();
+    for (n, &(dip, seed)) in cases.iter().enumerate() {
+        let g = stratasweep::generate::faulted_with_dip([30, 20, 12], 3, dip, seed);
+        let path = dir.join(format!("f{n}.grdecl"));
+        let mut f = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+        stratasweep::io::grdecl::write_grdecl(&mut f, &g).unwrap();
+        drop(f);
+        let (_, rep) = g.to_grid().unwrap();
+        files.push(path);
+        ours.push(rep);
+    }
+    let script = "import sys, json, numpy as np, xtgeo\n\
+        out = []\n\
+        for p in sys.argv[1:]:\n\
+        \x20   g = xtgeo.grid_from_file(p, fformat='grdecl')\n\
+        \x20   v = g.get_bulk_volume(asmasked=True, precision=4).values\n\
+        \x20   out.append([g.ncol, g.nrow, g.nlay, int(g.nactive), float(np.ma.sum(v))])\n\
+        print(json.dumps(out))\n";
+    let out = std::process::Command::new(&py)
+        .arg("-c")
+        .arg(script)
+        .args(&files)
+        .output()
+        .expect("run xtgeo");
+    std::fs::remove_dir_all(&dir).unwrap();
     assert!(
-        (v - rep.bulk_volume).abs() / rep.bulk_volume < 0.02,
-        "{v} vs {}",
-        rep.bulk_volume
+        out.status.success(),
+        "xtgeo failed: {}",
+        String::from_utf8_lossy(&out.stderr)
     );
+    let v: Vec<(usize, usize, usize, usize, f64)> =
+        serde_json::from_slice(&out.stdout).expect("xtgeo JSON");
+    for ((dip, _), (x, rep)) in cases.iter().zip(v.iter().zip(&ours)) {
+        assert_eq!((x.0, x.1, x.2), (30, 20, 12), "{dip:?}");
+        assert_eq!(x.3, rep.active, "{dip:?}: active cells");
+        let rel = (x.4 - rep.bulk_volume).abs() / rep.bulk_volume;
+        eprintln!(
+            "dip {dip:?}: bulk volume {} vs xtgeo {} (relative {rel:.2e})",
+            rep.bulk_volume, x.4
+        );
+        assert!(rel < 1e-5, "{dip:?}: {} vs xtgeo {}", rep.bulk_volume, x.4);
+    }
 }

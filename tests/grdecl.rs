@@ -101,17 +101,15 @@ fn deck_reads_only_the_grid_section_and_reports_skips_once() {
     let t = format!(
         "RUNSPEC\nTITLE\n  My model 1 2 3\nDIMENS\n 2 1 1 /\nOIL\nWATER\nSTART\n 1 'JAN' 2000 /\n\
          TABDIMS\n 1 1 /\nTABDIMS\n 2 2 /\nGRID\nNOECHO\n{}\
-         MULTIPLY\nPORO 2 /\n/\nEQUALS\n 'PORO' 0.3 /\n/\nGDORIENT\nINC INC INC DOWN RIGHT /\n\
-         PORO\n 0.1 0.2 /\nPROPS\nPERMX\n 1 2 3 /\n",
+         GDORIENT\nINC INC INC DOWN RIGHT /\n\
+         PORO\n 0.1 0.2 /\nMULTIPLY\nPORO 2 /\n/\nPROPS\nPERMX\n 1 2 3 /\nMULTIPLY\nPORO 2 /\n/\n",
         small("")
     );
     let d = parse(&t).unwrap();
     assert_eq!(d.grid.properties.len(), 1, "{:?}", d.grid.properties);
-    assert_eq!(d.grid.properties[0].values, [0.1, 0.2]);
-    assert_eq!(
-        d.skipped,
-        ["START", "TABDIMS", "MULTIPLY", "EQUALS", "GDORIENT"]
-    );
+    // MULTIPLY in the GRID section applies; the PROPS section is not read.
+    assert_eq!(d.grid.properties[0].values, [0.2, 0.4]);
+    assert_eq!(d.skipped, ["START", "TABDIMS", "GDORIENT"]);
 }
 
 #[test]
@@ -348,6 +346,69 @@ proptest! {
             let _ = d.grid.to_grid();
         }
     }
+
+    /// Operator keywords with random records: an error or a result, never a panic.
+    #[test]
+    fn fuzz_operators_never_panic(records in proptest::collection::vec(proptest::collection::vec(
+        prop_oneof![Just("PORO"), Just("'PERMX'"), Just("ACTNUM"), Just("MULTZ"), Just("ZCORN"),
+            Just("1"), Just("0"), Just("2"), Just("3"), Just("-1"), Just("0.5"), Just("1*"), Just("3*"),
+            Just("2*2"), Just("9*"), Just("1e400"), Just("x"), Just("/")], 0..10), 0..5),
+        kw in prop_oneof![Just("EQUALS"), Just("MULTIPLY"), Just("ADD"), Just("COPY"), Just("BOX")]) {
+        let mut extra = format!("{kw}\n");
+        for r in &records {
+            extra.push_str(&r.join(" "));
+            extra.push_str(" /\n");
+        }
+        extra.push_str("/\n");
+        let t = box_grid(&extra);
+        if let Ok(d) = read_grdecl_from(t.as_bytes(), Path::new("fuzz.grdecl")) {
+            let _ = d.grid.to_grid();
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Random runs of plain numbers and `N*v` repeats (any separators,
+    /// comments between them, `/` glued to the last value) read back as the
+    /// expanded list, whatever the path (fast or general) takes them.
+    #[test]
+    fn repeats_and_numbers_expand_exactly(
+        runs in proptest::collection::vec((1usize..6, -5000i64..5000, 0u8..4, 0u8..6), 1..60),
+        glued in any::<bool>(),
+    ) {
+        let mut body = String::new();
+        let mut want = Vec::new();
+        for &(n, v, form, sep) in &runs {
+            let x = v as f64 / 8.0;
+            match (n, form) {
+                (1, 0) => body.push_str(&format!("{x}")),
+                (_, 1) => body.push_str(&format!("{n}*{x:e}")),
+                _ => body.push_str(&format!("{n}*{x}")),
+            }
+            want.extend(std::iter::repeat_n(x, n));
+            body.push_str(match sep {
+                0 => " ",
+                1 => "\n",
+                2 => "\t ",
+                3 => " -- note 3*7\n",
+                4 => "\r\n",
+                _ => "   ",
+            });
+        }
+        if glued && runs.last().is_some_and(|r| r.3 != 3) {
+            body = body.trim_end().to_string();
+        }
+        let n = want.len();
+        let text = format!(
+            "SPECGRID\n 1 1 {n} 1 F /\nCOORD\n 0 0 0 0 0 1 1 0 0 1 0 1 0 1 0 0 1 1 1 1 0 1 1 1 /\n\
+             ZCORN\n {}*1 /\nPORO\n{body}/\n",
+            8 * n
+        );
+        let d = parse(&text).unwrap();
+        prop_assert_eq!(&d.grid.properties[0].values, &want);
+    }
 }
 
 /// Inputs found by the fuzzers above (or written as their likely cousins), kept as regressions.
@@ -381,4 +442,147 @@ fn fuzz_regressions() {
     let d = parse("SPECGRID\n 1 1 1 /\nCOORD\n 24*0 /\nZCORN\n 8*0 /\n").unwrap();
     let (g, r) = d.grid.to_grid().unwrap();
     assert_eq!((g.cell_count(), r.zero_volume), (0, 1));
+}
+
+/// The values of cell array `name`.
+fn prop(g: &CornerPointGrid, name: &str) -> Vec<f64> {
+    g.properties
+        .iter()
+        .find(|p| p.name == name)
+        .unwrap_or_else(|| panic!("no {name}"))
+        .values
+        .clone()
+}
+
+/// A 3×2×2 grid of unit cells (vertical pillars) followed by `extra`.
+fn box_grid(extra: &str) -> String {
+    let mut coord = String::new();
+    for j in 0..3 {
+        for i in 0..4 {
+            coord.push_str(&format!("{i} {j} 0 {i} {j} 10\n"));
+        }
+    }
+    format!(
+        "SPECGRID\n 3 2 2 1 F /\nCOORD\n{coord}/\nZCORN\n 24*0 24*1 24*1 24*2 /\n\
+         PORO\n 0.1 0.2 0.3 0.4 0.5 0.6 0.7 0.8 0.9 1.0 1.1 1.2 /\n{extra}"
+    )
+}
+
+#[test]
+fn equals_multiply_add_copy_in_boxes() {
+    let d = parse(&box_grid(
+        "EQUALS\n 'PERMX' 100 / whole grid\n/\n\
+         MULTIPLY\n PERMX 0.5 1 2 1 1 1 1 /\n PERMX 2 2* 2 2 / I 1-2 of row J = 2, same K\n/\n\
+         ADD\n PORO 1 3 3 /\n/\n\
+         COPY\n PORO PERMZ /\n/\n\
+         EQUALS\n MULTZ 0.01 1 3 1 2 2 2 /\n/\n\
+         BOX\n 2 2 1 2 1 2 /\nEQUALS\n NTG 0.5 /\n/\nENDBOX\n\
+         EQUALS\n ACTNUM 0 3 3 2 2 2 2 /\n/\n",
+    ))
+    .unwrap();
+    let prop = |n: &str| prop(&d.grid, n);
+    let g = &d.grid;
+    let idx = |i: usize, j: usize, k: usize| i + 3 * (j + 2 * k);
+    let mut permx = vec![100.0; 12];
+    for i in 0..2 {
+        permx[idx(i, 0, 0)] *= 0.5;
+        permx[idx(i, 1, 0)] *= 2.0;
+    }
+    assert_eq!(prop("PERMX"), permx);
+    // PORO + 1 in column I = 3 (J, K defaulted to the whole grid), PERMZ a copy.
+    let mut poro: Vec<f64> = (1..=12).map(|x| x as f64 / 10.0).collect();
+    for j in 0..2 {
+        for k in 0..2 {
+            poro[idx(2, j, k)] += 1.0;
+        }
+    }
+    assert_eq!(prop("PORO"), poro);
+    assert_eq!(prop("PERMZ"), poro);
+    let multz: Vec<f64> = (0..12).map(|c| if c >= 6 { 0.01 } else { 1.0 }).collect();
+    assert_eq!(prop("MULTZ"), multz);
+    let ntg: Vec<f64> = (0..12)
+        .map(|c| if c % 3 == 1 { 0.5 } else { 1.0 })
+        .collect();
+    assert_eq!(prop("NTG"), ntg);
+    let mut act = [1u8; 12];
+    act[idx(2, 1, 1)] = 0;
+    assert_eq!(g.actnum.as_deref(), Some(&act[..]));
+}
+
+#[test]
+fn operator_errors_name_file_line_and_keyword() {
+    let cases = [
+        (
+            "MULTIPLY\n PERMX 2 /\n/\n",
+            "mem.grdecl:22: MULTIPLY: MULTIPLY on PERMX, which is not defined",
+        ),
+        (
+            "EQUALS\n PERMY 7 2 3 1* 1* 2 2 /\n/\n",
+            "EQUALS defines PERMY in part of the grid only",
+        ),
+        ("ADD\n PORO 1 1 4 /\n/\n", "box I 1..4 is not within 1..3"),
+        ("ADD\n PORO 1 2 1 /\n/\n", "box I 2..1 is not within 1..3"),
+        ("MULTIPLY\n PORO x /\n/\n", "'x' is not a finite number"),
+        (
+            "MULTIPLY\n PORO 2 1 1 1 1 1 0.5 /\n/\n",
+            "box index '0.5' is not a positive integer",
+        ),
+        (
+            "COPY\n PERMX PORO /\n/\n",
+            "COPY from PERMX, which is not defined",
+        ),
+        ("COPY\n PORO /\n/\n", "found 1 item(s)"),
+        ("EQUALS\n ZCORN 1 /\n/\n", "EQUALS cannot change ZCORN"),
+        (
+            "MULTIPLY\n ACTNUM 2 /\n/\n",
+            "MULTIPLY cannot change ACTNUM",
+        ),
+        (
+            "EQUALS\n ACTNUM 2 /\n/\n",
+            "EQUALS ACTNUM: value 2 at cell 0 is not 0 or 1",
+        ),
+        ("EQUALS\n PORO 1 /\n", "end of file before the closing '/'"),
+        ("BOX\n 1 2 1 2 1 3 /\n", "box K 1..3 is not within 1..2"),
+    ];
+    for (extra, want) in cases {
+        let e = parse(&box_grid(extra)).unwrap_err().to_string();
+        assert!(e.contains(want), "{extra:?}: got '{e}', want '{want}'");
+        assert!(e.contains("mem.grdecl:"), "{e}");
+    }
+}
+
+#[test]
+fn spe9_and_reek_operators() {
+    let Some(data) = std::env::var_os("STRATASWEEP_DATA").map(PathBuf::from) else {
+        eprintln!("\n*** SKIP spe9_and_reek_operators: STRATASWEEP_DATA is not set ***\n");
+        return;
+    };
+    // SPE9's deck: COPY PERMX to PERMY and PERMZ, then MULTIPLY PERMZ 0.01.
+    let d = read_grdecl(data.join("spe9/SPE9_CP.DATA")).unwrap();
+    let px = prop(&d.grid, "PERMX");
+    assert_eq!(prop(&d.grid, "PERMY"), px);
+    let pz: Vec<f64> = px.iter().map(|x| x * 0.01).collect();
+    assert_eq!(prop(&d.grid, "PERMZ"), pz);
+    assert!(!d.skipped.iter().any(|s| s == "COPY" || s == "MULTIPLY"));
+    // Reek's MULTZ barrier: EQUALS 'MULTZ' 0.01 1 40 1 64 5 5 / (a comment
+    // after the '/'): layer 5 only, 1 elsewhere.
+    let dir = std::env::temp_dir().join(format!("stratasweep-multz-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let deck = dir.join("reek_multz.grdecl");
+    std::fs::write(
+        &deck,
+        format!(
+            "INCLUDE\n '{}' /\nINCLUDE\n '{}' /\n",
+            data.join("reek/reek.grid").display(),
+            data.join("reek/reek.multz").display()
+        ),
+    )
+    .unwrap();
+    let d = read_grdecl(&deck).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    let m = prop(&d.grid, "MULTZ");
+    assert_eq!(m.len(), 40 * 64 * 14);
+    for (c, &v) in m.iter().enumerate() {
+        assert_eq!(v, if c / (40 * 64) == 4 { 0.01 } else { 1.0 }, "cell {c}");
+    }
 }

@@ -313,6 +313,17 @@ impl<'r> Lexer<'r> {
         }
     }
 
+    /// The repeat count `n` of token `t` (`n*...`) in keyword `kw`.
+    fn repeat(&self, t: &Tok, kw: &str, n: &[u8]) -> Result<usize, GrdeclError> {
+        repeat_count(n).map_err(|why| GrdeclError::BadRepeat {
+            file: self.file.clone(),
+            line: t.line,
+            keyword: kw.into(),
+            token: self.text_string(t),
+            why,
+        })
+    }
+
     fn push_back(&mut self, t: Tok) {
         self.pushed = Some(t);
     }
@@ -332,9 +343,9 @@ impl<'r> Lexer<'r> {
         }
     }
 
-    /// Plain numbers straight from the window into `sink`, until anything
-    /// else (a repeat, a comment, `/`, a word, the window's margin): then
-    /// the general path takes over. Same results as `next` + `parse_number`.
+    /// Plain numbers and `N*v` repeats straight from the window into
+    /// `sink`, until anything else (a default `N*`, a comment, `/`, a word,
+    /// the window's margin): then the general path takes over. Same results as `next` + `parse_number`.
     #[inline]
     fn fast_values(&mut self, sink: &mut Sink) {
         if self.pushed.is_some() || self.in_comment {
@@ -362,14 +373,33 @@ impl<'r> Lexer<'r> {
                 p += 1;
                 continue;
             }
-            let Some((v, len)) = parse_prefix(&b[p..]) else {
+            let Some((mut v, len)) = parse_prefix(&b[p..]) else {
                 break;
             };
-            let q = p + len;
+            let mut q = p + len;
+            let mut count = 1;
+            if q < end && b[q] == b'*' {
+                // `N*v` with N a plain positive integer (as `repeat_count`
+                // takes it) and v a plain number; anything else (`N*`,
+                // errors) is left to the general path.
+                let n = &b[p..q];
+                if n.len() > 12 || !n.iter().all(u8::is_ascii_digit) {
+                    break;
+                }
+                count = n.iter().fold(0usize, |a, &c| a * 10 + (c - b'0') as usize);
+                let Some((w, l)) = parse_prefix(&b[q + 1..]) else {
+                    break;
+                };
+                if count == 0 {
+                    break;
+                }
+                v = w;
+                q += 1 + l;
+            }
             if q < end && b[q] > b' ' && b[q] != b'/' {
                 break;
             }
-            sink.push(v, 1);
+            sink.push(v, count);
             bol = false;
             p = q;
         }
@@ -618,12 +648,12 @@ const SECTIONS_AFTER_GRID: [&str; 7] = [
 ];
 
 /// Keywords that take no data.
-const NO_DATA: [&str; 40] = [
+const NO_DATA: [&str; 39] = [
     "RUNSPEC", "GRID", "ECHO", "NOECHO", "OIL", "GAS", "WATER", "DISGAS", "VAPOIL", "METRIC",
     "FIELD", "LAB", "PVT-M", "UNIFIN", "UNIFOUT", "NOINSPEC", "NORSSPEC", "INIT", "NOSIM", "NONNC",
     "FMTIN", "FMTOUT", "NEWTRAN", "OLDTRAN", "NOWARN", "WARN", "MULTOUT", "MULTIN", "IMPES",
-    "FULLIMP", "DUALPORO", "DUALPERM", "BRINE", "THERMAL", "NOGGF", "NOMIX", "ENDBOX", "SKIPREST",
-    "SKIP", "ENDSKIP",
+    "FULLIMP", "DUALPORO", "DUALPERM", "BRINE", "THERMAL", "NOGGF", "NOMIX", "SKIPREST", "SKIP",
+    "ENDSKIP",
 ];
 
 /// Keywords of exactly one record whose data may start with a word in column 0.
@@ -634,10 +664,13 @@ const SINGLE_RECORD: [&str; 18] = [
 ];
 
 /// Keywords made of several records closed by an empty record.
-const MULTI_RECORD: [&str; 16] = [
-    "EQUALS", "MULTIPLY", "COPY", "ADD", "MINVALUE", "MAXVALUE", "OPERATE", "MULTIREG", "COPYREG",
-    "ADDREG", "EQUALREG", "FAULTS", "MULTFLT", "EDITNNC", "NNC", "THPRES",
+const MULTI_RECORD: [&str; 12] = [
+    "MINVALUE", "MAXVALUE", "OPERATE", "MULTIREG", "COPYREG", "ADDREG", "EQUALREG", "FAULTS",
+    "MULTFLT", "EDITNNC", "NNC", "THPRES",
 ];
+
+/// Array operators applied to cell arrays (records up to an empty record).
+const OPERATORS: [&str; 4] = ["EQUALS", "MULTIPLY", "ADD", "COPY"];
 
 /// Per-cell properties whose length is checked (others are recognised by length).
 const KNOWN_PROPERTIES: [&str; 26] = [
@@ -695,6 +728,8 @@ struct Parser {
     /// A GRID section keyword was seen (deck mode).
     in_grid: bool,
     done: bool,
+    /// The input box set by BOX (1-based inclusive `i1 i2 j1 j2 k1 k2`).
+    input_box: Option<[usize; 6]>,
 }
 
 enum Flow {
@@ -720,6 +755,7 @@ impl Parser {
             bytes: 0,
             in_grid: false,
             done: false,
+            input_box: None,
         }
     }
 
@@ -868,6 +904,15 @@ impl Parser {
                     }
                 }
             }
+            _ if OPERATORS.contains(&kw) => self.operator(lx, kw, line)?,
+            "BOX" => {
+                let dims = self.dims_or(lx, line, kw)?;
+                let v = read_small(lx, kw, line, 6, 6)?;
+                let items: Vec<Option<String>> =
+                    v.iter().map(|x| x.map(|x| x.to_string())).collect();
+                self.input_box = Some(op_box(lx, kw, line, dims, &items, None)?);
+            }
+            "ENDBOX" => self.input_box = None,
             _ if kw == "GRID" => self.in_grid = true,
             _ if SECTIONS_AFTER_GRID.contains(&kw) => {
                 if self.in_grid || kw == "END" {
@@ -910,6 +955,127 @@ impl Parser {
             _ => self.unknown(lx, kw)?,
         }
         Ok(Flow::Go)
+    }
+
+    /// EQUALS, MULTIPLY, ADD (`array value [box]`) and COPY (`source
+    /// target [box]`): records up to an empty record, applied in order to
+    /// the cell arrays read so far. Defaulted box items take the previous
+    /// record's (the first record's: the BOX, else the whole grid). An
+    /// array that EQUALS or COPY creates over part of the grid only must
+    /// have a default (1 for the MULT* arrays and NTG). ACTNUM takes EQUALS
+    /// and COPY of 0/1 values.
+    fn operator(&mut self, lx: &mut Lexer, kw: &str, line: usize) -> Result<(), GrdeclError> {
+        let dims = self.dims_or(lx, line, kw)?;
+        let [nx, ny, nz] = dims;
+        let n = nx * ny * nz;
+        let mut last = self.input_box.unwrap_or([1, nx, 1, ny, 1, nz]);
+        while let Some((items, rline)) = read_record(lx, kw, line)? {
+            let bad = |why: String| lx.bad(rline, kw, why);
+            if items.len() < 2 || items.len() > 8 || items[..2].iter().any(|x| x.is_none()) {
+                return Err(bad(format!(
+                    "a record needs {} then at most 6 box indices; found {} item(s)",
+                    if kw == "COPY" {
+                        "a source and a target array"
+                    } else {
+                        "an array and a value"
+                    },
+                    items.len()
+                )));
+            }
+            let name = items[0]
+                .as_deref()
+                .unwrap_or_default()
+                .trim()
+                .to_ascii_uppercase();
+            let arg = items[1].as_deref().unwrap_or_default().trim().to_string();
+            let bx = op_box(lx, kw, rline, dims, &items[2..], Some(last))?;
+            last = bx;
+            let cells: Vec<usize> = (bx[4] - 1..bx[5])
+                .flat_map(|k| {
+                    (bx[2] - 1..bx[3])
+                        .flat_map(move |j| (bx[0] - 1..bx[1]).map(move |i| i + nx * (j + ny * k)))
+                })
+                .collect();
+            let whole = cells.len() == n;
+            let (target, value) = if kw == "COPY" {
+                let src = name.clone();
+                let v: Vec<f64> = if src == "ACTNUM" {
+                    match &self.actnum {
+                        Some(a) => a.iter().map(|&x| x as f64).collect(),
+                        None => vec![1.0; n],
+                    }
+                } else {
+                    match self.properties.iter().find(|p| p.name == src) {
+                        Some(p) => p.values.clone(),
+                        None => return Err(bad(format!("COPY from {src}, which is not defined"))),
+                    }
+                };
+                (arg.to_ascii_uppercase(), Err(v))
+            } else {
+                let x = parse_number(arg.as_bytes())
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| bad(format!("'{arg}' is not a finite number")))?;
+                (name.clone(), Ok(x))
+            };
+            if matches!(target.as_str(), "COORD" | "ZCORN" | "MAPAXES") {
+                return Err(bad(format!("{kw} cannot change {target}")));
+            }
+            if target == "ACTNUM" {
+                if kw == "MULTIPLY" || kw == "ADD" {
+                    return Err(bad(format!("{kw} cannot change ACTNUM (0/1 flags)")));
+                }
+                let a = self.actnum.get_or_insert_with(|| vec![1; n]);
+                for &c in &cells {
+                    let x = match &value {
+                        Ok(x) => *x,
+                        Err(v) => v[c],
+                    };
+                    if x != 0.0 && x != 1.0 {
+                        return Err(GrdeclError::NotActnum {
+                            file: lx.file.clone(),
+                            line: rline,
+                            keyword: format!("{kw} ACTNUM"),
+                            value: x,
+                            index: c,
+                        });
+                    }
+                    a[c] = x as u8;
+                }
+                continue;
+            }
+            let exists = self.properties.iter().any(|p| p.name == target);
+            if !exists {
+                if kw == "MULTIPLY" || kw == "ADD" {
+                    return Err(bad(format!("{kw} on {target}, which is not defined")));
+                }
+                let default = if target.starts_with("MULT") || target == "NTG" {
+                    1.0
+                } else if whole {
+                    0.0
+                } else {
+                    return Err(bad(format!(
+                        "{kw} defines {target} in part of the grid only, and {target} has no default value"
+                    )));
+                };
+                self.set_property(&target, vec![default; n]);
+            }
+            let p = self
+                .properties
+                .iter_mut()
+                .find(|p| p.name == target)
+                .expect("defined above");
+            for &c in &cells {
+                let v = &mut p.values[c];
+                match (kw, &value) {
+                    ("EQUALS", Ok(x)) => *v = *x,
+                    ("MULTIPLY", Ok(x)) => *v *= *x,
+                    ("ADD", Ok(x)) => *v += *x,
+                    (_, Err(src)) => *v = src[c],
+                    _ => unreachable!("value kinds match the keyword"),
+                }
+            }
+        }
+        Ok(())
     }
 
     fn dims_or(&self, lx: &Lexer, line: usize, kw: &str) -> Result<[usize; 3], GrdeclError> {
@@ -1173,13 +1339,7 @@ fn read_values(
                 token: lx.text_string(&t),
             });
         };
-        let r = repeat_count(&s[..k]).map_err(|why| GrdeclError::BadRepeat {
-            file: lx.file.clone(),
-            line: t.line,
-            keyword: kw.into(),
-            token: lx.text_string(&t),
-            why,
-        })?;
+        let r = lx.repeat(&t, kw, &s[..k])?;
         let v = if k + 1 == s.len() {
             match default {
                 Some(d) => d,
@@ -1273,13 +1433,7 @@ fn read_small(
                 }
                 match s.iter().position(|&c| c == b'*') {
                     Some(k) => {
-                        let r = repeat_count(&s[..k]).map_err(|why| GrdeclError::BadRepeat {
-                            file: lx.file.clone(),
-                            line: t.line,
-                            keyword: kw.into(),
-                            token: lx.text_string(&t),
-                            why,
-                        })?;
+                        let r = lx.repeat(&t, kw, &s[..k])?;
                         let val = if k + 1 == s.len() {
                             None
                         } else {
@@ -1320,6 +1474,101 @@ fn read_small(
         return Err(count_err(lx, kw, line, min, v.len()));
     }
     Ok(v)
+}
+
+/// One record of an operator keyword up to its `/` (`N*` expanded to `N`
+/// defaulted items), and the record's line; the rest of the `/`'s line is
+/// a comment. `None` for the empty record that ends the keyword.
+#[allow(clippy::type_complexity)]
+fn read_record(
+    lx: &mut Lexer,
+    kw: &str,
+    line: usize,
+) -> Result<Option<(Vec<Option<String>>, usize)>, GrdeclError> {
+    let mut items = Vec::new();
+    let mut first = None;
+    loop {
+        let t = lx.next()?;
+        match t.kind {
+            Kind::Eof => {
+                return Err(GrdeclError::Truncated {
+                    file: lx.file.clone(),
+                    line: first.unwrap_or(line),
+                    keyword: kw.into(),
+                    expected: 1,
+                    found: items.len(),
+                    next: "end of file before the closing '/'".into(),
+                });
+            }
+            Kind::Slash => {
+                let Some(l) = first else { return Ok(None) };
+                loop {
+                    let u = lx.next()?;
+                    if u.kind == Kind::Eof || u.line != t.line {
+                        lx.push_back(u);
+                        break;
+                    }
+                }
+                return Ok(Some((items, l)));
+            }
+            _ => {
+                first.get_or_insert(t.line);
+                let s = lx.text(&t);
+                match s.iter().position(|&c| c == b'*') {
+                    Some(k) if t.kind == Kind::Word => {
+                        let r = lx.repeat(&t, kw, &s[..k])?;
+                        if r > 8 {
+                            return Err(lx.bad(t.line, kw, "a record has at most 8 items"));
+                        }
+                        let v = (k + 1 < s.len())
+                            .then(|| String::from_utf8_lossy(&s[k + 1..]).into_owned());
+                        items.extend(std::iter::repeat_n(v, r));
+                    }
+                    _ => items.push(Some(lx.text_string(&t))),
+                }
+            }
+        }
+    }
+}
+
+/// A box `[i1, i2, j1, j2, k1, k2]` (1-based, inclusive) from up to six
+/// items; missing or defaulted items take `prev`'s (none: the whole grid).
+fn op_box(
+    lx: &Lexer,
+    kw: &str,
+    line: usize,
+    dims: [usize; 3],
+    items: &[Option<String>],
+    prev: Option<[usize; 6]>,
+) -> Result<[usize; 6], GrdeclError> {
+    let full = [1, dims[0], 1, dims[1], 1, dims[2]];
+    let prev = prev.unwrap_or(full);
+    let mut b = prev;
+    for (a, item) in items.iter().enumerate() {
+        if let Some(s) = item {
+            let x = parse_number(s.trim().as_bytes())
+                .filter(|x| x.fract() == 0.0 && *x >= 1.0 && *x <= 1e9)
+                .ok_or_else(|| {
+                    lx.bad(
+                        line,
+                        kw,
+                        format!("box index '{s}' is not a positive integer"),
+                    )
+                })?;
+            b[a] = x as usize;
+        }
+    }
+    for (a, axis) in ["I", "J", "K"].iter().enumerate() {
+        let (lo, hi) = (b[2 * a], b[2 * a + 1]);
+        if lo > hi || hi > full[2 * a + 1] {
+            return Err(lx.bad(
+                line,
+                kw,
+                format!("box {axis} {lo}..{hi} is not within 1..{}", full[2 * a + 1]),
+            ));
+        }
+    }
+    Ok(b)
 }
 
 fn count_err(lx: &Lexer, kw: &str, line: usize, expected: usize, found: usize) -> GrdeclError {
