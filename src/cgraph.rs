@@ -56,6 +56,7 @@ fn resolve_cells(
     let mut offsets = Vec::with_capacity(n + 1);
     let mut verts = Vec::with_capacity(cells.connectivity.len());
     offsets.push(0u32);
+    let mut by_type = [u16::MAX; 256];
     for c in 0..n {
         let t = cells.types[c];
         let ids = cells.cell(c);
@@ -76,12 +77,21 @@ fn resolve_cells(
             verts.extend_from_slice(&local);
             m
         } else {
-            let m = catalog
-                .for_vtk_type(t)
-                .ok_or_else(|| StructureError::UnsupportedCell {
-                    cell: c,
-                    why: format!("unsupported VTK cell type {t}"),
-                })?;
+            // The catalog's map is looked up once per VTK type.
+            let m = match by_type[t as usize] {
+                u16::MAX => {
+                    let m =
+                        catalog
+                            .for_vtk_type(t)
+                            .ok_or_else(|| StructureError::UnsupportedCell {
+                                cell: c,
+                                why: format!("unsupported VTK cell type {t}"),
+                            })?;
+                    by_type[t as usize] = m;
+                    m
+                }
+                m => m,
+            };
             if t == vtk_type::VOXEL {
                 verts.extend(VOXEL_TO_HEX.iter().map(|&i| ids[i]));
             } else {
@@ -360,58 +370,74 @@ fn sew(
         }
     }
     drop(fill);
-    let face_key = |c: usize, f: &[u8], out: &mut [u32; 32]| -> usize {
-        let ids = &verts[voff[c] as usize..];
+    // The face neighbour of face `f` of live cell `c`: a live cell holding
+    // every vertex of the face whose face of the same length has the same
+    // vertex set.
+    // Vertices of a live cell are distinct, so "same length and every
+    // vertex in the set" is set equality: no sorting.
+    let cells_of = |v: u32| &inc[start[v as usize] as usize..start[v as usize + 1] as usize];
+    let neighbour = |c: usize, f: &[u8]| -> u32 {
+        let ids = &verts[voff[c] as usize..voff[c + 1] as usize];
+        let mut key = [0u32; 32];
         let k = f.len().min(32);
         for (i, &lv) in f.iter().take(k).enumerate() {
-            out[i] = ids[lv as usize];
+            key[i] = ids[lv as usize];
         }
-        out[..k].sort_unstable();
-        k
+        let key = &key[..k];
+        // Candidates: the cells around two vertices half a loop apart (for
+        // a quad, a diagonal: in a conforming grid only the two cells on
+        // either side of the face hold both). The incidence lists are sorted
+        // by cell, so this is a merge.
+        let (mut a, mut b) = (cells_of(key[0]), cells_of(key[k / 2]));
+        while let (Some(&x), Some(&y)) = (a.first(), b.first()) {
+            if x < y {
+                a = &a[1..];
+            } else if y < x {
+                b = &b[1..];
+            } else {
+                a = &a[1..];
+                b = &b[1..];
+                let d = x as usize;
+                if d == c {
+                    continue;
+                }
+                let dv = &verts[voff[d] as usize..voff[d + 1] as usize];
+                if !key.iter().all(|v| dv.contains(v)) {
+                    continue;
+                }
+                let md = catalog.get(metas[d]);
+                if md
+                    .faces
+                    .iter()
+                    .any(|g| g.len() == k && g.iter().all(|&lv| key.contains(&dv[lv as usize])))
+                {
+                    return x;
+                }
+            }
+        }
+        NONE
     };
-    let per_cell: Vec<Vec<u32>> = (0..n)
+    // Cells in blocks, each block's faces in order: one allocation per block.
+    const BLOCK: usize = 4096;
+    let blocks: Vec<Vec<u32>> = (0..n.div_ceil(BLOCK))
         .into_par_iter()
-        .map(|c| {
-            if metas[c] == NON_VOLUMETRIC {
-                return Vec::new();
+        .map(|b| {
+            let mut out = Vec::new();
+            for c in b * BLOCK..((b + 1) * BLOCK).min(n) {
+                if metas[c] == NON_VOLUMETRIC {
+                    continue;
+                }
+                let m = catalog.get(metas[c]);
+                if live.get(c) {
+                    out.extend(m.faces.iter().map(|f| neighbour(c, f)));
+                } else {
+                    out.extend(std::iter::repeat_n(NONE, m.faces.len()));
+                }
             }
-            let m = catalog.get(metas[c]);
-            if !live.get(c) {
-                return vec![NONE; m.faces.len()];
-            }
-            let mut key = [0u32; 32];
-            let mut other = [0u32; 32];
-            m.faces
-                .iter()
-                .map(|f| {
-                    let k = face_key(c, f, &mut key);
-                    let v = key[0] as usize;
-                    for &d in &inc[start[v] as usize..start[v + 1] as usize] {
-                        if d as usize == c {
-                            continue;
-                        }
-                        // Cheap filter before sorting face keys: d must hold
-                        // every vertex of the face.
-                        let dv = &verts[voff[d as usize] as usize..voff[d as usize + 1] as usize];
-                        if !key[1..k].iter().all(|v| dv.contains(v)) {
-                            continue;
-                        }
-                        let md = catalog.get(metas[d as usize]);
-                        for g in &md.faces {
-                            if g.len() == k
-                                && face_key(d as usize, g, &mut other) == k
-                                && other[..k].iter().zip(&key[..k]).all(|(a, b)| a == b)
-                            {
-                                return d;
-                            }
-                        }
-                    }
-                    NONE
-                })
-                .collect()
+            out
         })
         .collect();
-    per_cell.into_iter().flatten().collect()
+    blocks.concat()
 }
 
 impl CellGraph for CGraph {

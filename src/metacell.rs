@@ -464,33 +464,44 @@ impl MetaCell {
     /// Exact for planar faces; for warped quads it is the volume of the
     /// polyhedron with the faces split into triangles around their centroid.
     pub fn signed_volume<F: Fn(usize) -> [f64; 3] + ?Sized>(&self, pos: &F) -> f64 {
-        // Positions fetched once (same arithmetic as fetching them per use).
+        // Positions fetched once, then taken relative to the vertex mean c,
+        // so that each tetrahedron (c, face centre, a, b) is one determinant.
+        let n = self.nv;
         let mut pts = [[0.0f64; 3]; MAX_META_VERTICES];
-        for (v, p) in pts.iter_mut().enumerate().take(self.nv) {
-            *p = pos(v);
-        }
         let mut c = [0.0; 3];
-        for p in &pts[..self.nv] {
+        for (v, p) in pts.iter_mut().enumerate().take(n) {
+            *p = pos(v);
             for a in 0..3 {
-                c[a] += p[a] / self.nv as f64;
+                c[a] += p[a];
             }
         }
-        let mut vol = 0.0;
+        let inv_n = 1.0 / n as f64;
+        for p in &mut pts[..n] {
+            for a in 0..3 {
+                p[a] -= c[a] * inv_n;
+            }
+        }
+        let mut six_vol = 0.0;
         for f in &self.faces {
             let mut fc = [0.0; 3];
             for &v in f {
                 let p = pts[v as usize];
                 for a in 0..3 {
-                    fc[a] += p[a] / f.len() as f64;
+                    fc[a] += p[a];
                 }
             }
-            for i in 0..f.len() {
-                let a = pts[f[i] as usize];
-                let b = pts[f[(i + 1) % f.len()] as usize];
-                vol += tet_volume(c, fc, a, b);
+            let inv_k = 1.0 / f.len() as f64;
+            let fc = fc.map(|x| x * inv_k);
+            let mut prev = pts[*f.last().expect("faces have vertices") as usize];
+            for &v in f {
+                let cur = pts[v as usize];
+                six_vol += fc[0] * (prev[1] * cur[2] - prev[2] * cur[1])
+                    - fc[1] * (prev[0] * cur[2] - prev[2] * cur[0])
+                    + fc[2] * (prev[0] * cur[1] - prev[1] * cur[0]);
+                prev = cur;
             }
         }
-        vol
+        six_vol / 6.0
     }
 }
 

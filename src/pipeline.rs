@@ -97,62 +97,55 @@ impl Structure {
         let ciel = |g: &Grid, h: Option<&[bool]>| -> Result<Ciel, PipelineError> {
             Ok(Ciel::build(g, h).map_err(StructureError::from)?)
         };
-        let s = match choice {
+        match choice {
             StructureChoice::SCGraph => {
-                Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
+                return Ok(Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?));
             }
-            StructureChoice::CGraph => {
-                Structure::CGraph(CGraph::build(grid, hidden.as_deref())?.into())
-            }
-            StructureChoice::Ciel => Structure::Ciel(ciel(grid, hidden.as_deref())?.into()),
             StructureChoice::Auto | StructureChoice::BruteForce if structured => {
-                Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?)
+                return Ok(Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?));
             }
-            _ => match CGraph::build(grid, hidden.as_deref()) {
-                Ok(g) => Structure::CGraph(g.into()),
-                // A cell the catalog cannot take (large or odd polyhedra): CIEL.
-                Err(StructureError::UnsupportedCell { .. }) => {
-                    Structure::Ciel(ciel(grid, hidden.as_deref())?.into())
-                }
-                Err(e) => return Err(e.into()),
-            },
+            StructureChoice::Ciel => {}
+            _ => {
+                // CGraph: split non-convex polyhedra first (one pass over the
+                // polyhedra, nothing when there are none), then build once.
+                let (split_grid, map) = match split_non_convex(grid, hidden.as_deref())? {
+                    Some(sp) => (Some(sp.grid), Some(sp.map)),
+                    None => (None, None),
+                };
+                let g = split_grid.as_ref().unwrap_or(grid);
+                let h = match &split_grid {
+                    Some(sg) => sg.hidden_cells(),
+                    None => hidden,
+                };
+                return match CGraph::build(g, h.as_deref()) {
+                    Ok(inner) => Ok(Structure::CGraph(Split { inner, map })),
+                    // A cell the catalog cannot take (large or odd polyhedra): CIEL.
+                    Err(StructureError::UnsupportedCell { .. })
+                        if choice != StructureChoice::CGraph =>
+                    {
+                        Ok(Structure::Ciel(Split {
+                            inner: ciel(g, h.as_deref())?,
+                            map,
+                        }))
+                    }
+                    Err(e) => Err(e.into()),
+                };
+            }
+        }
+        // CIEL counts non-convex cells while building: split and rebuild only
+        // when there are some (no extra pass for convex grids).
+        let c = ciel(grid, hidden.as_deref())?;
+        if c.counts.non_convex == 0 {
+            return Ok(Structure::Ciel(c.into()));
+        }
+        let Some(split) = split_non_convex(grid, hidden.as_deref())? else {
+            return Ok(Structure::Ciel(c.into()));
         };
-        // Non-convex polyhedra: rebuild on the grid with them split into
-        // convex pieces (CIEL has counted them while building: no extra pass
-        // for convex grids).
-        let check = match &s {
-            Structure::SCGraph(_) => false,
-            Structure::CGraph(_) => true,
-            Structure::Ciel(c) => c.counts.non_convex > 0,
-        };
-        let Some(split) = check
-            .then(|| split_non_convex(grid, hidden.as_deref()))
-            .transpose()?
-            .flatten()
-        else {
-            return Ok(s);
-        };
-        let (g, map) = (&split.grid, Some(split.map));
-        let h = g.hidden_cells();
-        let h = h.as_deref();
-        Ok(match s {
-            Structure::CGraph(_) => match CGraph::build(g, h) {
-                Ok(inner) => Structure::CGraph(Split { inner, map }),
-                Err(StructureError::UnsupportedCell { .. })
-                    if choice != StructureChoice::CGraph =>
-                {
-                    Structure::Ciel(Split {
-                        inner: ciel(g, h)?,
-                        map,
-                    })
-                }
-                Err(e) => return Err(e.into()),
-            },
-            _ => Structure::Ciel(Split {
-                inner: ciel(g, h)?,
-                map,
-            }),
-        })
+        let h = split.grid.hidden_cells();
+        Ok(Structure::Ciel(Split {
+            inner: ciel(&split.grid, h.as_deref())?,
+            map: Some(split.map),
+        }))
     }
 
     /// The split of non-convex polyhedra the structure was built on, if any.
