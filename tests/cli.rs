@@ -262,3 +262,15 @@ fn corner_point_generate_info_and_slice() {
         "{e}"
     );
 }
+
+/// A missing file is named, and the OS error is printed once (an error that
+/// prints its source must not have that source repeated after it).
+#[test]
+fn missing_file_error_names_it_once() {
+    for name in ["missing.grdecl", "missing.vtu", "missing.EGRID"] {
+        let p = tmp(name);
+        let e = run_err(&["info", p.to_str().unwrap()]);
+        assert!(e.contains(p.to_str().unwrap()), "{name}: {e}");
+        assert_eq!(e.matches("os error 2").count(), 1, "{name}: {e}");
+    }
+}
