@@ -510,8 +510,12 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     };
     let ciel = match &s {
         Structure::Ciel(g) => json!({
-            "half_edges": g.half_edges.len(),
-            "bytes_per_half_edge": std::mem::size_of::<stratasweep::ciel::HalfEdge>(),
+            "half_edges": g.half_edge_count(),
+            "bytes_per_half_edge": stratasweep::ciel::BYTES_PER_HALF_EDGE,
+            // With the vertex cycles (CSR of representatives) counted in.
+            "bytes_per_half_edge_with_vertex_cycles": g.bytes().iter()
+                .filter(|(k, _)| *k == "half_edges" || *k == "vertex_edges")
+                .map(|(_, v)| *v).sum::<usize>() as f64 / g.half_edge_count() as f64,
             "edges": g.counts.edges,
             "faces": g.counts.faces,
             "border_half_edges": g.counts.border_half_edges,
@@ -559,7 +563,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     });
     let mut out = out;
     if let Structure::Ciel(g) = &s {
-        out["half_edges"] = json!(g.half_edges.len());
+        out["half_edges"] = json!(g.half_edge_count());
         out["ciel"] = ciel;
     }
     if a.json {
