@@ -48,8 +48,15 @@ struct Scratch {
     ids: Vec<u32>,
     /// Face starts into `ids` (faces + 1).
     starts: Vec<u32>,
-    /// Edge keys `(min << 32 | max, local half-edge | forward << 31)`.
-    keys: Vec<(u64, u32)>,
+    /// Local vertex id of each half-edge's origin.
+    lid: Vec<u32>,
+    /// Next half-edge in its face.
+    nxt: Vec<u32>,
+    /// Global → local vertex id table.
+    table: Vec<(u32, u32)>,
+    /// Outgoing half-edges per local vertex (CSR).
+    out_start: Vec<u32>,
+    out: Vec<u32>,
     /// Edge pairs (local half-edges, same direction?).
     pairs: Vec<(u32, u32, bool)>,
     /// Local `mate_face`.
@@ -58,12 +65,12 @@ struct Scratch {
     he_face: Vec<u32>,
     /// Face keys `(m, lo, hi, face)`.
     fkeys: Vec<(u32, u32, u32, u32)>,
-    /// Distinct vertices of the cell, sorted.
+    /// Distinct vertices of the cell, in first-appearance order.
     verts: Vec<u32>,
     /// Sort buffers.
     tmp: Vec<u32>,
     tmp2: Vec<u32>,
-    bits: Vec<[u64; 3]>,
+    bits: Vec<(u64, u32)>,
     pts: Vec<[f64; 3]>,
     /// Orientation propagation: per face 0 = unset, 1 = keep, 2 = flip.
     flip: Vec<u8>,
@@ -216,7 +223,8 @@ fn face_key(face: &[u32]) -> (usize, u32, u32, u32) {
         }
     }
     let n = face.len();
-    let (a, b) = (face[(p + n - 1) % n], face[(p + 1) % n]);
+    let a = face[if p == 0 { n - 1 } else { p - 1 }];
+    let b = face[if p + 1 == n { 0 } else { p + 1 }];
     (p, face[p], a.min(b), a.max(b))
 }
 
@@ -227,54 +235,124 @@ fn sorted_into(face: &[u32], out: &mut Vec<u32>) {
     out.sort_unstable();
 }
 
-/// Pairs the half-edges of one cell by edge into `s.pairs`: open and
-/// non-manifold edges are errors.
-fn pair_edges(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
-    s.keys.clear();
-    for w in s.starts.windows(2) {
-        let (a0, a1) = (w[0] as usize, w[1] as usize);
-        for i in a0..a1 {
-            let a = s.ids[i];
-            let b = s.ids[if i + 1 == a1 { a0 } else { i + 1 }];
-            let key = (a.min(b) as u64) << 32 | a.max(b) as u64;
-            s.keys.push((key, i as u32 | ((a < b) as u32) << 31));
+/// Cell-local vertex ids: `s.verts` (local → global, first appearance),
+/// `s.lid` per half-edge and `s.nxt` (next half-edge in the face), through
+/// a small open-addressing table (no sort).
+fn local_ids(s: &mut Scratch) {
+    let n = s.ids.len();
+    let cap = (2 * n).next_power_of_two().max(16);
+    s.table.clear();
+    s.table.resize(cap, (u32::MAX, 0));
+    s.verts.clear();
+    s.lid.clear();
+    for &v in &s.ids {
+        let mut k = (v.wrapping_mul(0x9E37_79B9) >> 7) as usize & (cap - 1);
+        loop {
+            let e = s.table[k];
+            if e.0 == v {
+                s.lid.push(e.1);
+                break;
+            }
+            if e.0 == u32::MAX {
+                s.table[k] = (v, s.verts.len() as u32);
+                s.lid.push(s.verts.len() as u32);
+                s.verts.push(v);
+                break;
+            }
+            k = (k + 1) & (cap - 1);
         }
     }
-    s.keys.sort_unstable();
+    s.nxt.clear();
+    for w in s.starts.windows(2) {
+        s.nxt.extend(w[0] + 1..w[1]);
+        s.nxt.push(w[0]);
+    }
+}
+
+/// Pairs the half-edges of one cell by edge into `s.pairs` (and `s.mate`)
+/// through per-vertex lists of outgoing half-edges: open and non-manifold
+/// edges are errors. Needs [`local_ids`].
+fn pair_edges(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
+    let n = s.ids.len();
+    let nv = s.verts.len();
+    s.out_start.clear();
+    s.out_start.resize(nv + 2, 0);
+    for &l in &s.lid {
+        s.out_start[l as usize + 2] += 1;
+    }
+    for k in 2..nv + 2 {
+        s.out_start[k] += s.out_start[k - 1];
+    }
+    s.out.clear();
+    s.out.resize(n, 0);
+    for (h, &l) in s.lid.iter().enumerate() {
+        let k = &mut s.out_start[l as usize + 1];
+        s.out[*k as usize] = h as u32;
+        *k += 1;
+    }
     s.pairs.clear();
-    let mut i = 0;
-    while i < s.keys.len() {
-        let mut j = i + 1;
-        while j < s.keys.len() && s.keys[j].0 == s.keys[i].0 {
-            j += 1;
+    s.mate.clear();
+    s.mate.resize(n, NONE);
+    for h in 0..n {
+        if s.mate[h] != NONE {
+            continue;
         }
-        let (a, b) = ((s.keys[i].0 >> 32) as u32, s.keys[i].0 as u32);
-        let h = s.keys[i].1 & !(1 << 31);
-        match j - i {
-            1 => {
-                return Err(CielError::Open {
-                    cell,
-                    face: face_of(&s.starts, h),
-                    a,
-                    b,
-                });
-            }
-            2 => {
-                let h2 = s.keys[i + 1].1;
-                s.pairs
-                    .push((h, h2 & !(1 << 31), (s.keys[i].1 >> 31) == (h2 >> 31)));
-            }
-            count => {
-                return Err(CielError::NonManifoldEdge {
-                    cell,
-                    face: face_of(&s.starts, h),
-                    a,
-                    b,
-                    count,
-                });
+        let (la, lb) = (s.lid[h], s.lid[s.nxt[h] as usize]);
+        // Fast path: exactly one opposite half-edge, not yet mated, and no
+        // other half-edge from `la` to `lb`... the latter is checked when
+        // that half-edge looks for its own mate (it would find `found`
+        // already mated).
+        let mut count = 1;
+        let mut found = (NONE, false);
+        for &g in &s.out[s.out_start[lb as usize] as usize..s.out_start[lb as usize + 1] as usize] {
+            if s.lid[s.nxt[g as usize] as usize] == la {
+                count += 1;
+                found = (g, false);
             }
         }
-        i = j;
+        if count != 2 || s.mate[found.0 as usize] != NONE {
+            // Slow path: count every half-edge on the edge, both ways.
+            count = 1;
+            for &g in
+                &s.out[s.out_start[lb as usize] as usize..s.out_start[lb as usize + 1] as usize]
+            {
+                if s.lid[s.nxt[g as usize] as usize] == la {
+                    count += 1;
+                    found = (g, false);
+                }
+            }
+            for &g in
+                &s.out[s.out_start[la as usize] as usize..s.out_start[la as usize + 1] as usize]
+            {
+                if g as usize != h && s.lid[s.nxt[g as usize] as usize] == lb {
+                    count += 1;
+                    found = (g, true);
+                }
+            }
+            if count == 2 && s.mate[found.0 as usize] != NONE {
+                count = 3;
+            }
+        }
+        if count == 2 {
+            s.pairs.push((h as u32, found.0, found.1));
+            s.mate[h] = found.0;
+            s.mate[found.0 as usize] = h as u32;
+            continue;
+        }
+        let (a, b) = (s.ids[h], s.ids[s.nxt[h] as usize]);
+        let (a, b) = (a.min(b), a.max(b));
+        let face = face_of(&s.starts, h as u32);
+        return Err(if count == 1 {
+            CielError::Open { cell, face, a, b }
+        } else {
+            CielError::NonManifoldEdge {
+                cell,
+                face,
+                a,
+                b,
+                count,
+            }
+        });
     }
     Ok(())
 }
@@ -359,18 +437,6 @@ fn orient(cell: usize, s: &mut Scratch) -> Result<usize, CielError> {
     Ok(flipped)
 }
 
-/// Newell normal (twice the vector area) of a loop of points.
-fn newell(pts: &[[f64; 3]]) -> [f64; 3] {
-    let mut n = [0.0; 3];
-    for i in 0..pts.len() {
-        let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
-        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
-        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
-        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
-    }
-    n
-}
-
 /// Checks and orients the loops of one cell held in `s` (see the module
 /// docs of [`super`]); on success `s.ids`/`s.starts` hold the outward loops
 /// and `s.mate` the local `mate_face`. Returns (class, flipped, non-convex).
@@ -427,43 +493,49 @@ fn check_cell(
             }
         }
     }
+    local_ids(s);
     pair_edges(cell, s)?;
     let mut flipped = orient(cell, s)?;
+    if flipped > 0 {
+        local_ids(s);
+    }
     // Outward: the signed volume must be positive.
-    sorted_into(&s.ids, &mut s.verts);
-    s.verts.dedup();
     let p0 = points[s.verts[0] as usize];
-    let rel = |v: u32| {
+    s.pts.clear();
+    s.pts.extend(s.verts.iter().map(|&v| {
         let p = points[v as usize];
         [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]]
-    };
+    }));
     let mut vol = 0.0;
     for w in s.starts.windows(2) {
-        let face = &s.ids[w[0] as usize..w[1] as usize];
-        let a = rel(face[0]);
-        let mut b = rel(face[1]);
-        for &v in &face[2..] {
-            let c = rel(v);
+        let face = &s.lid[w[0] as usize..w[1] as usize];
+        let a = s.pts[face[0] as usize];
+        let mut b = s.pts[face[1] as usize];
+        for &l in &face[2..] {
+            let c = s.pts[l as usize];
             vol += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
                 + a[2] * (b[0] * c[1] - b[1] * c[0]);
             b = c;
         }
     }
     vol /= 6.0;
-    s.pts.clear();
-    s.pts.extend(s.verts.iter().map(|&v| rel(v)));
     let ext = s.pts.iter().fold(0.0f64, |e, p| {
         e.max(p[0].abs()).max(p[1].abs()).max(p[2].abs())
     });
     // Repeated positions (distinct ids at the same point): dead, as in the CGraph.
     s.bits.clear();
-    s.bits.extend(
-        s.verts
-            .iter()
-            .map(|&v| points[v as usize].map(f64::to_bits)),
-    );
+    s.bits.extend(s.verts.iter().enumerate().map(|(l, &v)| {
+        let b = points[v as usize].map(f64::to_bits);
+        (b[0] ^ b[1].rotate_left(21) ^ b[2].rotate_left(42), l as u32)
+    }));
     s.bits.sort_unstable();
-    if s.bits.windows(2).any(|w| w[0] == w[1]) {
+    let same_point = |a: u32, b: u32| {
+        points[s.verts[a as usize] as usize] == points[s.verts[b as usize] as usize]
+    };
+    if s.bits
+        .windows(2)
+        .any(|w| w[0].0 == w[1].0 && same_point(w[0].1, w[1].1))
+    {
         return Ok((CellClass::RepeatedVertex, 0, false));
     }
     if vol.is_nan() || vol.abs() <= 1e-12 * ext * ext * ext {
@@ -473,61 +545,52 @@ fn check_cell(
         s.ids.reverse();
         // Reversing the whole array reverses every loop and the face order.
         let total = s.ids.len() as u32;
-        let mut starts: Vec<u32> = s.starts.iter().rev().map(|&x| total - x).collect();
-        std::mem::swap(&mut starts, &mut s.starts);
+        let starts: Vec<u32> = s.starts.iter().rev().map(|&x| total - x).collect();
+        s.starts = starts;
         flipped = nf - flipped;
+        local_ids(s);
     }
     if flipped > 0 {
         pair_edges(cell, s)?;
     }
     // Convexity: every vertex on the inner side of every face plane.
     let mut non_convex = false;
-    let mut buf = [[0f64; 3]; 16];
     'faces: for w in s.starts.windows(2) {
-        let face = &s.ids[w[0] as usize..w[1] as usize];
-        let n = if face.len() <= 16 {
-            for (k, &v) in face.iter().enumerate() {
-                buf[k] = rel(v);
+        let face = &s.lid[w[0] as usize..w[1] as usize];
+        let mut nrm = [0.0; 3];
+        let mut c = [0.0; 3];
+        for (k, &l) in face.iter().enumerate() {
+            let a = s.pts[l as usize];
+            let b = s.pts[face[if k + 1 == face.len() { 0 } else { k + 1 }] as usize];
+            nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
+            nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
+            nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
+            for d in 0..3 {
+                c[d] += a[d];
             }
-            newell(&buf[..face.len()])
-        } else {
-            let pts: Vec<[f64; 3]> = face.iter().map(|&v| rel(v)).collect();
-            newell(&pts)
-        };
-        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        }
+        let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
         if len == 0.0 {
             non_convex = true;
             break;
         }
-        let mut c = [0.0; 3];
-        for &v in face {
-            let p = rel(v);
-            for k in 0..3 {
-                c[k] += p[k] / face.len() as f64;
-            }
-        }
-        let d0 = n[0] * c[0] + n[1] * c[1] + n[2] * c[2];
+        let inv = 1.0 / face.len() as f64;
+        let d0 = (nrm[0] * c[0] + nrm[1] * c[1] + nrm[2] * c[2]) * inv;
         let tol = CONVEXITY_TOLERANCE * ext * len;
         for p in &s.pts {
-            if n[0] * p[0] + n[1] * p[1] + n[2] * p[2] - d0 > tol {
+            if nrm[0] * p[0] + nrm[1] * p[1] + nrm[2] * p[2] - d0 > tol {
                 non_convex = true;
                 break 'faces;
             }
         }
     }
-    // mate_face.
-    s.mate.clear();
-    s.mate.resize(s.ids.len(), NONE);
-    for &(h1, h2, same) in &s.pairs {
-        if same {
-            // Cannot happen after propagation; reported rather than trusted.
-            return Err(CielError::Orientation {
-                cell,
-                face: face_of(&s.starts, h2),
-            });
-        }
-        s.mate[h1 as usize] = h2;
-        s.mate[h2 as usize] = h1;
+    // mate_face: after orientation every edge is used both ways.
+    if let Some(&(_, h2, _)) = s.pairs.iter().find(|p| p.2) {
+        // Cannot happen after propagation; reported rather than trusted.
+        return Err(CielError::Orientation {
+            cell,
+            face: face_of(&s.starts, h2),
+        });
     }
     Ok((CellClass::Valid, flipped, non_convex))
 }
@@ -664,10 +727,6 @@ impl Ciel {
             return Err(CielError::TooLarge(format!("{np} vertices")));
         }
         let mut catalog = Catalog::new();
-        let prisms: Vec<(u8, u16)> = [vtk_type::PENTAGONAL_PRISM, vtk_type::HEXAGONAL_PRISM]
-            .iter()
-            .filter_map(|&t| catalog.for_vtk_type(t).map(|m| (t, m)))
-            .collect();
         let structured_cells;
         let cells = match &grid.topology {
             Topology::Unstructured(c) => c,
@@ -677,6 +736,12 @@ impl Ciel {
             }
         };
         let n = cells.len();
+        // Prism meta-cells only when the grid has prisms.
+        let prisms: Vec<(u8, u16)> = [vtk_type::PENTAGONAL_PRISM, vtk_type::HEXAGONAL_PRISM]
+            .iter()
+            .filter(|&&t| cells.types.contains(&t))
+            .filter_map(|&t| catalog.for_vtk_type(t).map(|m| (t, m)))
+            .collect();
         // 1. Per chunk of cells, in parallel; the first error in cell order wins.
         let chunks: Vec<Result<ChunkOut, CielError>> = (0..n.div_ceil(CHUNK_CELLS))
             .into_par_iter()
@@ -772,21 +837,10 @@ impl Ciel {
                         let loop_of = |i: u32| -> std::ops::Range<u32> {
                             faces[i as usize].start..face_end(i as usize)
                         };
+                        // (Two faces of one cell never match: per-cell
+                        // duplicates are rejected before.)
                         if g.len() == 2 && try_mate(loop_of(g[0].2), loop_of(g[1].2), org, &mate_cell)
                         {
-                            let (ca, cb) = (
-                                cell_start.partition_point(|&s| s <= loop_of(g[0].2).start),
-                                cell_start.partition_point(|&s| s <= loop_of(g[1].2).start),
-                            );
-                            if ca == cb {
-                                let (c, fa) = locate(&cell_start, &origins, loop_of(g[0].2).start);
-                                let (_, fb) = locate(&cell_start, &origins, loop_of(g[1].2).start);
-                                return Err(CielError::DuplicateFace {
-                                    cell: c,
-                                    face: fa.min(fb),
-                                    other: fa.max(fb),
-                                });
-                            }
                             continue;
                         }
                         // General case: group the faces by vertex set.
@@ -931,17 +985,20 @@ fn try_mate(
     };
     let j0 = j0 as u32;
     // Reversed: g[j0 - i] == f[i].
+    let mut j = j0;
     for i in 0..len {
-        if org(g.start + (j0 + len - i) % len) != org(f.start + i) {
+        if org(g.start + j) != org(f.start + i) {
             return false;
         }
+        j = if j == 0 { len - 1 } else { j - 1 };
     }
     // f_i (f[i] → f[i+1]) mates g's half-edge from f[i+1] to f[i], at j0 - i - 1.
+    let mut j = if j0 == 0 { len - 1 } else { j0 - 1 };
     for i in 0..len {
-        let gi = g.start + (j0 + 2 * len - i - 1) % len;
-        let fi = f.start + i;
+        let (fi, gi) = (f.start + i, g.start + j);
         mate_cell[fi as usize].store(gi, Ordering::Relaxed);
         mate_cell[gi as usize].store(fi, Ordering::Relaxed);
+        j = if j == 0 { len - 1 } else { j - 1 };
     }
     true
 }
