@@ -62,7 +62,7 @@ use crate::structure::StructureError;
 mod build;
 mod sweep;
 
-pub use sweep::{CielSweeper, brute_force};
+pub use sweep::{CielSweeper, brute_force, minima};
 
 /// "No half-edge" marker.
 pub const NONE: u32 = u32::MAX;
@@ -512,8 +512,9 @@ impl Ciel {
     }
 
     /// Draws the polygons of cell `c` at level `t` into `mesh` (the cell
-    /// must be cut: `lo < t ≤ hi`), by turning around its faces.
-    /// `scratch` is reused across calls.
+    /// must be cut: `lo < t ≤ hi`), by turning around its faces, and calls
+    /// `crossed(h)` with the entry half-edge `h` of every face the polygons
+    /// cross (so `mate_cell(h)` is a cut neighbour). `scratch` is reused.
     #[inline]
     pub fn draw_cell<F: ScalarField>(
         &self,
@@ -523,13 +524,129 @@ impl Ciel {
         ctx: &EmitContext,
         scratch: &mut DrawScratch,
         mesh: &mut LevelMesh,
+        mut crossed: impl FnMut(u32),
+    ) {
+        const ABOVE: u8 = 1;
+        const USED: u8 = 4;
+        let r = self.cell_half_edges(c);
+        let n = (r.end - r.start) as usize;
+        let he = &self.origins[r.start as usize..r.end as usize];
+        let mf = &self.mate_faces[r.start as usize..r.end as usize];
+        mesh.cut_cells += 1;
+        let DrawScratch {
+            flags,
+            wrap,
+            loops,
+            loop_ends,
+            ..
+        } = scratch;
+        if flags.len() < n {
+            flags.resize(n, 0);
+            wrap.resize(n, 0);
+        }
+        let (flags, wrap) = (&mut flags[..n], &mut wrap[..n]);
+        // Per half-edge: is its origin above? Per face: its first
+        // half-edge, kept at its last half-edge (for next-in-face).
+        let mut fs = 0u32;
+        for i in 0..n {
+            let e = he[i];
+            flags[i] = (f.phi(e & VERTEX_MASK) >= t) as u8;
+            if e & FIRST_IN_FACE != 0 {
+                fs = i as u32;
+            }
+            if e & LAST_IN_FACE != 0 {
+                wrap[i] = fs;
+            }
+        }
+        let next = |i: usize| {
+            if he[i] & LAST_IN_FACE == 0 {
+                i + 1
+            } else {
+                wrap[i] as usize
+            }
+        };
+        // Trace the loops first (entry half-edges, from above to below);
+        // a face with more than two crossings sends the cell to the
+        // general path before anything is emitted.
+        loops.clear();
+        loop_ends.clear();
+        for h in 0..n {
+            if flags[h] != ABOVE || flags[next(h)] & ABOVE != 0 {
+                continue;
+            }
+            let mut cur = h;
+            loop {
+                flags[cur] |= USED;
+                loops.push(cur as u32);
+                // The exit x (below → above) ends the below arc after cur;
+                // the above arc back to cur must hold no other crossing.
+                let mut x = next(cur);
+                let mut xn = next(x);
+                while flags[xn] & ABOVE == 0 {
+                    x = xn;
+                    xn = next(xn);
+                }
+                let mut y = xn;
+                while y != cur {
+                    if flags[y] & ABOVE == 0 {
+                        self.draw_cell_general(f, c, t, ctx, scratch, mesh, &mut crossed);
+                        return;
+                    }
+                    y = next(y);
+                }
+                let nxt = (x as isize + mf[x] as isize) as usize;
+                if nxt == h || loops.len() > n {
+                    break;
+                }
+                cur = nxt;
+            }
+            loop_ends.push(loops.len() as u32);
+        }
+        let mut a0 = 0usize;
+        for &end in loop_ends.iter() {
+            let start = mesh.begin_polygon();
+            for (k, &cur) in loops[a0..end as usize].iter().enumerate() {
+                let cur = cur as usize;
+                crossed(r.start + cur as u32);
+                if k > 0 && k.is_multiple_of(32) {
+                    // Keeps the weld map within its load limit for long polygons.
+                    mesh.reserve_corners(32);
+                }
+                let (a, b) = (he[cur] & VERTEX_MASK, he[next(cur)] & VERTEX_MASK);
+                let (fa, fb) = (f.phi(a), f.phi(b));
+                if a < b {
+                    mesh.corner(a, b, fa, fb, t, ctx);
+                } else {
+                    mesh.corner(b, a, fb, fa, t, ctx);
+                }
+            }
+            mesh.end_polygon(start, c);
+            a0 = end as usize;
+        }
+    }
+
+    /// [`Ciel::draw_cell`] for cells with an ambiguous face (more than two
+    /// crossings): faces decided by [`face_above_connected`].
+    #[allow(clippy::too_many_arguments)]
+    #[cold]
+    fn draw_cell_general<F: ScalarField>(
+        &self,
+        f: &F,
+        c: u32,
+        t: f32,
+        ctx: &EmitContext,
+        scratch: &mut DrawScratch,
+        mesh: &mut LevelMesh,
+        crossed: &mut impl FnMut(u32),
     ) {
         let r = self.cell_half_edges(c);
         let n = (r.end - r.start) as usize;
         let he = &self.origins[r.start as usize..r.end as usize];
         let mf = &self.mate_faces[r.start as usize..r.end as usize];
         // Per half-edge (local index): origin φ and the local next in its face.
-        let DrawScratch { used, phi, next } = scratch;
+        let DrawScratch {
+            used, phi, next, ..
+        } = scratch;
         used.clear();
         used.resize(n, false);
         phi.clear();
@@ -546,7 +663,6 @@ impl Ciel {
                 i as u32 + 1
             });
         }
-        mesh.cut_cells += 1;
         for h in 0..n {
             if used[h] {
                 continue;
@@ -561,6 +677,7 @@ impl Ciel {
             let mut corners = 0usize;
             loop {
                 used[cur] = true;
+                crossed(r.start + cur as u32);
                 let nx = next[cur] as usize;
                 let (a, b) = (he[cur] & VERTEX_MASK, he[nx] & VERTEX_MASK);
                 if corners > 0 && corners.is_multiple_of(32) {
@@ -586,12 +703,28 @@ impl Ciel {
     }
 }
 
-/// Scratch space of [`Ciel::draw_cell`]: per half-edge of the cell, a
-/// used flag, the origin's φ and the local next-in-face index.
+impl DrawScratch {
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.phi.capacity() * 4
+            + self.flags.capacity()
+            + (self.wrap.capacity() + self.loops.capacity() + self.loop_ends.capacity()) * 4
+            + self.used.capacity()
+            + self.next.capacity() * 4
+    }
+}
+
+/// Scratch space of [`Ciel::draw_cell`]: per half-edge of the cell, the
+/// origin's φ, side/crossing/used flags, the face start (at last
+/// half-edges); the general path's used flags and next-in-face indices.
 #[derive(Clone, Debug, Default)]
 pub struct DrawScratch {
-    used: Vec<bool>,
     phi: Vec<f32>,
+    flags: Vec<u8>,
+    wrap: Vec<u32>,
+    loops: Vec<u32>,
+    loop_ends: Vec<u32>,
+    used: Vec<bool>,
     next: Vec<u32>,
 }
 
