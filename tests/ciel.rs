@@ -1057,3 +1057,57 @@ fn ciel_areas_match_vtk() {
         let _ = std::fs::remove_file(&q);
     }
 }
+
+/// `threads > 1` splits the levels into ranges swept apart: the mesh is the
+/// single-threaded one (and the brute force's), the stats the same up to
+/// the order of the area sums.
+#[test]
+fn threads_give_the_single_threaded_output() {
+    use stratasweep::field::FieldSpec;
+    use stratasweep::pipeline::{LevelSpec, SliceRequest, Structure, StructureChoice, slice};
+    let g = stratasweep::voronoi::voronoi(1500, 4);
+    let s = Structure::build(&g, StructureChoice::Ciel).unwrap();
+    let fields = [
+        FieldSpec::Axis {
+            axis: 2,
+            negative: false,
+        },
+        FieldSpec::Normal([0.3, -0.5, 0.8]),
+        FieldSpec::Property("f".into()),
+    ];
+    for field in fields {
+        let run = |threads: usize, brute_force: bool| {
+            let req = SliceRequest {
+                field: field.clone(),
+                levels: LevelSpec::Count(37),
+                attribute: None,
+                threads,
+                brute_force,
+                collect_mesh: true,
+            };
+            slice(&g, &s, &req, &|_| {}).unwrap()
+        };
+        let one = run(1, false);
+        let mesh = one.mesh.as_ref().unwrap();
+        assert!(mesh.poly_level.len() > 1000, "{field:?}: few polygons");
+        assert_eq!(
+            one.mesh,
+            run(1, true).mesh,
+            "{field:?}: sweep != brute force"
+        );
+        for threads in [2, 3, 8] {
+            let r = run(threads, false);
+            assert_eq!(
+                r.mesh, one.mesh,
+                "{field:?}, {threads} threads: mesh differs"
+            );
+            for (a, b) in r.stats.iter().zip(&one.stats) {
+                assert_eq!(
+                    (a.cells, a.polygons, a.triangles),
+                    (b.cells, b.polygons, b.triangles)
+                );
+                assert!((a.area - b.area).abs() <= 1e-12 * b.area.max(1e-30));
+            }
+        }
+    }
+}
