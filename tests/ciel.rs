@@ -1111,3 +1111,32 @@ fn threads_give_the_single_threaded_output() {
         }
     }
 }
+
+/// `bench --law-voronoi` sweeps generated Voronoi grids with CIEL and fits
+/// time per level against cut cells; its cut-cell counts are the brute
+/// force's (the per-level sets are tested above), growing with the grid.
+#[test]
+fn law_voronoi_reports_rows_and_a_fit() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_stratasweep"))
+        .args(["-q", "bench", "--law-voronoi", "300,2400", "--count", "20"])
+        .args(["--repeat", "1", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    for (r, n) in rows.iter().zip([300, 2400]) {
+        assert_eq!(r["structure"], "ciel");
+        assert_eq!(r["cells"], n);
+    }
+    let cut = |r: &serde_json::Value| r["cut_cells_per_level"].as_f64().unwrap();
+    // A plane cuts ~N^(2/3) cells: 8x the cells, ~4x the cut cells.
+    let ratio = cut(&rows[1]) / cut(&rows[0]);
+    assert!((2.5..6.0).contains(&ratio), "cut cells grew by {ratio}");
+    assert!(v["fit"]["b_ns_per_cut_cell"].as_f64().unwrap().is_finite());
+}
