@@ -613,12 +613,7 @@ impl Ciel {
                     mesh.reserve_corners(32);
                 }
                 let (a, b) = (he[cur] & VERTEX_MASK, he[next(cur)] & VERTEX_MASK);
-                let (fa, fb) = (f.phi(a), f.phi(b));
-                if a < b {
-                    mesh.corner(a, b, fa, fb, t, ctx);
-                } else {
-                    mesh.corner(b, a, fb, fa, t, ctx);
-                }
+                corner(mesh, (a, f.phi(a)), (b, f.phi(b)), t, ctx);
             }
             mesh.end_polygon(start, c);
             a0 = end as usize;
@@ -684,12 +679,7 @@ impl Ciel {
                     // Keeps the weld map within its load limit for long polygons.
                     mesh.reserve_corners(32);
                 }
-                let (fa, fb) = (phi[cur], phi[nx]);
-                if a < b {
-                    mesh.corner(a, b, fa, fb, t, ctx);
-                } else {
-                    mesh.corner(b, a, fb, fa, t, ctx);
-                }
+                corner(mesh, (a, phi[cur]), (b, phi[nx]), t, ctx);
                 corners += 1;
                 let exit = exit_in_face(he, phi, next, cur, t);
                 let nxt = (exit as isize + mf[exit] as isize) as usize;
@@ -711,6 +701,17 @@ impl DrawScratch {
             + (self.wrap.capacity() + self.loops.capacity() + self.loop_ends.capacity()) * 4
             + self.used.capacity()
             + self.next.capacity() * 4
+    }
+}
+
+/// The polygon corner on edge `a`–`b` (vertex ids with their φ),
+/// interpolated from the smaller id to the larger, welded by the edge.
+#[inline(always)]
+fn corner(mesh: &mut LevelMesh, a: (u32, f32), b: (u32, f32), t: f32, ctx: &EmitContext) {
+    if a.0 < b.0 {
+        mesh.corner(a.0, b.0, a.1, b.1, t, ctx);
+    } else {
+        mesh.corner(b.0, a.0, b.1, a.1, t, ctx);
     }
 }
 
