@@ -54,7 +54,7 @@
 
 use thiserror::Error;
 
-use crate::extract::{EmitContext, LevelMesh, face_above_connected};
+use crate::extract::{EmitContext, LevelMesh, face_above_connected, prefetch};
 use crate::field::ScalarField;
 use crate::grid::{Cells, vtk_type};
 use crate::structure::StructureError;
@@ -532,6 +532,15 @@ impl Ciel {
         let n = (r.end - r.start) as usize;
         let he = &self.origins[r.start as usize..r.end as usize];
         let mf = &self.mate_faces[r.start as usize..r.end as usize];
+        // The trace reads a few mate_face offsets and (through `crossed`)
+        // mate_cell entries of this cell: fetch their lines while the first
+        // pass runs.
+        for i in (r.start as usize..r.end as usize).step_by(32) {
+            prefetch(&self.mate_faces, i);
+        }
+        for i in (r.start as usize..r.end as usize).step_by(16) {
+            prefetch(&self.mate_cells, i);
+        }
         mesh.cut_cells += 1;
         let DrawScratch {
             flags,
