@@ -272,6 +272,17 @@ fn check_links(c: &Ciel, label: &str) {
             fan_of[y as usize] = h;
         }
     }
+    // for_each_cell_around_edge visits exactly the fan, each half-edge once.
+    let mut members: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+    for h in 0..n {
+        members.entry(fan_of[h as usize]).or_default().push(h);
+    }
+    for (&root, want) in &members {
+        let mut got = Vec::new();
+        c.for_each_cell_around_edge(root, |x| got.push(x));
+        got.sort_unstable();
+        assert_eq!(&got, want, "{label}: fan of {root}");
+    }
     // Fans per directed edge: one on a manifold edge, more where cells
     // meet only along the edge (e.g. around hidden cells).
     let mut fans: BTreeMap<(u32, u32), usize> = BTreeMap::new();
