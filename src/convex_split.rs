@@ -41,7 +41,7 @@ use std::ops::Deref;
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::ciel::{CONVEXITY_TOLERANCE, build_cell, parse_face_stream};
+use crate::ciel::{CONVEXITY_TOLERANCE, polyhedron_faces};
 use crate::extract::EmitContext;
 use crate::field::ScalarField;
 use crate::grid::{Cells, Grid, Property, Topology, is_lower_dimensional, vtk_type};
@@ -554,8 +554,7 @@ pub fn split_non_convex(
         .into_par_iter()
         .filter(|&c| cells.types[c] == vtk_type::POLYHEDRON && !is_hidden(c))
         .filter_map(|c| {
-            let faces = parse_face_stream(c, cells.faces_of(c)).ok()?;
-            let cf = build_cell(c, faces, points).ok()?;
+            let cf = polyhedron_faces(c, cells.faces_of(c), points).ok()?;
             (is_sweepable(cf.class) && cf.non_convex).then(|| {
                 let faces = cf
                     .starts

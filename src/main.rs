@@ -275,6 +275,9 @@ struct BenchArgs {
     /// The paper's law: time per level against cut cells over generated warped grids of these sizes (cells per axis).
     #[arg(long, value_delimiter = ',')]
     law: Option<Vec<usize>>,
+    /// The law for CIEL: as --law over generated Voronoi grids of these cell counts (structure ciel).
+    #[arg(long, value_delimiter = ',')]
+    law_voronoi: Option<Vec<usize>>,
     /// Print JSON.
     #[arg(long)]
     json: bool,
@@ -534,8 +537,12 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     };
     let ciel = match &s {
         Structure::Ciel(g) => json!({
-            "half_edges": g.half_edges.len(),
-            "bytes_per_half_edge": std::mem::size_of::<stratasweep::ciel::HalfEdge>(),
+            "half_edges": g.half_edge_count(),
+            "bytes_per_half_edge": stratasweep::ciel::BYTES_PER_HALF_EDGE,
+            // With the vertex cycles (CSR of representatives) counted in.
+            "bytes_per_half_edge_with_vertex_cycles": g.bytes().iter()
+                .filter(|(k, _)| *k == "half_edges" || *k == "vertex_edges")
+                .map(|(_, v)| *v).sum::<usize>() as f64 / g.half_edge_count() as f64,
             "edges": g.counts.edges,
             "faces": g.counts.faces,
             "border_half_edges": g.counts.border_half_edges,
@@ -583,7 +590,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     });
     let mut out = out;
     if let Structure::Ciel(g) = &s {
-        out["half_edges"] = json!(g.half_edges.len());
+        out["half_edges"] = json!(g.half_edge_count());
         out["ciel"] = ciel;
     }
     // Non-convex polyhedra split into convex pieces before building.
@@ -1067,7 +1074,22 @@ fn timed(repeat: usize, mut f: impl FnMut() -> Result<SliceResult>) -> Result<(f
 
 fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
     if let Some(sizes) = &a.law {
-        return bench_law(sizes, &a, quiet);
+        for &n in sizes {
+            if n == 0 || n > 1024 {
+                bail!("--law sizes must be in 1..=1024");
+            }
+        }
+        return bench_law(sizes, &a, quiet, &|n| {
+            Ok((generate::warped([n, n, n], 1), StructureChoice::Auto))
+        });
+    }
+    if let Some(sizes) = &a.law_voronoi {
+        if sizes.iter().any(|&n| n == 0 || n > 10_000_000) {
+            bail!("--law-voronoi cell counts must be in 1..=10000000");
+        }
+        return bench_law(sizes, &a, quiet, &|n| {
+            Ok((stratasweep::voronoi::voronoi(n, 1), StructureChoice::Ciel))
+        });
     }
     if let Some(devices) = &a.device {
         return gpu_cmd::cmd_bench_devices(&a, devices, quiet);
@@ -1301,17 +1323,17 @@ fn peak_rss_bytes() -> Option<u64> {
     Some(kb * 1024)
 }
 
+/// A generated grid of size `n` and the structure to sweep it with.
+type LawGrid<'a> = &'a dyn Fn(usize) -> Result<(Grid, StructureChoice)>;
+
 /// Time per level against cut cells over grid sizes, with a least-squares fit.
-fn bench_law(sizes: &[usize], a: &BenchArgs, quiet: bool) -> Result<()> {
+fn bench_law(sizes: &[usize], a: &BenchArgs, quiet: bool, make: LawGrid) -> Result<()> {
     let field = parse_axis(&a.axis)?;
     let mut rows = Vec::new();
     let mut pts: Vec<(f64, f64)> = Vec::new();
     for &n in sizes {
-        if n == 0 || n > 1024 {
-            bail!("--law sizes must be in 1..=1024");
-        }
-        let grid = generate::warped([n, n, n], 1);
-        let s = Structure::build(&grid, StructureChoice::Auto)?;
+        let (grid, choice) = make(n)?;
+        let s = Structure::build(&grid, choice)?;
         let req = SliceRequest {
             field: field.clone(),
             levels: LevelSpec::Count(a.count),
@@ -1328,13 +1350,15 @@ fn bench_law(sizes: &[usize], a: &BenchArgs, quiet: bool) -> Result<()> {
         pts.push((cut_per_level, per_level));
         if !quiet && !a.json {
             println!(
-                "  {n:>4}^3  {:>10.0} cut cells/level  {:>9.3} ms/level  {:>6.1} ns/cut cell",
+                "  {n:>8} ({} cells, {})  {:>10.0} cut cells/level  {:>9.3} ms/level  {:>6.1} ns/cut cell",
+                grid.cell_count(),
+                s.name(),
                 cut_per_level,
                 per_level * 1e3,
                 per_level * 1e9 / cut_per_level
             );
         }
-        rows.push(json!({"n": n, "cells": grid.cell_count(), "cut_cells_per_level": cut_per_level, "seconds_per_level": per_level}));
+        rows.push(json!({"n": n, "structure": s.name(), "cells": grid.cell_count(), "cut_cells_per_level": cut_per_level, "seconds_per_level": per_level}));
     }
     // Least squares t = a + b·cut.
     let m = pts.len() as f64;

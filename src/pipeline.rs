@@ -503,7 +503,10 @@ fn count_input_cells(stats: &mut [LevelStats], mut cut: Vec<Vec<(u32, u32)>>) {
     }
 }
 
-/// [`run_on`] for CIEL: the edge-based sweep (one thread) or the CIEL brute force.
+/// [`run_on`] for CIEL: the edge-based sweep or the CIEL brute force. With
+/// `threads > 1` the levels are split into contiguous ranges swept in
+/// parallel, each from the state the whole sweep has before its first
+/// level ([`CielSweeper::sweep_after`]): the same cells and polygons.
 fn run_ciel<F: ScalarField>(
     g: &Ciel,
     f: &F,
@@ -513,9 +516,9 @@ fn run_ciel<F: ScalarField>(
     split: Option<&SplitMap>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SliceResult, PipelineError> {
+    use rayon::prelude::*;
     let (world, levels) = place_levels(g.live_range(f), world_offset, &req.levels)?;
     let source = |c: u32| split.map_or(c, |m| m.source[c as usize]);
-    let mut cut: Vec<Vec<(u32, u32)>> = vec![Vec::new(); levels.len()];
     let ctx = EmitContext {
         positions: &g.positions,
         attribute,
@@ -523,35 +526,69 @@ fn run_ciel<F: ScalarField>(
     };
     let k = levels.len();
     let mut timings = Timings::default();
-    let mut stats = vec![LevelStats::default(); k];
-    let mut pieces: Pieces = vec![Vec::new(); k];
-    let mut mesh = LevelMesh::default();
     let collect = req.collect_mesh;
-    let mut on_level = |lv: usize, m: &LevelMesh, st: &LevelStats| {
-        stats[lv] = *st;
-        if collect {
-            pieces[lv] = level_pieces(m, source);
-        }
-        if let Some(sm) = split {
-            cut_pieces(m, sm, source, &mut cut[lv]);
-        }
-        progress(1);
+    // One range of levels: its stats, pieces, split pieces cut and state bytes.
+    let run_range = |a: usize,
+                     b: usize,
+                     sweep: &mut dyn FnMut(
+        &mut LevelMesh,
+        &mut dyn FnMut(usize, &LevelMesh, &LevelStats),
+    )| {
+        let mut stats = vec![LevelStats::default(); b - a];
+        let mut pieces: Pieces = vec![Vec::new(); b - a];
+        let mut cut: Vec<Vec<(u32, u32)>> = vec![Vec::new(); b - a];
+        let mut mesh = LevelMesh::default();
+        sweep(&mut mesh, &mut |lv, m, st| {
+            stats[lv] = *st;
+            if collect {
+                pieces[lv] = level_pieces(m, source);
+            }
+            if let Some(sm) = split {
+                cut_pieces(m, sm, source, &mut cut[lv]);
+            }
+            progress(1);
+        });
+        (stats, pieces, cut, mesh.capacity_bytes())
     };
-    let (minima, state) = if req.brute_force {
+    let (parts, minima) = if req.brute_force {
         let t = Instant::now();
-        crate::ciel::brute_force(g, f, &levels, &ctx, &mut mesh, &mut on_level);
+        let part = run_range(0, k, &mut |mesh, on_level| {
+            crate::ciel::brute_force(g, f, &levels, &ctx, mesh, on_level)
+        });
         timings.sweep = t.elapsed().as_secs_f64();
-        (0, 0)
+        (vec![(part, 0)], 0)
     } else {
-        let mut sw = CielSweeper::new(g);
         let t = Instant::now();
-        let minima = sw.prepare_minima(f);
+        let minima = crate::ciel::minima(g, f);
         timings.minima = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        sw.sweep(f, &levels, &ctx, &mut mesh, &mut on_level);
+        let n = req.threads.clamp(1, k.max(1));
+        let parts: Vec<_> = (0..n)
+            .into_par_iter()
+            .map(|b| {
+                let (lo, hi) = (k * b / n, k * (b + 1) / n);
+                let mut sw = CielSweeper::new(g);
+                sw.set_minima(minima.clone());
+                let prev = (lo > 0).then(|| levels[lo - 1]);
+                let part = run_range(lo, hi, &mut |mesh, on_level| {
+                    sw.sweep_after(f, prev, &levels[lo..hi], &ctx, mesh, on_level)
+                });
+                (part, sw.state_bytes())
+            })
+            .collect();
         timings.sweep = t.elapsed().as_secs_f64();
-        (minima, sw.state_bytes())
+        (parts, minima.len())
     };
+    let mut stats = Vec::with_capacity(k);
+    let mut pieces: Pieces = Vec::with_capacity(k);
+    let mut cut = Vec::with_capacity(k);
+    let mut state = 0;
+    for ((st, pc, ct, mesh_bytes), sw_bytes) in parts {
+        stats.extend(st);
+        pieces.extend(pc);
+        cut.extend(ct);
+        state += mesh_bytes + sw_bytes;
+    }
     if split.is_some() {
         count_input_cells(&mut stats, cut);
     }
@@ -561,7 +598,7 @@ fn run_ciel<F: ScalarField>(
         stats,
         mesh: mesh_out,
         minima,
-        sweep_state_bytes: state + mesh.capacity_bytes(),
+        sweep_state_bytes: state,
         timings,
         attribute_name: String::new(),
     })

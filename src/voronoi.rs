@@ -208,6 +208,20 @@ fn cell(i: usize, sites: &[[f64; 3]], tree: &ImmutableKdTree<f64, 3>) -> Poly {
     }
 }
 
+/// Morton code of a point of the unit box (21 bits per axis).
+fn morton(p: [f64; 3]) -> u64 {
+    let spread = |x: f64| {
+        let mut v = (x.clamp(0.0, 1.0) * ((1u64 << 21) - 1) as f64) as u64;
+        v = (v | v << 32) & 0x1f_0000_0000_ffff;
+        v = (v | v << 16) & 0x1f_0000_ff00_00ff;
+        v = (v | v << 8) & 0x100f_00f0_0f00_f00f;
+        v = (v | v << 4) & 0x10c3_0c30_c30c_30c3;
+        v = (v | v << 2) & 0x1249_2492_4924_9249;
+        v
+    };
+    spread(p[0]) | spread(p[1]) << 1 | spread(p[2]) << 2
+}
+
 /// Smooth point property of the Voronoi grid.
 pub fn voronoi_field(p: [f64; 3]) -> f64 {
     (3.0 * p[0]).sin() * (2.0 * p[1]).cos() + p[2] * p[2] + 0.5 * (4.0 * p[0] * p[1]).sin()
@@ -225,7 +239,10 @@ pub fn voronoi(cells: usize, seed: u64) -> Grid {
         z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
     };
-    let sites: Vec<[f64; 3]> = (0..n).map(|_| [next(), next(), next()]).collect();
+    let mut sites: Vec<[f64; 3]> = (0..n).map(|_| [next(), next(), next()]).collect();
+    // Cells (and so first-use vertex ids) in Morton order: neighbours sit
+    // close in memory, as in grids written by meshers.
+    sites.sort_by_cached_key(|p| morton(*p));
     let tree: ImmutableKdTree<f64, 3> =
         ImmutableKdTree::new_from_slice(&sites).expect("k-d tree of the sites");
     let polys: Vec<Poly> = (0..n)
@@ -275,6 +292,16 @@ pub fn voronoi(cells: usize, seed: u64) -> Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn morton_interleaves_bits() {
+        let one = 1.0 / ((1u64 << 21) - 1) as f64;
+        assert_eq!(morton([one, 0.0, 0.0]), 1);
+        assert_eq!(morton([0.0, one, 0.0]), 2);
+        assert_eq!(morton([0.0, 0.0, one]), 4);
+        assert_eq!(morton([1.0, 1.0, 1.0]), (1u64 << 63) - 1);
+        assert!(morton([0.1, 0.1, 0.1]) < morton([0.9, 0.9, 0.9]));
+    }
 
     #[test]
     fn clipped_box_volume() {

@@ -184,9 +184,158 @@ fn fields(c: &Ciel, g: &Grid) -> Vec<(String, Vec<f32>, Vec<f32>)> {
     out
 }
 
+/// The four links against the cells' own edges: `mate_face` and
+/// `mate_cell` are involutions pairing opposite half-edges of one edge
+/// (same cell / another cell), every fan (`mate_face`∘`mate_cell` orbit)
+/// holds exactly one representative, and each vertex's
+/// `next_around_vertex` cycle visits exactly its neighbours, once each.
+fn check_links(c: &Ciel, label: &str) {
+    use std::collections::{BTreeMap, BTreeSet};
+    use stratasweep::ciel::NONE;
+    let n = c.half_edge_count() as u32;
+    let mut nbrs: BTreeMap<u32, BTreeSet<u32>> = BTreeMap::new();
+    for h in 0..n {
+        let (a, b) = (c.org(h), c.dest(h));
+        nbrs.entry(a).or_default().insert(b);
+        nbrs.entry(b).or_default().insert(a);
+        let m = c.mate_face(h);
+        assert!(m != h && m < n, "{label}: mate_face({h}) = {m}");
+        assert_eq!(
+            c.mate_face(m),
+            h,
+            "{label}: mate_face not an involution at {h}"
+        );
+        assert_eq!(
+            (c.org(m), c.dest(m)),
+            (b, a),
+            "{label}: mate_face({h}) not opposite"
+        );
+        assert_eq!(
+            c.cell_of(m),
+            c.cell_of(h),
+            "{label}: mate_face({h}) in another cell"
+        );
+        let x = c.mate_cell(h);
+        if x != NONE {
+            assert_eq!(
+                c.mate_cell(x),
+                h,
+                "{label}: mate_cell not an involution at {h}"
+            );
+            assert_eq!(
+                (c.org(x), c.dest(x)),
+                (b, a),
+                "{label}: mate_cell({h}) not opposite"
+            );
+            assert_ne!(
+                c.cell_of(x),
+                c.cell_of(h),
+                "{label}: mate_cell({h}) in the same cell"
+            );
+        }
+        // next_around_face stays in the face and closes the loop.
+        assert_eq!(c.prev_around_face(c.next_around_face(h)), h);
+    }
+    // One representative per fan.
+    let mut fan_reps = vec![0u32; n as usize];
+    let mut fan_of = vec![NONE; n as usize];
+    for h in 0..n {
+        if fan_of[h as usize] != NONE {
+            continue;
+        }
+        // Collect the orbit both ways.
+        let mut orbit = vec![h];
+        let mut x = h;
+        loop {
+            let y = c.mate_cell(c.mate_face(x));
+            if y == NONE || y == h {
+                break;
+            }
+            orbit.push(y);
+            x = y;
+        }
+        let mut x = h;
+        loop {
+            let m = c.mate_cell(x);
+            if m == NONE {
+                break;
+            }
+            let y = c.mate_face(m);
+            if y == h {
+                break;
+            }
+            orbit.push(y);
+            x = y;
+        }
+        for &y in &orbit {
+            assert_eq!(c.org(y), c.org(h), "{label}: fan of {h} changes origin");
+            fan_of[y as usize] = h;
+        }
+    }
+    // for_each_cell_around_edge visits exactly the fan, each half-edge once.
+    let mut members: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+    for h in 0..n {
+        members.entry(fan_of[h as usize]).or_default().push(h);
+    }
+    for (&root, want) in &members {
+        let mut got = Vec::new();
+        c.for_each_cell_around_edge(root, |x| got.push(x));
+        got.sort_unstable();
+        assert_eq!(&got, want, "{label}: fan of {root}");
+    }
+    // Fans per directed edge: one on a manifold edge, more where cells
+    // meet only along the edge (e.g. around hidden cells).
+    let mut fans: BTreeMap<(u32, u32), usize> = BTreeMap::new();
+    for h in 0..n {
+        if fan_of[h as usize] == h {
+            *fans.entry((c.org(h), c.dest(h))).or_default() += 1;
+        }
+    }
+    for v in nbrs.keys() {
+        let list = c.around_vertex(*v);
+        let mut dests: BTreeMap<(u32, u32), usize> = BTreeMap::new();
+        for &h in list {
+            *dests.entry((*v, c.dest(h))).or_default() += 1;
+        }
+        let want: BTreeMap<(u32, u32), usize> = fans
+            .range((*v, 0)..=(*v, u32::MAX))
+            .map(|(k, x)| (*k, *x))
+            .collect();
+        assert_eq!(
+            dests, want,
+            "{label}: vertex {v}'s cycle is not one entry per fan"
+        );
+        let set: BTreeSet<u32> = dests.keys().map(|k| k.1).collect();
+        assert_eq!(&set, &nbrs[v], "{label}: vertex {v}'s cycle misses edges");
+        // The cycle through next_around_vertex.
+        let mut h = list[0];
+        for _ in 0..list.len() {
+            assert_eq!(c.org(h), *v);
+            fan_reps[fan_of[h as usize] as usize] += 1;
+            h = c.next_around_vertex(h);
+        }
+        assert_eq!(h, list[0], "{label}: vertex {v}'s cycle does not close");
+    }
+    for h in 0..n {
+        if fan_of[h as usize] == h {
+            assert_eq!(
+                fan_reps[h as usize], 1,
+                "{label}: fan of {h} has {} representatives",
+                fan_reps[h as usize]
+            );
+        } else {
+            assert_eq!(
+                c.next_around_vertex(h) == NONE,
+                !c.around_vertex(c.org(h)).contains(&h)
+            );
+        }
+    }
+}
+
 /// CIEL sweep == grid reference (cell sets) and == CIEL brute force (polygons).
 fn check_grid(g: &Grid, label: &str) -> Ciel {
     let c = Ciel::build(g, g.hidden_cells().as_deref()).unwrap_or_else(|e| panic!("{label}: {e}"));
+    check_links(&c, label);
     let live = live_flags(g);
     let mut cut = 0;
     for (name, phi, levels) in fields(&c, g) {
@@ -328,7 +477,8 @@ fn random_polyhedral_grids_match_the_reference() {
         let g = polyhedral(n, jitter, holes, &mut rng);
         g.validate().unwrap();
         let c = check_grid(&g, &format!("round {round} {n:?}"));
-        assert_eq!(std::mem::size_of_val(&c.half_edges[0]), 16);
+        let he_bytes = c.bytes().iter().find(|b| b.0 == "half_edges").unwrap().1;
+        assert_eq!(he_bytes, c.half_edge_count() * 10);
     }
 }
 
@@ -546,7 +696,7 @@ fn cube_faces() -> Vec<Vec<u32>> {
 #[test]
 fn bad_polyhedra_are_errors_naming_cell_and_face() {
     let ok = Ciel::build(&one_cell(&cube_faces(), cube_points()), None).unwrap();
-    assert_eq!(ok.half_edges.len(), 24);
+    assert_eq!(ok.half_edge_count(), 24);
     assert_eq!(ok.counts.flipped_faces, 0);
     // Open: a face missing.
     let mut f = cube_faces();
@@ -728,7 +878,7 @@ proptest! {
         let parsed = parse_face_stream(0, &stream).unwrap();
         prop_assert_eq!(&parsed, &faces);
         let c = Ciel::build(&one_cell(&parsed, cube_points()), None).unwrap();
-        prop_assert_eq!(c.half_edges.len(), 24);
+        prop_assert_eq!(c.half_edge_count(), 24);
         prop_assert!(c.cell_volume(0) > 0.99);
     }
 }
@@ -742,8 +892,8 @@ fn voronoi_grid_is_conforming_and_matches_the_reference() {
     assert_eq!(c.counts.non_convex, 0);
     assert_eq!(c.counts.flipped_faces, 0, "faces are written outward");
     // Conforming: every border half-edge lies on the box.
-    for (h, he) in c.half_edges.iter().enumerate() {
-        if he.mate_cell == stratasweep::ciel::NONE {
+    for h in 0..c.half_edge_count() {
+        if c.mate_cell(h as u32) == stratasweep::ciel::NONE {
             let (a, b) = (
                 g.points[c.org(h as u32) as usize],
                 g.points[c.dest(h as u32) as usize],
@@ -917,4 +1067,87 @@ fn ciel_areas_match_vtk() {
         }
         let _ = std::fs::remove_file(&q);
     }
+}
+
+/// `threads > 1` splits the levels into ranges swept apart: the mesh is the
+/// single-threaded one (and the brute force's), the stats the same up to
+/// the order of the area sums.
+#[test]
+fn threads_give_the_single_threaded_output() {
+    use stratasweep::field::FieldSpec;
+    use stratasweep::pipeline::{LevelSpec, SliceRequest, Structure, StructureChoice, slice};
+    let g = stratasweep::voronoi::voronoi(1500, 4);
+    let s = Structure::build(&g, StructureChoice::Ciel).unwrap();
+    let fields = [
+        FieldSpec::Axis {
+            axis: 2,
+            negative: false,
+        },
+        FieldSpec::Normal([0.3, -0.5, 0.8]),
+        FieldSpec::Property("f".into()),
+    ];
+    for field in fields {
+        let run = |threads: usize, brute_force: bool| {
+            let req = SliceRequest {
+                field: field.clone(),
+                levels: LevelSpec::Count(37),
+                attribute: None,
+                threads,
+                brute_force,
+                collect_mesh: true,
+            };
+            slice(&g, &s, &req, &|_| {}).unwrap()
+        };
+        let one = run(1, false);
+        let mesh = one.mesh.as_ref().unwrap();
+        assert!(mesh.poly_level.len() > 1000, "{field:?}: few polygons");
+        assert_eq!(
+            one.mesh,
+            run(1, true).mesh,
+            "{field:?}: sweep != brute force"
+        );
+        for threads in [2, 3, 8] {
+            let r = run(threads, false);
+            assert_eq!(
+                r.mesh, one.mesh,
+                "{field:?}, {threads} threads: mesh differs"
+            );
+            for (a, b) in r.stats.iter().zip(&one.stats) {
+                assert_eq!(
+                    (a.cells, a.polygons, a.triangles),
+                    (b.cells, b.polygons, b.triangles)
+                );
+                assert!((a.area - b.area).abs() <= 1e-12 * b.area.max(1e-30));
+            }
+        }
+    }
+}
+
+/// `bench --law-voronoi` sweeps generated Voronoi grids with CIEL and fits
+/// time per level against cut cells; its cut-cell counts are the brute
+/// force's (the per-level sets are tested above), growing with the grid.
+#[test]
+fn law_voronoi_reports_rows_and_a_fit() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_stratasweep"))
+        .args(["-q", "bench", "--law-voronoi", "300,2400", "--count", "20"])
+        .args(["--repeat", "1", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    for (r, n) in rows.iter().zip([300, 2400]) {
+        assert_eq!(r["structure"], "ciel");
+        assert_eq!(r["cells"], n);
+    }
+    let cut = |r: &serde_json::Value| r["cut_cells_per_level"].as_f64().unwrap();
+    // A plane cuts ~N^(2/3) cells: 8x the cells, ~4x the cut cells.
+    let ratio = cut(&rows[1]) / cut(&rows[0]);
+    assert!((2.5..6.0).contains(&ratio), "cut cells grew by {ratio}");
+    assert!(v["fit"]["b_ns_per_cut_cell"].as_f64().unwrap().is_finite());
 }

@@ -1,0 +1,1036 @@
+//! Construction of a [`Ciel`] from face lists (the paper's §4.2), linear in
+//! the input and free of per-cell allocations.
+//!
+//! 1. Per chunk of cells (in parallel, scratch buffers reused): face loops
+//!    are read straight from the face stream (or the catalog's faces for
+//!    typed cells), checked, oriented and written as half-edges with their
+//!    `mate_face` offsets; each face leaves a record keyed by its smallest
+//!    vertex and that vertex's two loop neighbours.
+//! 2. Chunks are concatenated in cell order (deterministic).
+//! 3. `mate_cell`: face records are bucketed by smallest vertex (a counting
+//!    sort), each bucket is sorted by its keys and equal keys are matched by
+//!    their reversed loops (in parallel over vertex ranges).
+//! 4. Vertex cycles: a half-edge is the representative of its fan (the
+//!    half-edges with the same origin around one edge, linked by
+//!    `mate_face`∘`mate_cell`) when it has the smallest id of the fan; the
+//!    representatives are stored per origin vertex (CSR), in id order.
+
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use rayon::prelude::*;
+
+use super::{
+    CONVEXITY_TOLERANCE, Ciel, CielCounts, CielError, FIRST_IN_FACE, LAST_IN_FACE, LOOKUP_SHIFT,
+    MAX_CELL_HALF_EDGES, NONE, VERTEX_MASK, structured_as_cells,
+};
+use crate::grid::{Cells, Grid, Topology, is_lower_dimensional, vtk_type};
+use crate::metacell::{Catalog, VOXEL_TO_HEX, builtin};
+use crate::structure::{CellClass, classify_cell, is_sweepable};
+
+/// Cells per parallel task of the per-cell phase.
+const CHUNK_CELLS: usize = 1024;
+
+/// A face as seen by the cross-cell matching: its first half-edge (global
+/// once chunks are concatenated), its smallest vertex `m` and the two loop
+/// neighbours of `m`, sorted.
+#[derive(Clone, Copy, Debug)]
+struct FaceRec {
+    start: u32,
+    m: u32,
+    lo: u32,
+    hi: u32,
+}
+
+/// Reused per-task buffers of the per-cell phase.
+#[derive(Default)]
+struct Scratch {
+    /// Face loops of the current cell (global ids), concatenated.
+    ids: Vec<u32>,
+    /// Face starts into `ids` (faces + 1).
+    starts: Vec<u32>,
+    /// Local vertex id of each half-edge's origin.
+    lid: Vec<u32>,
+    /// Next half-edge in its face.
+    nxt: Vec<u32>,
+    /// Global → local vertex id table.
+    table: Vec<(u32, u32)>,
+    /// Outgoing half-edges per local vertex (CSR).
+    out_start: Vec<u32>,
+    out: Vec<u32>,
+    /// Edge pairs (local half-edges, same direction?).
+    pairs: Vec<(u32, u32, bool)>,
+    /// Local `mate_face`.
+    mate: Vec<u32>,
+    /// Face of each local half-edge.
+    he_face: Vec<u32>,
+    /// Face keys `(m, lo, hi, face)`.
+    fkeys: Vec<(u32, u32, u32, u32)>,
+    /// Distinct vertices of the cell, in first-appearance order.
+    verts: Vec<u32>,
+    /// Sort buffers.
+    tmp: Vec<u32>,
+    tmp2: Vec<u32>,
+    bits: Vec<(u64, u32)>,
+    pts: Vec<[f64; 3]>,
+    /// Orientation propagation: per face 0 = unset, 1 = keep, 2 = flip.
+    flip: Vec<u8>,
+    adj_start: Vec<u32>,
+    adj: Vec<(u32, bool)>,
+    stack: Vec<u32>,
+}
+
+/// What one chunk of cells produced.
+#[derive(Default)]
+struct ChunkOut {
+    origins: Vec<u32>,
+    mate_face: Vec<i16>,
+    /// Half-edges per cell.
+    lens: Vec<u32>,
+    faces: Vec<FaceRec>,
+    class_counts: [usize; 5],
+    hidden: usize,
+    flipped: usize,
+    non_convex: usize,
+}
+
+/// Parses a VTK polyhedron face stream (`nf, n0, ids.., n1, ids..`) into
+/// flat face loops (`ids`, with `starts` = faces + 1 offsets). Never panics.
+pub(super) fn parse_faces_into(
+    cell: usize,
+    stream: &[u32],
+    ids: &mut Vec<u32>,
+    starts: &mut Vec<u32>,
+) -> Result<(), CielError> {
+    let err = |why: String| CielError::FaceStream { cell, why };
+    ids.clear();
+    starts.clear();
+    starts.push(0);
+    let nf = *stream
+        .first()
+        .ok_or_else(|| err("empty face stream".into()))? as usize;
+    if nf > stream.len() {
+        return Err(err(format!(
+            "{nf} faces announced in a stream of {} values",
+            stream.len()
+        )));
+    }
+    let mut p = 1usize;
+    for f in 0..nf {
+        let n = *stream
+            .get(p)
+            .ok_or_else(|| err(format!("face {f} missing")))? as usize;
+        let face = stream
+            .get(p + 1..p.saturating_add(1).saturating_add(n))
+            .ok_or_else(|| err(format!("face {f} truncated ({n} vertices announced)")))?;
+        ids.extend_from_slice(face);
+        starts.push(ids.len() as u32);
+        p += 1 + n;
+    }
+    if p != stream.len() {
+        return Err(err(format!(
+            "{} trailing values after {nf} faces",
+            stream.len() - p
+        )));
+    }
+    Ok(())
+}
+
+/// Writes the face loops (global ids) of cell `c` into `s.ids`/`s.starts`;
+/// returns the cell's class when it is not volumetric (nothing written).
+fn cell_faces(
+    cells: &Cells,
+    c: usize,
+    catalog: &Catalog,
+    prisms: &[(u8, u16)],
+    points: &[[f64; 3]],
+    s: &mut Scratch,
+) -> Result<Option<CellClass>, CielError> {
+    let t = cells.types[c];
+    if is_lower_dimensional(t) {
+        return Ok(Some(CellClass::NonVolumetric));
+    }
+    if t == vtk_type::POLYHEDRON {
+        parse_faces_into(c, cells.faces_of(c), &mut s.ids, &mut s.starts)?;
+        return Ok(None);
+    }
+    let ids = cells.cell(c);
+    let meta = match t {
+        vtk_type::TETRA => builtin::TETRA,
+        vtk_type::PYRAMID => builtin::PYRAMID,
+        vtk_type::WEDGE => builtin::WEDGE,
+        vtk_type::HEXAHEDRON | vtk_type::VOXEL => builtin::HEXAHEDRON,
+        _ => match prisms.iter().find(|p| p.0 == t) {
+            Some(p) => p.1,
+            None => {
+                return Err(CielError::FaceStream {
+                    cell: c,
+                    why: format!("unsupported VTK cell type {t}"),
+                });
+            }
+        },
+    };
+    let m = catalog.get(meta);
+    let local = &mut s.tmp;
+    local.clear();
+    if t == vtk_type::VOXEL {
+        if ids.len() != 8 {
+            return Err(CielError::FaceStream {
+                cell: c,
+                why: "voxel without 8 vertices".into(),
+            });
+        }
+        local.extend(VOXEL_TO_HEX.iter().map(|&i| ids[i]));
+    } else {
+        local.extend_from_slice(ids);
+    }
+    if local.len() != m.nv {
+        return Err(CielError::FaceStream {
+            cell: c,
+            why: format!(
+                "{} vertices for a cell of type {t} ({} expected)",
+                local.len(),
+                m.nv
+            ),
+        });
+    }
+    // Typed cells: classified exactly as the CGraph does.
+    let class = classify_cell(m, local, points);
+    if !is_sweepable(class) {
+        return Ok(Some(class));
+    }
+    s.ids.clear();
+    s.starts.clear();
+    s.starts.push(0);
+    for f in &m.faces {
+        s.ids.extend(f.iter().map(|&l| local[l as usize]));
+        s.starts.push(s.ids.len() as u32);
+    }
+    Ok(None)
+}
+
+/// Face index of local half-edge `h`.
+fn face_of(starts: &[u32], h: u32) -> usize {
+    starts.partition_point(|&s| s <= h) - 1
+}
+
+/// Index of the smallest vertex of a loop and its two neighbours, sorted.
+#[inline]
+fn face_key(face: &[u32]) -> (usize, u32, u32, u32) {
+    let mut p = 0;
+    for (i, &v) in face.iter().enumerate() {
+        if v < face[p] {
+            p = i;
+        }
+    }
+    let n = face.len();
+    let a = face[if p == 0 { n - 1 } else { p - 1 }];
+    let b = face[if p + 1 == n { 0 } else { p + 1 }];
+    (p, face[p], a.min(b), a.max(b))
+}
+
+/// Sorted copy of a loop into `out`.
+fn sorted_into(face: &[u32], out: &mut Vec<u32>) {
+    out.clear();
+    out.extend_from_slice(face);
+    out.sort_unstable();
+}
+
+/// Cell-local vertex ids: `s.verts` (local → global, first appearance),
+/// `s.lid` per half-edge and `s.nxt` (next half-edge in the face), through
+/// a small open-addressing table (no sort).
+fn local_ids(s: &mut Scratch) {
+    let n = s.ids.len();
+    let cap = (2 * n).next_power_of_two().max(16);
+    s.table.clear();
+    s.table.resize(cap, (u32::MAX, 0));
+    s.verts.clear();
+    s.lid.clear();
+    for &v in &s.ids {
+        let mut k = (v.wrapping_mul(0x9E37_79B9) >> 7) as usize & (cap - 1);
+        loop {
+            let e = s.table[k];
+            if e.0 == v {
+                s.lid.push(e.1);
+                break;
+            }
+            if e.0 == u32::MAX {
+                s.table[k] = (v, s.verts.len() as u32);
+                s.lid.push(s.verts.len() as u32);
+                s.verts.push(v);
+                break;
+            }
+            k = (k + 1) & (cap - 1);
+        }
+    }
+    s.nxt.clear();
+    for w in s.starts.windows(2) {
+        s.nxt.extend(w[0] + 1..w[1]);
+        s.nxt.push(w[0]);
+    }
+}
+
+/// Pairs the half-edges of one cell by edge into `s.pairs` (and `s.mate`)
+/// through per-vertex lists of outgoing half-edges: open and non-manifold
+/// edges are errors. Needs [`local_ids`].
+fn pair_edges(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
+    let n = s.ids.len();
+    let nv = s.verts.len();
+    s.out_start.clear();
+    s.out_start.resize(nv + 2, 0);
+    for &l in &s.lid {
+        s.out_start[l as usize + 2] += 1;
+    }
+    for k in 2..nv + 2 {
+        s.out_start[k] += s.out_start[k - 1];
+    }
+    s.out.clear();
+    s.out.resize(n, 0);
+    for (h, &l) in s.lid.iter().enumerate() {
+        let k = &mut s.out_start[l as usize + 1];
+        s.out[*k as usize] = h as u32;
+        *k += 1;
+    }
+    s.pairs.clear();
+    s.mate.clear();
+    s.mate.resize(n, NONE);
+    for h in 0..n {
+        if s.mate[h] != NONE {
+            continue;
+        }
+        let (la, lb) = (s.lid[h], s.lid[s.nxt[h] as usize]);
+        // Fast path: exactly one opposite half-edge, not yet mated, and no
+        // other half-edge from `la` to `lb`... the latter is checked when
+        // that half-edge looks for its own mate (it would find `found`
+        // already mated).
+        let mut count = 1;
+        let mut found = (NONE, false);
+        for &g in &s.out[s.out_start[lb as usize] as usize..s.out_start[lb as usize + 1] as usize] {
+            if s.lid[s.nxt[g as usize] as usize] == la {
+                count += 1;
+                found = (g, false);
+            }
+        }
+        if count != 2 || s.mate[found.0 as usize] != NONE {
+            // Slow path: count every half-edge on the edge, both ways.
+            count = 1;
+            for &g in
+                &s.out[s.out_start[lb as usize] as usize..s.out_start[lb as usize + 1] as usize]
+            {
+                if s.lid[s.nxt[g as usize] as usize] == la {
+                    count += 1;
+                    found = (g, false);
+                }
+            }
+            for &g in
+                &s.out[s.out_start[la as usize] as usize..s.out_start[la as usize + 1] as usize]
+            {
+                if g as usize != h && s.lid[s.nxt[g as usize] as usize] == lb {
+                    count += 1;
+                    found = (g, true);
+                }
+            }
+            if count == 2 && s.mate[found.0 as usize] != NONE {
+                count = 3;
+            }
+        }
+        if count == 2 {
+            s.pairs.push((h as u32, found.0, found.1));
+            s.mate[h] = found.0;
+            s.mate[found.0 as usize] = h as u32;
+            continue;
+        }
+        let (a, b) = (s.ids[h], s.ids[s.nxt[h] as usize]);
+        let (a, b) = (a.min(b), a.max(b));
+        let face = face_of(&s.starts, h as u32);
+        return Err(if count == 1 {
+            CielError::Open { cell, face, a, b }
+        } else {
+            CielError::NonManifoldEdge {
+                cell,
+                face,
+                a,
+                b,
+                count,
+            }
+        });
+    }
+    Ok(())
+}
+
+/// Reverses face `f` of the scratch loops in place.
+fn reverse_face(s: &mut Scratch, f: usize) {
+    let (a, b) = (s.starts[f] as usize, s.starts[f + 1] as usize);
+    s.ids[a..b].reverse();
+}
+
+/// Makes the faces consistent by propagation across shared edges (only
+/// when some edge is used in the same direction by its two faces).
+/// Returns the number of faces flipped.
+fn orient(cell: usize, s: &mut Scratch) -> Result<usize, CielError> {
+    if s.pairs.iter().all(|p| !p.2) {
+        return Ok(0);
+    }
+    let nf = s.starts.len() - 1;
+    s.he_face.clear();
+    for (f, w) in s.starts.windows(2).enumerate() {
+        s.he_face
+            .extend(std::iter::repeat_n(f as u32, (w[1] - w[0]) as usize));
+    }
+    // Face adjacency (CSR) from the edge pairs.
+    s.adj_start.clear();
+    s.adj_start.resize(nf + 1, 0);
+    for &(h1, h2, _) in &s.pairs {
+        s.adj_start[s.he_face[h1 as usize] as usize + 1] += 1;
+        s.adj_start[s.he_face[h2 as usize] as usize + 1] += 1;
+    }
+    for f in 0..nf {
+        s.adj_start[f + 1] += s.adj_start[f];
+    }
+    s.adj.clear();
+    s.adj.resize(s.adj_start[nf] as usize, (0, false));
+    s.tmp.clear();
+    s.tmp.extend_from_slice(&s.adj_start[..nf]);
+    for &(h1, h2, same) in &s.pairs {
+        let (f1, f2) = (s.he_face[h1 as usize], s.he_face[h2 as usize]);
+        s.adj[s.tmp[f1 as usize] as usize] = (f2, same);
+        s.tmp[f1 as usize] += 1;
+        s.adj[s.tmp[f2 as usize] as usize] = (f1, same);
+        s.tmp[f2 as usize] += 1;
+    }
+    s.flip.clear();
+    s.flip.resize(nf, 0);
+    for root in 0..nf {
+        if s.flip[root] != 0 {
+            continue;
+        }
+        s.flip[root] = 1;
+        s.stack.clear();
+        s.stack.push(root as u32);
+        while let Some(f) = s.stack.pop() {
+            let ff = s.flip[f as usize] == 2;
+            for k in s.adj_start[f as usize]..s.adj_start[f as usize + 1] {
+                let (g, same) = s.adj[k as usize];
+                let want = if ff ^ same { 2 } else { 1 };
+                match s.flip[g as usize] {
+                    0 => {
+                        s.flip[g as usize] = want;
+                        s.stack.push(g);
+                    }
+                    x if x != want => {
+                        return Err(CielError::Orientation {
+                            cell,
+                            face: (g as usize).max(f as usize),
+                        });
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
+    let mut flipped = 0;
+    for f in 0..nf {
+        if s.flip[f] == 2 {
+            reverse_face(s, f);
+            flipped += 1;
+        }
+    }
+    Ok(flipped)
+}
+
+/// One polyhedron's checked, outward face loops (global vertex ids) and
+/// its class, exactly as the build sees them (shared with
+/// [`crate::convex_split`]).
+pub(crate) struct CellFaces {
+    /// Face loops, concatenated.
+    pub(crate) ids: Vec<u32>,
+    /// Face starts into `ids` (faces + 1).
+    pub(crate) starts: Vec<u32>,
+    /// Some vertex lies outside a face plane (by `CONVEXITY_TOLERANCE`).
+    pub(crate) non_convex: bool,
+    /// Quality class.
+    pub(crate) class: CellClass,
+}
+
+/// Checks and orients polyhedron `cell`, given by its VTK face stream, as
+/// the build does.
+pub(crate) fn polyhedron_faces(
+    cell: usize,
+    stream: &[u32],
+    points: &[[f64; 3]],
+) -> Result<CellFaces, CielError> {
+    let mut s = Scratch::default();
+    parse_faces_into(cell, stream, &mut s.ids, &mut s.starts)?;
+    let (class, _, non_convex) = check_cell(cell, points, &mut s)?;
+    Ok(CellFaces {
+        ids: s.ids,
+        starts: s.starts,
+        non_convex,
+        class,
+    })
+}
+
+/// Checks and orients the loops of one cell held in `s` (see the module
+/// docs of [`super`]); on success `s.ids`/`s.starts` hold the outward loops
+/// and `s.mate` the local `mate_face`. Returns (class, flipped, non-convex).
+fn check_cell(
+    cell: usize,
+    points: &[[f64; 3]],
+    s: &mut Scratch,
+) -> Result<(CellClass, usize, bool), CielError> {
+    let nf = s.starts.len() - 1;
+    // Shape checks.
+    for f in 0..nf {
+        let face = &s.ids[s.starts[f] as usize..s.starts[f + 1] as usize];
+        if face.len() < 3 {
+            return Err(CielError::ShortFace {
+                cell,
+                face: f,
+                len: face.len(),
+            });
+        }
+        let repeated = if face.len() <= 12 {
+            (1..face.len()).find_map(|i| face[..i].contains(&face[i]).then_some(face[i]))
+        } else {
+            sorted_into(face, &mut s.tmp);
+            s.tmp.windows(2).find(|w| w[0] == w[1]).map(|w| w[0])
+        };
+        if let Some(vertex) = repeated {
+            return Err(CielError::RepeatedFaceVertex {
+                cell,
+                face: f,
+                vertex,
+            });
+        }
+    }
+    // Duplicate faces: equal keys, then equal vertex sets.
+    s.fkeys.clear();
+    for f in 0..nf {
+        let (_, m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
+        s.fkeys.push((m, lo, hi, f as u32));
+    }
+    s.fkeys.sort_unstable();
+    for i in 1..s.fkeys.len() {
+        let (a, b) = (s.fkeys[i - 1], s.fkeys[i]);
+        if (a.0, a.1, a.2) == (b.0, b.1, b.2) {
+            let fa = &s.ids[s.starts[a.3 as usize] as usize..s.starts[a.3 as usize + 1] as usize];
+            let fb = &s.ids[s.starts[b.3 as usize] as usize..s.starts[b.3 as usize + 1] as usize];
+            sorted_into(fa, &mut s.tmp);
+            sorted_into(fb, &mut s.tmp2);
+            if s.tmp == s.tmp2 {
+                return Err(CielError::DuplicateFace {
+                    cell,
+                    face: a.3.min(b.3) as usize,
+                    other: a.3.max(b.3) as usize,
+                });
+            }
+        }
+    }
+    local_ids(s);
+    pair_edges(cell, s)?;
+    let mut flipped = orient(cell, s)?;
+    if flipped > 0 {
+        local_ids(s);
+    }
+    // Outward: the signed volume must be positive.
+    let p0 = points[s.verts[0] as usize];
+    s.pts.clear();
+    s.pts.extend(s.verts.iter().map(|&v| {
+        let p = points[v as usize];
+        [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]]
+    }));
+    let mut vol = 0.0;
+    for w in s.starts.windows(2) {
+        let face = &s.lid[w[0] as usize..w[1] as usize];
+        let a = s.pts[face[0] as usize];
+        let mut b = s.pts[face[1] as usize];
+        for &l in &face[2..] {
+            let c = s.pts[l as usize];
+            vol += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                + a[2] * (b[0] * c[1] - b[1] * c[0]);
+            b = c;
+        }
+    }
+    vol /= 6.0;
+    let ext = s.pts.iter().fold(0.0f64, |e, p| {
+        e.max(p[0].abs()).max(p[1].abs()).max(p[2].abs())
+    });
+    // Repeated positions (distinct ids at the same point): dead, as in the CGraph.
+    s.bits.clear();
+    s.bits.extend(s.verts.iter().enumerate().map(|(l, &v)| {
+        let b = points[v as usize].map(f64::to_bits);
+        (b[0] ^ b[1].rotate_left(21) ^ b[2].rotate_left(42), l as u32)
+    }));
+    s.bits.sort_unstable();
+    let same_point = |a: u32, b: u32| {
+        points[s.verts[a as usize] as usize] == points[s.verts[b as usize] as usize]
+    };
+    if s.bits
+        .windows(2)
+        .any(|w| w[0].0 == w[1].0 && same_point(w[0].1, w[1].1))
+    {
+        return Ok((CellClass::RepeatedVertex, 0, false));
+    }
+    if vol.is_nan() || vol.abs() <= 1e-12 * ext * ext * ext {
+        return Ok((CellClass::ZeroVolume, 0, false));
+    }
+    if vol < 0.0 {
+        s.ids.reverse();
+        // Reversing the whole array reverses every loop and the face order.
+        let total = s.ids.len() as u32;
+        let starts: Vec<u32> = s.starts.iter().rev().map(|&x| total - x).collect();
+        s.starts = starts;
+        flipped = nf - flipped;
+        local_ids(s);
+    }
+    if flipped > 0 {
+        pair_edges(cell, s)?;
+    }
+    // Convexity: every vertex on the inner side of every face plane.
+    let mut non_convex = false;
+    'faces: for w in s.starts.windows(2) {
+        let face = &s.lid[w[0] as usize..w[1] as usize];
+        let mut nrm = [0.0; 3];
+        let mut c = [0.0; 3];
+        for (k, &l) in face.iter().enumerate() {
+            let a = s.pts[l as usize];
+            let b = s.pts[face[if k + 1 == face.len() { 0 } else { k + 1 }] as usize];
+            nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
+            nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
+            nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
+            for d in 0..3 {
+                c[d] += a[d];
+            }
+        }
+        let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
+        if len == 0.0 {
+            non_convex = true;
+            break;
+        }
+        let inv = 1.0 / face.len() as f64;
+        let d0 = (nrm[0] * c[0] + nrm[1] * c[1] + nrm[2] * c[2]) * inv;
+        let tol = CONVEXITY_TOLERANCE * ext * len;
+        for p in &s.pts {
+            if nrm[0] * p[0] + nrm[1] * p[1] + nrm[2] * p[2] - d0 > tol {
+                non_convex = true;
+                break 'faces;
+            }
+        }
+    }
+    // mate_face: after orientation every edge is used both ways.
+    if let Some(&(_, h2, _)) = s.pairs.iter().find(|p| p.2) {
+        // Cannot happen after propagation; reported rather than trusted.
+        return Err(CielError::Orientation {
+            cell,
+            face: face_of(&s.starts, h2),
+        });
+    }
+    Ok((CellClass::Valid, flipped, non_convex))
+}
+
+/// The per-cell phase over cells `range`.
+#[allow(clippy::too_many_arguments)]
+fn build_chunk(
+    range: std::ops::Range<usize>,
+    cells: &Cells,
+    catalog: &Catalog,
+    prisms: &[(u8, u16)],
+    points: &[[f64; 3]],
+    hidden: Option<&[bool]>,
+) -> Result<ChunkOut, CielError> {
+    let mut s = Scratch::default();
+    let mut out = ChunkOut::default();
+    for c in range {
+        let class = match cell_faces(cells, c, catalog, prisms, points, &mut s)? {
+            Some(class) => class,
+            None => {
+                let (class, flipped, non_convex) = check_cell(c, points, &mut s)?;
+                let hide = hidden.is_some_and(|h| h.get(c).copied().unwrap_or(false));
+                if is_sweepable(class) && hide {
+                    // Checked like any cell, then left out of the structure.
+                    out.hidden += 1;
+                } else if is_sweepable(class) {
+                    let n = s.ids.len();
+                    if n > MAX_CELL_HALF_EDGES {
+                        return Err(CielError::TooLarge(format!(
+                            "cell {c} has {n} half-edges (at most {MAX_CELL_HALF_EDGES} per cell)"
+                        )));
+                    }
+                    out.flipped += flipped;
+                    out.non_convex += non_convex as usize;
+                    let base = out.origins.len() as u32;
+                    for w in s.starts.windows(2) {
+                        let (a, b) = (w[0] as usize, w[1] as usize);
+                        let face = &s.ids[a..b];
+                        let (_, m, lo, hi) = face_key(face);
+                        out.faces.push(FaceRec {
+                            start: base + a as u32,
+                            m,
+                            lo,
+                            hi,
+                        });
+                        for (i, &v) in face.iter().enumerate() {
+                            let mut o = v;
+                            if i == 0 {
+                                o |= FIRST_IN_FACE;
+                            }
+                            if a + i + 1 == b {
+                                o |= LAST_IN_FACE;
+                            }
+                            out.origins.push(o);
+                        }
+                    }
+                    out.mate_face.extend(
+                        s.mate
+                            .iter()
+                            .enumerate()
+                            .map(|(i, &m)| (m as i64 - i as i64) as i16),
+                    );
+                    out.lens.push(n as u32);
+                    out.class_counts[class as usize] += 1;
+                    continue;
+                }
+                class
+            }
+        };
+        out.class_counts[class as usize] += 1;
+        out.lens.push(0);
+    }
+    Ok(out)
+}
+
+/// Is `h` the smallest half-edge id of its fan?
+#[inline]
+fn is_rep(h: u32, mate_face: &[i16], mate_cell: &[u32]) -> bool {
+    let mf = |x: u32| (x as i64 + mate_face[x as usize] as i64) as u32;
+    let limit = mate_cell.len();
+    let mut x = h;
+    let mut n = 0;
+    loop {
+        let y = mate_cell[mf(x) as usize];
+        if y == h {
+            return true;
+        }
+        if y == NONE {
+            break;
+        }
+        if y < h {
+            return false;
+        }
+        x = y;
+        n += 1;
+        if n > limit {
+            return true;
+        }
+    }
+    // Open fan: the other way from h.
+    let mut x = h;
+    loop {
+        let mc = mate_cell[x as usize];
+        if mc == NONE {
+            return true;
+        }
+        x = mf(mc);
+        if x < h {
+            return false;
+        }
+        n += 1;
+        if n > limit {
+            return true;
+        }
+    }
+}
+
+/// Cell and face index (within the cell) of global half-edge `h`, for errors.
+fn locate(cell_start: &[u32], origins: &[u32], h: u32) -> (usize, usize) {
+    let c = cell_start.partition_point(|&s| s <= h) - 1;
+    let f = (cell_start[c]..=h)
+        .filter(|&x| origins[x as usize] & FIRST_IN_FACE != 0)
+        .count();
+    (c, f.saturating_sub(1))
+}
+
+impl Ciel {
+    /// Builds the CIEL of a grid (structured grids become hexahedra).
+    /// `hidden` marks cells to exclude.
+    pub fn build(grid: &Grid, hidden: Option<&[bool]>) -> Result<Self, CielError> {
+        let points = &grid.points;
+        let np = points.len();
+        if np >= VERTEX_MASK as usize {
+            return Err(CielError::TooLarge(format!("{np} vertices")));
+        }
+        let mut catalog = Catalog::new();
+        let structured_cells;
+        let cells = match &grid.topology {
+            Topology::Unstructured(c) => c,
+            Topology::Structured { dims } => {
+                structured_cells = structured_as_cells(*dims);
+                &structured_cells
+            }
+        };
+        let n = cells.len();
+        // Prism meta-cells only when the grid has prisms.
+        let prisms: Vec<(u8, u16)> = [vtk_type::PENTAGONAL_PRISM, vtk_type::HEXAGONAL_PRISM]
+            .iter()
+            .filter(|&&t| cells.types.contains(&t))
+            .filter_map(|&t| catalog.for_vtk_type(t).map(|m| (t, m)))
+            .collect();
+        // 1. Per chunk of cells, in parallel; the first error in cell order wins.
+        let chunks: Vec<Result<ChunkOut, CielError>> = (0..n.div_ceil(CHUNK_CELLS))
+            .into_par_iter()
+            .map(|k| {
+                let r = k * CHUNK_CELLS..((k + 1) * CHUNK_CELLS).min(n);
+                build_chunk(r, cells, &catalog, &prisms, points, hidden)
+            })
+            .collect();
+        let chunks: Vec<ChunkOut> = chunks.into_iter().collect::<Result<_, _>>()?;
+        // 2. Concatenate.
+        let total: usize = chunks.iter().map(|c| c.origins.len()).sum();
+        if total >= (1usize << 31) - 1 {
+            return Err(CielError::TooLarge(format!("{total} half-edges")));
+        }
+        if total == 0 {
+            return Err(CielError::NoCells);
+        }
+        let mut counts = CielCounts::default();
+        let mut origins = Vec::with_capacity(total);
+        let mut mate_face = Vec::with_capacity(total);
+        let mut cell_start = Vec::with_capacity(n + 1);
+        let nfaces: usize = chunks.iter().map(|c| c.faces.len()).sum();
+        let mut faces: Vec<FaceRec> = Vec::with_capacity(nfaces);
+        for ch in chunks {
+            let base = origins.len() as u32;
+            let mut s = base;
+            for &l in &ch.lens {
+                cell_start.push(s);
+                s += l;
+            }
+            origins.extend_from_slice(&ch.origins);
+            mate_face.extend_from_slice(&ch.mate_face);
+            faces.extend(ch.faces.iter().map(|f| FaceRec {
+                start: f.start + base,
+                ..*f
+            }));
+            for k in 0..5 {
+                counts.class_counts[k] += ch.class_counts[k];
+            }
+            counts.hidden += ch.hidden;
+            counts.flipped_faces += ch.flipped;
+            counts.non_convex += ch.non_convex;
+        }
+        cell_start.push(total as u32);
+        counts.faces = nfaces;
+        // 3. mate_cell: faces bucketed by smallest vertex (counting sort).
+        let mut bstart = vec![0u32; np + 1];
+        for f in &faces {
+            bstart[f.m as usize + 1] += 1;
+        }
+        for i in 0..np {
+            bstart[i + 1] += bstart[i];
+        }
+        let mut bucket = vec![0u32; nfaces];
+        {
+            let mut fill = bstart.clone();
+            for (i, f) in faces.iter().enumerate() {
+                bucket[fill[f.m as usize] as usize] = i as u32;
+                fill[f.m as usize] += 1;
+            }
+        }
+        let face_end = |i: usize| faces.get(i + 1).map_or(total as u32, |g| g.start);
+        let mate_cell: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(NONE)).collect();
+        let org = |h: u32| origins[h as usize] & VERTEX_MASK;
+        let vchunk = 4096usize;
+        let results: Vec<Result<(), CielError>> = (0..np.div_ceil(vchunk))
+            .into_par_iter()
+            .map(|k| {
+                let mut group: Vec<(u32, u32, u32)> = Vec::new();
+                for v in k * vchunk..((k + 1) * vchunk).min(np) {
+                    let b = &bucket[bstart[v] as usize..bstart[v + 1] as usize];
+                    if b.len() < 2 {
+                        continue;
+                    }
+                    group.clear();
+                    group.extend(b.iter().map(|&i| {
+                        let f = &faces[i as usize];
+                        (f.lo, f.hi, i)
+                    }));
+                    group.sort_unstable();
+                    let mut i = 0;
+                    while i < group.len() {
+                        let mut j = i + 1;
+                        while j < group.len() && group[j].0 == group[i].0 && group[j].1 == group[i].1
+                        {
+                            j += 1;
+                        }
+                        let g = &group[i..j];
+                        i = j;
+                        if g.len() < 2 {
+                            continue;
+                        }
+                        let loop_of = |i: u32| -> std::ops::Range<u32> {
+                            faces[i as usize].start..face_end(i as usize)
+                        };
+                        // (Two faces of one cell never match: per-cell
+                        // duplicates are rejected before.)
+                        if g.len() == 2 && try_mate(loop_of(g[0].2), loop_of(g[1].2), org, &mate_cell)
+                        {
+                            continue;
+                        }
+                        // General case: group the faces by vertex set.
+                        let mut sets: Vec<(Vec<u32>, u32)> = g
+                            .iter()
+                            .map(|x| {
+                                let r = loop_of(x.2);
+                                let mut s: Vec<u32> = r.clone().map(org).collect();
+                                s.sort_unstable();
+                                (s, x.2)
+                            })
+                            .collect();
+                        sets.sort();
+                        let mut a = 0;
+                        while a < sets.len() {
+                            let mut b = a + 1;
+                            while b < sets.len() && sets[b].0 == sets[a].0 {
+                                b += 1;
+                            }
+                            let bad = |f: u32, why: String| {
+                                let (cell, face) =
+                                    locate(&cell_start, &origins, faces[f as usize].start);
+                                CielError::BadSharedFace { cell, face, why }
+                            };
+                            match b - a {
+                                1 => {}
+                                2 => {
+                                    let (f, h) = (sets[a].1, sets[a + 1].1);
+                                    if !try_mate(loop_of(f), loop_of(h), org, &mate_cell) {
+                                        let (oc, of) =
+                                            locate(&cell_start, &origins, faces[h as usize].start);
+                                        return Err(bad(
+                                            f,
+                                            format!(
+                                                "shared with cell {oc} (face {of}) in the same direction or another vertex order"
+                                            ),
+                                        ));
+                                    }
+                                }
+                                k => {
+                                    return Err(bad(sets[a].1, format!("face shared by {k} cells")));
+                                }
+                            }
+                            a = b;
+                        }
+                    }
+                }
+                Ok(())
+            })
+            .collect();
+        for r in results {
+            r?;
+        }
+        drop(bucket);
+        drop(bstart);
+        drop(faces);
+        let mate_cell: Vec<u32> = mate_cell.into_iter().map(AtomicU32::into_inner).collect();
+        counts.border_half_edges = mate_cell.par_iter().filter(|&&m| m == NONE).count();
+        // 4. Vertex cycles: representatives (smallest id of each fan), CSR by origin.
+        let words = total.div_ceil(64);
+        let rep_bits: Vec<u64> = (0..words)
+            .into_par_iter()
+            .map(|w| {
+                let mut bits = 0u64;
+                for b in 0..64 {
+                    let h = w * 64 + b;
+                    if h < total && is_rep(h as u32, &mate_face, &mate_cell) {
+                        bits |= 1 << b;
+                    }
+                }
+                bits
+            })
+            .collect();
+        let mut vertex_start = vec![0u32; np + 1];
+        let mut reps = 0usize;
+        for (w, &bits) in rep_bits.iter().enumerate() {
+            let mut b = bits;
+            while b != 0 {
+                let h = w * 64 + b.trailing_zeros() as usize;
+                b &= b - 1;
+                vertex_start[(origins[h] & VERTEX_MASK) as usize + 1] += 1;
+                reps += 1;
+            }
+        }
+        for i in 0..np {
+            vertex_start[i + 1] += vertex_start[i];
+        }
+        let mut vertex_edges = vec![0u32; reps];
+        {
+            let mut fill: Vec<u32> = vertex_start[..np].to_vec();
+            for (w, &bits) in rep_bits.iter().enumerate() {
+                let mut b = bits;
+                while b != 0 {
+                    let h = w * 64 + b.trailing_zeros() as usize;
+                    b &= b - 1;
+                    let v = (origins[h] & VERTEX_MASK) as usize;
+                    vertex_edges[fill[v] as usize] = h as u32;
+                    fill[v] += 1;
+                }
+            }
+        }
+        counts.edges = reps / 2;
+        let mut cell_lookup = Vec::with_capacity((total >> LOOKUP_SHIFT) + 1);
+        let mut c = 0usize;
+        for b in 0..=((total - 1) >> LOOKUP_SHIFT) {
+            let h = (b << LOOKUP_SHIFT) as u32;
+            while cell_start[c + 1] <= h {
+                c += 1;
+            }
+            cell_lookup.push(c as u32);
+        }
+        Ok(Ciel {
+            origin: grid.origin(),
+            positions: grid.rebased_positions(),
+            origins,
+            mate_faces: mate_face,
+            mate_cells: mate_cell,
+            cell_start,
+            cell_lookup,
+            vertex_start,
+            vertex_edges,
+            counts,
+        })
+    }
+}
+
+/// Mates the half-edges of loops `f` and `g` (global half-edge ranges) if
+/// `g` is `f` reversed; returns whether it did.
+fn try_mate(
+    f: std::ops::Range<u32>,
+    g: std::ops::Range<u32>,
+    org: impl Fn(u32) -> u32,
+    mate_cell: &[AtomicU32],
+) -> bool {
+    let len = f.end - f.start;
+    if g.end - g.start != len {
+        return false;
+    }
+    let v0 = org(f.start);
+    let Some(j0) = (g.start..g.end).position(|h| org(h) == v0) else {
+        return false;
+    };
+    let j0 = j0 as u32;
+    // Reversed: g[j0 - i] == f[i].
+    let mut j = j0;
+    for i in 0..len {
+        if org(g.start + j) != org(f.start + i) {
+            return false;
+        }
+        j = if j == 0 { len - 1 } else { j - 1 };
+    }
+    // f_i (f[i] → f[i+1]) mates g's half-edge from f[i+1] to f[i], at j0 - i - 1.
+    let mut j = if j0 == 0 { len - 1 } else { j0 - 1 };
+    for i in 0..len {
+        let (fi, gi) = (f.start + i, g.start + j);
+        mate_cell[fi as usize].store(gi, Ordering::Relaxed);
+        mate_cell[gi as usize].store(fi, Ordering::Relaxed);
+        j = if j == 0 { len - 1 } else { j - 1 };
+    }
+    true
+}
