@@ -911,56 +911,13 @@ fn voronoi_grid_is_conforming_and_matches_the_reference() {
 /// Slice areas of CIEL against VTK's plane cutter (the peer script), when
 /// STRATASWEEP_PEER_PYTHON names its Python.
 fn peer_compare(path: &std::path::Path, g: &Grid, axis: usize, count: usize) {
-    use stratasweep::field::FieldSpec;
-    use stratasweep::pipeline::{LevelSpec, SliceRequest, Structure, StructureChoice, slice};
-    let Ok(py) = std::env::var("STRATASWEEP_PEER_PYTHON") else {
-        eprintln!("SKIP CIEL peer comparison: STRATASWEEP_PEER_PYTHON not set");
+    use stratasweep::pipeline::{Structure, StructureChoice, slice};
+    let Some((py, script)) = common::peer::peer("CIEL peer comparison") else {
         return;
     };
-    let script =
-        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/peer/vtk_slices.py");
-    if !script.exists() {
-        eprintln!("SKIP CIEL peer comparison: {} missing", script.display());
-        return;
-    }
-    let json = std::env::temp_dir().join(format!(
-        "ciel-peer-{}-{axis}-{}.json",
-        std::process::id(),
-        path.file_stem().unwrap().to_string_lossy()
-    ));
-    let out = std::process::Command::new(&py)
-        .arg(&script)
-        .arg(path)
-        .args([
-            "--axis",
-            ["x", "y", "z"][axis],
-            "--count",
-            &count.to_string(),
-            "--json",
-        ])
-        .arg(&json)
-        .output()
-        .expect("run peer");
-    assert!(
-        out.status.success(),
-        "peer failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let _ = std::fs::remove_file(&json);
+    let v = common::peer::vtk_slices(&py, &script, path, axis, count);
     let s = Structure::build(g, StructureChoice::Ciel).unwrap();
-    let req = SliceRequest {
-        field: FieldSpec::Axis {
-            axis,
-            negative: false,
-        },
-        levels: LevelSpec::Count(count),
-        attribute: None,
-        threads: 1,
-        brute_force: false,
-        collect_mesh: false,
-    };
+    let req = common::axis_request(axis, count);
     let r = slice(g, &s, &req, &|_| {}).unwrap();
     let slices = v["slices"].as_array().unwrap();
     assert_eq!(slices.len(), count);

@@ -5,12 +5,12 @@
 
 use std::path::PathBuf;
 
+mod common;
+use common::axis_request;
+
 use stratasweep::cornerpoint::{CornerPointGrid, trilinear_volume};
-use stratasweep::field::FieldSpec;
 use stratasweep::grid::{Property, Topology, vtk_type};
-use stratasweep::pipeline::{
-    LevelSpec, SliceRequest, Structure, StructureChoice, slice, vertex_property,
-};
+use stratasweep::pipeline::{SliceRequest, Structure, StructureChoice, slice, vertex_property};
 
 fn data_dir(test: &str) -> Option<PathBuf> {
     match std::env::var_os("STRATASWEEP_DATA") {
@@ -282,21 +282,6 @@ fn three_collapsed_pillar_edges() {
         let m = slice(&grid, &s, &req, &|_| {}).unwrap().mesh.unwrap();
         assert!(m.polygon_count() > 0);
         assert!((0..m.polygon_count()).all(|p| m.polygon(p).len() >= 3));
-    }
-}
-
-/// A one-thread sweep request for `count` levels along `axis`.
-fn axis_request(axis: usize, count: usize) -> SliceRequest {
-    SliceRequest {
-        field: FieldSpec::Axis {
-            axis,
-            negative: false,
-        },
-        levels: LevelSpec::Count(count),
-        attribute: None,
-        threads: 1,
-        brute_force: false,
-        collect_mesh: false,
     }
 }
 

@@ -3,8 +3,7 @@
 
 use std::path::PathBuf;
 
-use stratasweep::field::FieldSpec;
-use stratasweep::pipeline::{LevelSpec, SliceRequest, Structure, StructureChoice, slice};
+use stratasweep::pipeline::{Structure, StructureChoice, slice};
 
 mod common;
 
@@ -20,18 +19,7 @@ fn compare(
     };
     let v = common::peer::vtk_slices(&py, &script, grid_path, axis, count);
     let s = Structure::build(grid, StructureChoice::Auto).unwrap();
-    let req = SliceRequest {
-        field: FieldSpec::Axis {
-            axis,
-            negative: false,
-        },
-        levels: LevelSpec::Count(count),
-        attribute: None,
-        threads: 1,
-        brute_force: false,
-        collect_mesh: false,
-    };
-    let r = slice(grid, &s, &req, &|_| {}).unwrap();
+    let r = slice(grid, &s, &common::axis_request(axis, count), &|_| {}).unwrap();
     let peer_slices = v["slices"].as_array().unwrap();
     assert_eq!(peer_slices.len(), count);
     let mut worst = 0.0f64;

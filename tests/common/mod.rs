@@ -3,6 +3,24 @@
 
 pub mod peer;
 
+use stratasweep::field::FieldSpec;
+use stratasweep::pipeline::{LevelSpec, SliceRequest};
+
+/// A one-thread sweep request for `count` levels along `axis` (0–2).
+pub fn axis_request(axis: usize, count: usize) -> SliceRequest {
+    SliceRequest {
+        field: FieldSpec::Axis {
+            axis,
+            negative: false,
+        },
+        levels: LevelSpec::Count(count),
+        attribute: None,
+        threads: 1,
+        brute_force: false,
+        collect_mesh: false,
+    }
+}
+
 use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
 
 /// SplitMix64.
