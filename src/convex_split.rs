@@ -3,8 +3,8 @@
 //!
 //! A polyhedral cell (`VTK_POLYHEDRON`) is *non-convex* when, with its faces
 //! oriented outward, some vertex lies more than [`CONVEXITY_TOLERANCE`] ×
-//! its extent outside a face plane ([`is_convex`], the test the CIEL build
-//! counts with; non-planar faces are caught too). Such a cell is replaced by
+//! its extent outside a face plane (the test the CIEL build counts with,
+//! read through `ciel::polyhedron_faces`; non-planar faces are caught too). Such a cell is replaced by
 //! pieces coned from one interior point `p` of the cell:
 //!
 //! - each face that is planar and convex (within tolerance) becomes the base
@@ -256,43 +256,6 @@ pub fn newell(pts: &[[f64; 3]]) -> [f64; 3] {
         n[2] += (a[0] - b[0]) * (a[1] + b[1]);
     }
     n
-}
-
-/// The convexity test of the CIEL build: with `faces` oriented outward,
-/// every vertex of `verts` lies on the inner side of every face plane
-/// (through the face's vertex mean, normal by Newell) within
-/// [`CONVEXITY_TOLERANCE`] × `ext`. `rel` gives positions (relative to any
-/// fixed point). A face with a zero normal makes the cell non-convex.
-pub fn is_convex(
-    faces: &[Vec<u32>],
-    verts: &[u32],
-    rel: impl Fn(u32) -> [f64; 3],
-    ext: f64,
-) -> bool {
-    let mut buf: Vec<[f64; 3]> = Vec::new();
-    for face in faces {
-        buf.clear();
-        buf.extend(face.iter().map(|&v| rel(v)));
-        let n = newell(&buf);
-        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        if len == 0.0 {
-            return false;
-        }
-        let mut c = [0.0; 3];
-        for p in &buf {
-            for k in 0..3 {
-                c[k] += p[k] / buf.len() as f64;
-            }
-        }
-        for &v in verts {
-            let p = rel(v);
-            let d = (n[0] * (p[0] - c[0]) + n[1] * (p[1] - c[1]) + n[2] * (p[2] - c[2])) / len;
-            if d > CONVEXITY_TOLERANCE * ext {
-                return false;
-            }
-        }
-    }
-    true
 }
 
 type P3 = [f64; 3];

@@ -504,13 +504,3 @@ impl MetaCell {
         six_vol / 6.0
     }
 }
-
-/// Signed volume of the tetrahedron (p0, p1, p2, p3).
-pub fn tet_volume(p0: [f64; 3], p1: [f64; 3], p2: [f64; 3], p3: [f64; 3]) -> f64 {
-    let u = [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]];
-    let v = [p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]];
-    let w = [p3[0] - p0[0], p3[1] - p0[1], p3[2] - p0[2]];
-    (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
-        + u[2] * (v[0] * w[1] - v[1] * w[0]))
-        / 6.0
-}

@@ -620,17 +620,7 @@ fn run_on<G: CellGraph, F: ScalarField>(
     split: Option<&SplitMap>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SliceResult, PipelineError> {
-    let (lo, hi) = live_range(g, f).ok_or(PipelineError::NoLiveCells)?;
-    let world = match &req.levels {
-        LevelSpec::Count(k) => {
-            if lo == hi {
-                return Err(PipelineError::ConstantField(lo as f64 + world_offset));
-            }
-            levels_by_count(lo as f64 + world_offset, hi as f64 + world_offset, *k)
-        }
-        LevelSpec::Values(v) => v.clone(),
-    };
-    let levels = local_levels(&world, world_offset)?;
+    let (world, levels) = place_levels(live_range(g, f), world_offset, &req.levels)?;
     let ctx = EmitContext {
         positions: g.positions(),
         attribute,

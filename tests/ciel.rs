@@ -4,7 +4,7 @@
 //! fuzzed face streams.
 
 mod common;
-use common::{Rng, structured, zoo_from_structured};
+use common::{Levels, Rng, cells_of, sorted, structured, zoo_from_structured};
 use proptest::prelude::*;
 use std::collections::BTreeMap;
 use stratasweep::bruteforce::brute_force as cgraph_brute;
@@ -16,8 +16,6 @@ use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
 use stratasweep::sweep::CellGraph;
 
 /// Per level: (cell, polygon corner positions), sorted.
-type Levels = Vec<Vec<(u32, Vec<[f32; 3]>)>>;
-
 fn collect(mesh: &LevelMesh, out: &mut Vec<(u32, Vec<[f32; 3]>)>) {
     for p in 0..mesh.polygon_count() {
         let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
@@ -26,23 +24,6 @@ fn collect(mesh: &LevelMesh, out: &mut Vec<(u32, Vec<[f32; 3]>)>) {
             ids.iter().map(|&i| mesh.positions[i as usize]).collect(),
         ));
     }
-}
-
-fn sorted(mut l: Levels) -> Levels {
-    for lv in &mut l {
-        lv.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.partial_cmp(&b.1).unwrap()));
-    }
-    l
-}
-
-fn cells_of(l: &Levels) -> Vec<Vec<u32>> {
-    l.iter()
-        .map(|lv| {
-            let mut c: Vec<u32> = lv.iter().map(|x| x.0).collect();
-            c.dedup();
-            c
-        })
-        .collect()
 }
 
 fn ciel_sweep<F: ScalarField>(c: &Ciel, f: &F, levels: &[f32]) -> Levels {

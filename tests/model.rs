@@ -5,7 +5,7 @@ use stratasweep::cgraph::CGraph;
 use stratasweep::field::FieldSpec;
 use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
 use stratasweep::pipeline::{
-    LevelSpec, SliceRequest, Structure, StructureChoice, slice, vertex_property,
+    LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice, slice, vertex_property,
 };
 use stratasweep::structure::CellClass;
 
@@ -54,6 +54,16 @@ fn request(field: FieldSpec, levels: LevelSpec) -> SliceRequest {
         brute_force: false,
         collect_mesh: true,
     }
+}
+
+/// Slices `g` along +z at `levels` with the automatic structure.
+fn slice_z(g: &Grid, levels: LevelSpec) -> SliceResult {
+    let s = Structure::build(g, StructureChoice::Auto).unwrap();
+    let field = FieldSpec::Axis {
+        axis: 2,
+        negative: false,
+    };
+    slice(g, &s, &request(field, levels), &|_| {}).unwrap()
 }
 
 #[test]
@@ -106,20 +116,7 @@ fn degenerate_cells_are_reported_and_skipped_without_nan() {
         3,
         "valid and inverted cells are swept, degenerate ones are not"
     );
-    let s = Structure::build(&g, StructureChoice::Auto).unwrap();
-    let r = slice(
-        &g,
-        &s,
-        &request(
-            FieldSpec::Axis {
-                axis: 2,
-                negative: false,
-            },
-            LevelSpec::Count(20),
-        ),
-        &|_| {},
-    )
-    .unwrap();
+    let r = slice_z(&g, LevelSpec::Count(20));
     let m = r.mesh.unwrap();
     assert!(m.positions.iter().flatten().all(|v| v.is_finite()));
     assert!(m.values.iter().all(|v| v.is_finite()));
@@ -136,38 +133,12 @@ fn hidden_cells_are_excluded() {
     let mut g = two_hexes(|_, _| {});
     g.cell_data
         .push(Property::scalar("vtkGhostType", vec![0.0, 32.0]));
-    let s = Structure::build(&g, StructureChoice::Auto).unwrap();
-    let r = slice(
-        &g,
-        &s,
-        &request(
-            FieldSpec::Axis {
-                axis: 2,
-                negative: false,
-            },
-            LevelSpec::Values(vec![0.5]),
-        ),
-        &|_| {},
-    )
-    .unwrap();
+    let r = slice_z(&g, LevelSpec::Values(vec![0.5]));
     assert_eq!(r.stats[0].cells, 1);
     assert!((r.stats[0].area - 1.0).abs() < 1e-6, "{}", r.stats[0].area);
     // Ghost bit other than 32 (duplicate cell) keeps the cell.
     g.cell_data[0].values[1] = 1.0;
-    let s = Structure::build(&g, StructureChoice::Auto).unwrap();
-    let r = slice(
-        &g,
-        &s,
-        &request(
-            FieldSpec::Axis {
-                axis: 2,
-                negative: false,
-            },
-            LevelSpec::Values(vec![0.5]),
-        ),
-        &|_| {},
-    )
-    .unwrap();
+    let r = slice_z(&g, LevelSpec::Values(vec![0.5]));
     assert_eq!(r.stats[0].cells, 2);
     assert!((r.stats[0].area - 2.0).abs() < 1e-6);
 }
@@ -206,21 +177,8 @@ fn utm_coordinates_keep_sub_millimetre_precision() {
             p[a] += off[a];
         }
     }
-    let s = Structure::build(&g, StructureChoice::Auto).unwrap();
     let z = off[2] + 0.25;
-    let r = slice(
-        &g,
-        &s,
-        &request(
-            FieldSpec::Axis {
-                axis: 2,
-                negative: false,
-            },
-            LevelSpec::Values(vec![z]),
-        ),
-        &|_| {},
-    )
-    .unwrap();
+    let r = slice_z(&g, LevelSpec::Values(vec![z]));
     let m = r.mesh.unwrap();
     assert!((r.level_values[0] - z).abs() < 1e-9);
     let mut xs: Vec<f64> = (0..m.positions.len())

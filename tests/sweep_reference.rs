@@ -3,7 +3,7 @@
 //! on vertex layers; plus watertightness of isosurfaces.
 
 mod common;
-use common::{Rng, structured, zoo_from_structured};
+use common::{Levels, Rng, cells_of, sorted, structured, zoo_from_structured};
 use std::collections::HashMap;
 use stratasweep::bruteforce::brute_force;
 use stratasweep::cgraph::CGraph;
@@ -14,8 +14,6 @@ use stratasweep::scgraph::SCGraph;
 use stratasweep::sweep::{CellGraph, Sweeper};
 
 /// Per level: sorted (source cell, polygon positions) list.
-type Levels = Vec<Vec<(u32, Vec<[f32; 3]>)>>;
-
 fn collect(mesh: &LevelMesh, g: &impl CellGraph, out: &mut Vec<(u32, Vec<[f32; 3]>)>) {
     for p in 0..mesh.polygon_count() {
         let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
@@ -24,13 +22,6 @@ fn collect(mesh: &LevelMesh, g: &impl CellGraph, out: &mut Vec<(u32, Vec<[f32; 3
             ids.iter().map(|&i| mesh.positions[i as usize]).collect(),
         ));
     }
-}
-
-fn sorted(mut l: Levels) -> Levels {
-    for lv in &mut l {
-        lv.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.partial_cmp(&b.1).unwrap()));
-    }
-    l
 }
 
 fn run_sweep<G: CellGraph, F: ScalarField>(
@@ -79,16 +70,6 @@ fn run_brute<G: CellGraph, F: ScalarField>(g: &G, f: &F, levels: &[f32]) -> Leve
         collect(m, g, &mut all[k])
     });
     sorted(all)
-}
-
-fn cells_of(l: &Levels) -> Vec<Vec<u32>> {
-    l.iter()
-        .map(|lv| {
-            let mut c: Vec<u32> = lv.iter().map(|x| x.0).collect();
-            c.dedup();
-            c
-        })
-        .collect()
 }
 
 fn check_equal(a: &Levels, b: &Levels, what: &str) {

@@ -384,45 +384,13 @@ impl<'c> GpuEmitter<'c> {
         let t0 = Instant::now();
         let k = frame.levels.len() as u32;
         let lay = ControlLayout { k };
-        let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        Self::ensure(
-            ctx,
-            &mut self.entries,
-            "the frame's (cell, level) entries",
-            frame.entries.len() as u64 * 8,
-            st,
-        )?;
-        Self::ensure(ctx, &mut self.levels, "the level values", k as u64 * 4, st)?;
-        Self::ensure(
-            ctx,
-            &mut self.control,
-            "the draw arguments and counters",
-            lay.words() as u64 * 4,
-            st | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_SRC,
-        )?;
-        let vst = st | wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC;
-        Self::ensure(ctx, &mut self.vertices, "the output triangles", 48, vst)?;
-        Self::ensure(
-            ctx,
-            &mut self.areas,
-            "the per-triangle areas",
-            4,
-            st | wgpu::BufferUsages::COPY_SRC,
-        )?;
-        Self::ensure(ctx, &mut self.normals, "the output normals", 16, vst)?;
+        self.prepare(frame.entries.len() as u64 * 8, &frame.levels, lay)?;
         let q = &ctx.queue;
         if !frame.entries.is_empty() {
             q.write_buffer(
                 &self.entries.as_ref().expect("allocated").buf,
                 0,
                 bytemuck::cast_slice(&frame.entries),
-            );
-        }
-        if k > 0 {
-            q.write_buffer(
-                &self.levels.as_ref().expect("allocated").buf,
-                0,
-                bytemuck::cast_slice(&frame.levels),
             );
         }
         let groups = dispatch_size(
@@ -441,6 +409,58 @@ impl<'c> GpuEmitter<'c> {
         self.dispatch(&mut enc, &bg, &self.scan.clone(), (1, 1));
         q.submit([enc.finish()]);
         self.size_and_emit(p, groups, &control, lay, write_areas, [t0, t1])?;
+        Ok(())
+    }
+
+    /// Makes every buffer of a run exist (entries of `entry_bytes`, the
+    /// levels, the control block of `lay`; outputs at their minimum until
+    /// [`Self::size_and_emit`] sizes them) and uploads the level values.
+    fn prepare(
+        &mut self,
+        entry_bytes: u64,
+        levels: &[f32],
+        lay: ControlLayout,
+    ) -> Result<(), GpuError> {
+        let ctx = self.ctx;
+        let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        Self::ensure(
+            ctx,
+            &mut self.entries,
+            "the frame's (cell, level) entries",
+            entry_bytes,
+            st,
+        )?;
+        Self::ensure(
+            ctx,
+            &mut self.levels,
+            "the level values",
+            levels.len() as u64 * 4,
+            st,
+        )?;
+        Self::ensure(
+            ctx,
+            &mut self.control,
+            "the draw arguments and counters",
+            lay.words() as u64 * 4,
+            st | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_SRC,
+        )?;
+        let vst = st | wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC;
+        Self::ensure(ctx, &mut self.vertices, "the output triangles", 48, vst)?;
+        Self::ensure(
+            ctx,
+            &mut self.areas,
+            "the per-triangle areas",
+            4,
+            st | wgpu::BufferUsages::COPY_SRC,
+        )?;
+        Self::ensure(ctx, &mut self.normals, "the output normals", 16, vst)?;
+        if !levels.is_empty() {
+            ctx.queue.write_buffer(
+                &self.levels.as_ref().expect("allocated").buf,
+                0,
+                bytemuck::cast_slice(levels),
+            );
+        }
         Ok(())
     }
 
@@ -621,39 +641,8 @@ impl GpuEmitter<'_> {
         let k = levels.len() as u32;
         let lay = ControlLayout { k };
         let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        Self::ensure(
-            ctx,
-            &mut self.entries,
-            "the frame's (cell, level) entries",
-            8,
-            st,
-        )?;
-        Self::ensure(ctx, &mut self.levels, "the level values", k as u64 * 4, st)?;
-        Self::ensure(
-            ctx,
-            &mut self.control,
-            "the draw arguments and counters",
-            lay.words() as u64 * 4,
-            st | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_SRC,
-        )?;
-        let vst = st | wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC;
-        Self::ensure(ctx, &mut self.vertices, "the output triangles", 48, vst)?;
-        Self::ensure(
-            ctx,
-            &mut self.areas,
-            "the per-triangle areas",
-            4,
-            st | wgpu::BufferUsages::COPY_SRC,
-        )?;
-        Self::ensure(ctx, &mut self.normals, "the output normals", 16, vst)?;
+        self.prepare(8, levels, lay)?;
         let q = &ctx.queue;
-        if k > 0 {
-            q.write_buffer(
-                &self.levels.as_ref().expect("allocated").buf,
-                0,
-                bytemuck::cast_slice(levels),
-            );
-        }
         let maxx = ctx.limits.max_compute_workgroups_per_dimension;
         let live_groups = dispatch_size(self.grid.live.len() as u32, maxx);
         let empty = Frame {

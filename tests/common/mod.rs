@@ -6,6 +6,29 @@ pub mod peer;
 use stratasweep::field::FieldSpec;
 use stratasweep::pipeline::{LevelSpec, SliceRequest};
 
+/// Per level, the polygons as (cell, corner positions).
+pub type Levels = Vec<Vec<(u32, Vec<[f32; 3]>)>>;
+
+/// `l` with each level's polygons sorted by (cell, corners), so that two
+/// extractors can be compared whatever their emission order.
+pub fn sorted(mut l: Levels) -> Levels {
+    for lv in &mut l {
+        lv.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.partial_cmp(&b.1).unwrap()));
+    }
+    l
+}
+
+/// The cells of each level of a [`sorted`] `l` (one entry per cell).
+pub fn cells_of(l: &Levels) -> Vec<Vec<u32>> {
+    l.iter()
+        .map(|lv| {
+            let mut c: Vec<u32> = lv.iter().map(|x| x.0).collect();
+            c.dedup();
+            c
+        })
+        .collect()
+}
+
 /// A one-thread sweep request for `count` levels along `axis` (0–2).
 pub fn axis_request(axis: usize, count: usize) -> SliceRequest {
     SliceRequest {

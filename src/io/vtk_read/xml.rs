@@ -712,20 +712,32 @@ impl<'a> Ctx<'a, '_> {
         Ok(())
     }
 
+    /// The whitespace-separated values of an ASCII payload; a token that
+    /// `parse` rejects is an error naming it as an invalid `what`.
+    fn text_values<T>(
+        &self,
+        e: &Elem,
+        text: &[u8],
+        parse: impl Fn(&[u8]) -> Option<T>,
+        what: &str,
+    ) -> Result<Vec<T>, VtkReadError> {
+        tokens(text)
+            .map(|tok| {
+                parse(tok).ok_or_else(|| {
+                    self.xml_err(
+                        label(e),
+                        format!("invalid {what} '{}'", String::from_utf8_lossy(tok)),
+                    )
+                })
+            })
+            .collect()
+    }
+
     fn values_f64(&self, i: usize) -> Result<Vec<f64>, VtkReadError> {
         let e = self.el(i);
         let ty = self.scalar(e)?;
         match self.payload(e)? {
-            Payload::Text(t) => tokens(&t)
-                .map(|tok| {
-                    parse_f64(tok).ok_or_else(|| {
-                        self.xml_err(
-                            label(e),
-                            format!("invalid number '{}'", String::from_utf8_lossy(tok)),
-                        )
-                    })
-                })
-                .collect(),
+            Payload::Text(t) => self.text_values(e, &t, parse_f64, "number"),
             Payload::Bytes(b) => {
                 self.check_bytes(e, &b, ty)?;
                 Ok(decode_f64(&b, ty, self.big, 0))
@@ -737,16 +749,7 @@ impl<'a> Ctx<'a, '_> {
         let e = self.el(i);
         let ty = self.scalar(e)?;
         match self.payload(e)? {
-            Payload::Text(t) => tokens(&t)
-                .map(|tok| {
-                    parse_i64(tok).ok_or_else(|| {
-                        self.xml_err(
-                            label(e),
-                            format!("invalid integer '{}'", String::from_utf8_lossy(tok)),
-                        )
-                    })
-                })
-                .collect(),
+            Payload::Text(t) => self.text_values(e, &t, parse_i64, "integer"),
             Payload::Bytes(b) => {
                 self.check_bytes(e, &b, ty)?;
                 decode_i64(&b, ty, self.big, 0).map_err(|m| self.xml_err(label(e), m))
