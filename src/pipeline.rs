@@ -569,6 +569,7 @@ fn run_ciel<F: ScalarField>(
                 let (lo, hi) = (k * b / n, k * (b + 1) / n);
                 let mut sw = CielSweeper::new(g);
                 sw.set_minima(minima.clone());
+                sw.set_planar(req.field.normal().is_some());
                 let prev = (lo > 0).then(|| levels[lo - 1]);
                 let part = run_range(lo, hi, &mut |mesh, on_level| {
                     sw.sweep_after(f, prev, &levels[lo..hi], &ctx, mesh, on_level)

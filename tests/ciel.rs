@@ -26,7 +26,9 @@ fn collect(mesh: &LevelMesh, out: &mut Vec<(u32, Vec<[f32; 3]>)>) {
     }
 }
 
-fn ciel_sweep<F: ScalarField>(c: &Ciel, f: &F, levels: &[f32]) -> Levels {
+/// The CIEL sweep; `planar` lets convex cells be traced from their entry
+/// half-edge ([`Ciel::draw_cell_from`]), as the pipeline does for planes.
+fn ciel_sweep<F: ScalarField>(c: &Ciel, f: &F, levels: &[f32], planar: bool) -> Levels {
     let ctx = EmitContext {
         positions: &c.positions,
         attribute: None,
@@ -34,6 +36,7 @@ fn ciel_sweep<F: ScalarField>(c: &Ciel, f: &F, levels: &[f32]) -> Levels {
     };
     let mut sw = CielSweeper::new(c);
     sw.prepare_minima(f);
+    sw.set_planar(planar);
     let mut all = vec![Vec::new(); levels.len()];
     let mut mesh = LevelMesh::default();
     sw.sweep(f, levels, &ctx, &mut mesh, |k, m, st| {
@@ -321,7 +324,8 @@ fn check_grid(g: &Grid, label: &str) -> Ciel {
     let mut cut = 0;
     for (name, phi, levels) in fields(&c, g) {
         let f = VertexField { values: &phi };
-        let got = ciel_sweep(&c, &f, &levels);
+        let planar = !name.starts_with("property");
+        let got = ciel_sweep(&c, &f, &levels, planar);
         let want_cells = grid_reference(g, &live, &f, &levels);
         assert_eq!(
             cells_of(&got),
@@ -514,7 +518,7 @@ fn compare_with_cgraph(c: &Ciel, cg: &CGraph, label: &str) {
         );
         let f = VertexField { values: &phi };
         let levels: Vec<f32> = (-8..=8).map(|x| x as f32 * 0.5).collect();
-        let got = ciel_sweep(c, &f, &levels);
+        let got = ciel_sweep(c, &f, &levels, true);
         let ctx = EmitContext {
             positions: pos,
             attribute: None,
@@ -585,7 +589,7 @@ fn planar_polygons_face_increasing_phi() {
         },
         c.positions.len(),
     );
-    let got = ciel_sweep(&c, &VertexField { values: &phi }, &[-0.7, 0.1, 0.9]);
+    let got = ciel_sweep(&c, &VertexField { values: &phi }, &[-0.7, 0.1, 0.9], true);
     let mut n = 0;
     for lv in &got {
         for (_, p) in lv {
@@ -634,7 +638,7 @@ fn real_polyhedral_files_match_the_reference() {
                 .map(|i| lo + (hi - lo) * (i as f32 + 0.5) / 15.0)
                 .collect();
             let live = live_flags(&g);
-            let got = ciel_sweep(&c, &f, &levels);
+            let got = ciel_sweep(&c, &f, &levels, false);
             assert_eq!(
                 cells_of(&got),
                 grid_reference(&g, &live, &f, &levels),
@@ -802,6 +806,7 @@ fn non_convex_cells_are_counted() {
     let g = one_cell(&faces, pts);
     let c = Ciel::build(&g, None).unwrap();
     assert_eq!(c.counts.non_convex, 1);
+    assert_eq!(c.non_convex_cells(), &[0]);
     let ok = Ciel::build(&one_cell(&cube_faces(), cube_points()), None).unwrap();
     assert_eq!(ok.counts.non_convex, 0);
     // The L is still sliced: its z-slices have the L's area (3).
@@ -814,6 +819,7 @@ fn non_convex_cells_are_counted() {
     };
     let mut sw = CielSweeper::new(&c);
     sw.prepare_minima(&f);
+    sw.set_planar(true);
     let mut mesh = LevelMesh::default();
     let mut areas = Vec::new();
     sw.sweep(&f, &[-0.25, 0.0, 0.25], &ctx, &mut mesh, |_, _, st| {
@@ -821,6 +827,70 @@ fn non_convex_cells_are_counted() {
     });
     for a in areas {
         assert!((a - 3.0).abs() < 1e-5, "{a}");
+    }
+}
+
+/// A U-shaped prism cut across both arms has two polygons per level: a
+/// planar sweep must not trace only one of them (non-convex cells keep the
+/// full scan), and the areas are exact. The caps are split into convex
+/// pieces, so no face is crossed more than twice.
+#[test]
+fn planar_sweep_draws_every_polygon_of_a_non_convex_cell() {
+    let base: [[f64; 2]; 10] = [
+        [0., 0.],
+        [1., 0.],
+        [2., 0.],
+        [3., 0.],
+        [3., 2.],
+        [2., 2.],
+        [2., 1.],
+        [1., 1.],
+        [1., 2.],
+        [0., 2.],
+    ];
+    let mut pts = Vec::new();
+    for z in [0.0, 1.0] {
+        for b in base {
+            pts.push([b[0], b[1], z]);
+        }
+    }
+    let mut faces = Vec::new();
+    for piece in [
+        vec![0u32, 1, 7, 8, 9],
+        vec![1, 2, 6, 7],
+        vec![2, 3, 4, 5, 6],
+    ] {
+        faces.push(piece.iter().rev().copied().collect::<Vec<u32>>());
+        faces.push(piece.iter().map(|&i| i + 10).collect());
+    }
+    for i in 0..10u32 {
+        let j = (i + 1) % 10;
+        faces.push(vec![i, j, j + 10, i + 10]);
+    }
+    let c = Ciel::build(&one_cell(&faces, pts), None).unwrap();
+    assert_eq!(c.non_convex_cells(), &[0]);
+    // φ = y: 1.5 crosses both arms (two unit squares), 0.5 the base (3).
+    let phi: Vec<f32> = c.positions.iter().map(|p| p[1]).collect();
+    let f = VertexField { values: &phi };
+    let o = c.origin[1] as f32;
+    let levels = [0.5 - o, 1.5 - o];
+    for planar in [false, true] {
+        let got = ciel_sweep(&c, &f, &levels, planar);
+        assert_eq!(got[0].len(), 1, "planar {planar}: base");
+        assert_eq!(got[1].len(), 2, "planar {planar}: both arms");
+        let ctx = EmitContext {
+            positions: &c.positions,
+            attribute: None,
+            cells_only: false,
+        };
+        let mut sw = CielSweeper::new(&c);
+        sw.prepare_minima(&f);
+        sw.set_planar(planar);
+        let mut mesh = LevelMesh::default();
+        let mut areas = Vec::new();
+        sw.sweep(&f, &levels, &ctx, &mut mesh, |_, _, st| areas.push(st.area));
+        assert!((areas[0] - 3.0).abs() < 1e-5, "{areas:?}");
+        assert!((areas[1] - 2.0).abs() < 1e-5, "{areas:?}");
     }
 }
 

@@ -90,7 +90,8 @@ struct ChunkOut {
     class_counts: [usize; 5],
     hidden: usize,
     flipped: usize,
-    non_convex: usize,
+    /// Live cells found non-convex.
+    non_convex: Vec<u32>,
 }
 
 /// Parses a VTK polyhedron face stream (`nf, n0, ids.., n1, ids..`) into
@@ -656,7 +657,9 @@ fn build_chunk(
                         )));
                     }
                     out.flipped += flipped;
-                    out.non_convex += non_convex as usize;
+                    if non_convex {
+                        out.non_convex.push(c as u32);
+                    }
                     let base = out.origins.len() as u32;
                     for w in s.starts.windows(2) {
                         let (a, b) = (w[0] as usize, w[1] as usize);
@@ -792,6 +795,7 @@ impl Ciel {
             return Err(CielError::NoCells);
         }
         let mut counts = CielCounts::default();
+        let mut non_convex_cells = Vec::new();
         let mut origins = Vec::with_capacity(total);
         let mut mate_face = Vec::with_capacity(total);
         let mut cell_start = Vec::with_capacity(n + 1);
@@ -815,7 +819,8 @@ impl Ciel {
             }
             counts.hidden += ch.hidden;
             counts.flipped_faces += ch.flipped;
-            counts.non_convex += ch.non_convex;
+            counts.non_convex += ch.non_convex.len();
+            non_convex_cells.extend_from_slice(&ch.non_convex);
         }
         cell_start.push(total as u32);
         counts.faces = nfaces;
@@ -994,6 +999,7 @@ impl Ciel {
             cell_lookup,
             vertex_start,
             vertex_edges,
+            non_convex_cells,
             counts,
         })
     }

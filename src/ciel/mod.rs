@@ -240,6 +240,8 @@ pub struct Ciel {
     /// Representative half-edges (one per edge and endpoint), grouped by
     /// origin vertex, increasing ids within a vertex.
     vertex_edges: Vec<u32>,
+    /// Live cells found non-convex (increasing ids; usually empty).
+    non_convex_cells: Vec<u32>,
     /// Build counts.
     pub counts: CielCounts,
 }
@@ -365,6 +367,12 @@ impl Ciel {
         c as u32
     }
 
+    /// Live cells found non-convex by the build (increasing ids), within
+    /// [`CONVEXITY_TOLERANCE`].
+    pub fn non_convex_cells(&self) -> &[u32] {
+        &self.non_convex_cells
+    }
+
     /// Half-edges of cell `c`.
     pub fn cell_half_edges(&self, c: u32) -> std::ops::Range<u32> {
         self.cell_start[c as usize]..self.cell_start[c as usize + 1]
@@ -435,6 +443,7 @@ impl Ciel {
             ),
             ("cell_starts", self.cell_start.len() * 4),
             ("cell_lookup", self.cell_lookup.len() * 4),
+            ("non_convex_cells", self.non_convex_cells.len() * 4),
         ]
     }
 
@@ -630,6 +639,118 @@ impl Ciel {
         }
     }
 
+    /// [`Ciel::draw_cell`] for a level of a planar field, from a known entry
+    /// half-edge `seed` of cell `c` (origin above `t`, destination below):
+    /// traces the polygon face by face and reads only the faces it crosses,
+    /// where [`Ciel::draw_cell`] reads every half-edge of the cell twice. A
+    /// convex cell cut by a plane has one polygon, so the traced loop is the
+    /// cell's whole cut; a face with more than two crossings (a plane
+    /// through a non-planar face) or a seed that is not an entry sends the
+    /// cell to the full path. Emits the same polygon, from the same first
+    /// corner, as [`Ciel::draw_cell`].
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn draw_cell_from<F: ScalarField>(
+        &self,
+        f: &F,
+        c: u32,
+        seed: u32,
+        t: f32,
+        ctx: &EmitContext,
+        scratch: &mut DrawScratch,
+        mesh: &mut LevelMesh,
+        mut crossed: impl FnMut(u32),
+    ) {
+        let r = self.cell_half_edges(c);
+        let (s, e) = (r.start as usize, r.end as usize);
+        let he = &self.origins[s..e];
+        let mf = &self.mate_faces[s..e];
+        for i in (s..e).step_by(16) {
+            prefetch(&self.origins, i);
+        }
+        for i in (s..e).step_by(32) {
+            prefetch(&self.mate_faces, i);
+        }
+        for i in (s..e).step_by(16) {
+            prefetch(&self.mate_cells, i);
+        }
+        let n = e - s;
+        let above = |i: usize| f.phi(he[i] & VERTEX_MASK) >= t;
+        // The face of local half-edge `i`: its first and last half-edges.
+        let face_of = |i: usize| {
+            let (mut a, mut b) = (i, i);
+            while he[a] & FIRST_IN_FACE == 0 {
+                a -= 1;
+            }
+            while he[b] & LAST_IN_FACE == 0 {
+                b += 1;
+            }
+            (a, b)
+        };
+        let h0 = seed.wrapping_sub(r.start) as usize;
+        let ok_seed = h0 < n && {
+            let (a, b) = face_of(h0);
+            above(h0) && !above(if h0 == b { a } else { h0 + 1 })
+        };
+        if !ok_seed {
+            self.draw_cell(f, c, t, ctx, scratch, mesh, crossed);
+            return;
+        }
+        mesh.cut_cells += 1;
+        let DrawScratch { loops, dests, .. } = scratch;
+        loops.clear();
+        dests.clear();
+        let mut cur = h0;
+        loop {
+            let (a, b) = face_of(cur);
+            let next = |i: usize| if i == b { a } else { i + 1 };
+            loops.push(cur as u32);
+            let d = next(cur);
+            dests.push(d as u32);
+            // The below arc runs from dest(cur) to the exit x (origin
+            // below, destination above); the above arc back to cur must
+            // hold no other crossing.
+            let mut x = d;
+            let mut xn = next(x);
+            while !above(xn) {
+                x = xn;
+                xn = next(xn);
+            }
+            let mut y = xn;
+            while y != cur {
+                y = next(y);
+                if y != cur && !above(y) {
+                    self.draw_cell_general(f, c, t, ctx, scratch, mesh, &mut crossed);
+                    return;
+                }
+            }
+            let nxt = (x as isize + mf[x] as isize) as usize;
+            if nxt == h0 {
+                break;
+            }
+            if loops.len() > n {
+                self.draw_cell_general(f, c, t, ctx, scratch, mesh, &mut crossed);
+                return;
+            }
+            cur = nxt;
+        }
+        // Start at the smallest entry, as the full path does.
+        let k0 = (0..loops.len()).min_by_key(|&k| loops[k]).unwrap_or(0);
+        let m = loops.len();
+        let start = mesh.begin_polygon();
+        for j in 0..m {
+            let k = (k0 + j) % m;
+            let (cur, d) = (loops[k] as usize, dests[k] as usize);
+            crossed(r.start + cur as u32);
+            if j > 0 && j.is_multiple_of(32) {
+                mesh.reserve_corners(32);
+            }
+            let (va, vb) = (he[cur] & VERTEX_MASK, he[d] & VERTEX_MASK);
+            corner(mesh, (va, f.phi(va)), (vb, f.phi(vb)), t, ctx);
+        }
+        mesh.end_polygon(start, c);
+    }
+
     /// [`Ciel::draw_cell`] for cells with an ambiguous face (more than two
     /// crossings): faces decided by [`face_above_connected`].
     #[allow(clippy::too_many_arguments)]
@@ -708,7 +829,11 @@ impl DrawScratch {
     pub fn bytes(&self) -> usize {
         self.phi.capacity() * 4
             + self.flags.capacity()
-            + (self.wrap.capacity() + self.loops.capacity() + self.loop_ends.capacity()) * 4
+            + (self.wrap.capacity()
+                + self.loops.capacity()
+                + self.loop_ends.capacity()
+                + self.dests.capacity())
+                * 4
             + self.used.capacity()
             + self.next.capacity() * 4
     }
@@ -735,6 +860,7 @@ pub struct DrawScratch {
     wrap: Vec<u32>,
     loops: Vec<u32>,
     loop_ends: Vec<u32>,
+    dests: Vec<u32>,
     used: Vec<bool>,
     next: Vec<u32>,
 }

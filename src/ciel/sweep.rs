@@ -24,11 +24,16 @@ pub struct CielSweeper<'c> {
     /// Edge queues: (representative half-edge, its destination).
     work: Vec<(u32, u32)>,
     active: Vec<(u32, u32)>,
-    /// Cells to draw at the current level.
-    cells: Vec<u32>,
+    /// Cells to draw at the current level, each with an entry half-edge.
+    cells: Vec<(u32, u32)>,
     minima: Vec<u32>,
     scratch: DrawScratch,
     stamp: u32,
+    /// φ is planar: convex cells are drawn from their entry half-edge
+    /// ([`Ciel::draw_cell_from`]) instead of a scan of all their half-edges.
+    planar: bool,
+    /// The structure's non-convex cells (drawn by the full scan).
+    non_convex: BitSet,
 }
 
 impl<'c> CielSweeper<'c> {
@@ -44,6 +49,14 @@ impl<'c> CielSweeper<'c> {
             minima: Vec::new(),
             scratch: DrawScratch::default(),
             stamp: 0,
+            planar: false,
+            non_convex: {
+                let mut b = BitSet::new(ciel.cell_count());
+                for &x in ciel.non_convex_cells() {
+                    b.set(x as usize);
+                }
+                b
+            },
         }
     }
 
@@ -52,6 +65,14 @@ impl<'c> CielSweeper<'c> {
     pub fn prepare_minima<F: ScalarField>(&mut self, f: &F) -> usize {
         self.minima = minima(self.ciel, f);
         self.minima.len()
+    }
+
+    /// Declares φ planar (a family of parallel planes): every convex cell
+    /// then has one polygon per level, traced from the entry half-edge the
+    /// sweep reaches it by (cells the build found non-convex keep the full
+    /// scan). Property fields (several polygons per cell) must leave this off.
+    pub fn set_planar(&mut self, planar: bool) {
+        self.planar = planar;
     }
 
     /// Uses minima computed once by [`minima`] (shared by parallel sweeps).
@@ -66,6 +87,7 @@ impl<'c> CielSweeper<'c> {
             + (self.work.capacity() + self.active.capacity()) * 8
             + (self.cells.capacity() + self.minima.capacity()) * 4
             + self.scratch.bytes()
+            + self.non_convex.bytes()
     }
 
     /// Sweeps `levels` (increasing, local frame); calls `on_level` with each
@@ -154,24 +176,36 @@ impl<'c> CielSweeper<'c> {
             let stamps = &mut self.cell_stamp;
             let stamp = self.stamp;
             let cells = &mut self.cells;
+            let planar = self.planar;
+            let all_convex = self.ciel.non_convex_cells().is_empty();
+            let non_convex = &self.non_convex;
             for &(h, _) in &self.active {
                 let cell = c.cell_of(h);
                 if stamps[cell as usize] == stamp {
                     continue;
                 }
                 stamps[cell as usize] = stamp;
-                cells.push(cell);
-                while let Some(x) = cells.pop() {
-                    c.draw_cell(f, x, t, ctx, &mut self.scratch, mesh, |e| {
+                // h runs from below to above: its mate in the adjacent face
+                // of the same cell is an entry half-edge.
+                cells.push((cell, c.mate_face(h)));
+                while let Some((x, seed)) = cells.pop() {
+                    // An entry e of x crossed into mate_cell(e), which
+                    // leaves it by the mate; that mate's mate_face enters.
+                    let visit = |e: u32| {
                         let m = c.mate_cell(e);
                         if m != NONE {
                             let y = c.cell_of(m);
                             if stamps[y as usize] != stamp {
                                 stamps[y as usize] = stamp;
-                                cells.push(y);
+                                cells.push((y, c.mate_face(m)));
                             }
                         }
-                    });
+                    };
+                    if planar && (all_convex || !non_convex.get(x as usize)) {
+                        c.draw_cell_from(f, x, seed, t, ctx, &mut self.scratch, mesh, visit);
+                    } else {
+                        c.draw_cell(f, x, t, ctx, &mut self.scratch, mesh, visit);
+                    }
                 }
             }
             let st = LevelStats::of(mesh, visited);
