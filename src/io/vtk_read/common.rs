@@ -324,9 +324,36 @@ fn point_id(v: i64) -> Result<u32, String> {
     }
 }
 
-/// Appends a legacy face stream to `out` (converted to u32) and its point ids
-/// to `pts`; checks that the stream is exactly consumed.
-fn push_face_stream(s: &[i64], out: &mut Vec<u32>, pts: &mut Vec<u32>) -> Result<(), String> {
+/// Appends a legacy face stream to `out` (converted to u32); checks that
+/// every value fits and that the stream is exactly consumed.
+fn push_face_stream(s: &[i64], out: &mut Vec<u32>) -> Result<(), String> {
+    // Fast path: every value checked at once (branch-free), the stream
+    // copied whole, then its face counts walked; any failure reruns the
+    // entry-by-entry path below for its precise message.
+    let first = out.len();
+    if s.iter()
+        .fold(true, |ok, &v| ok & ((v as u64) < u32::MAX as u64))
+    {
+        out.extend(s.iter().map(|&v| v as u32));
+        let st = &out[first..];
+        if let Some((&nf, _)) = st.split_first() {
+            let mut i = 1usize;
+            let mut faces = 0u32;
+            while faces < nf && i < st.len() {
+                i += 1 + st[i] as usize;
+                faces += 1;
+            }
+            if faces == nf && i == st.len() {
+                return Ok(());
+            }
+        }
+        out.truncate(first);
+    }
+    push_face_stream_checked(s, out).inspect_err(|_| out.truncate(first))
+}
+
+/// [`push_face_stream`] entry by entry, naming the first bad entry.
+fn push_face_stream_checked(s: &[i64], out: &mut Vec<u32>) -> Result<(), String> {
     let Some((&nf, mut rest)) = s.split_first() else {
         return Err("polyhedron with an empty face stream".into());
     };
@@ -348,9 +375,7 @@ fn push_face_stream(s: &[i64], out: &mut Vec<u32>, pts: &mut Vec<u32>) -> Result
         };
         out.push(ku as u32);
         for &v in ids {
-            let id = point_id(v)?;
-            out.push(id);
-            pts.push(id);
+            out.push(point_id(v)?);
         }
         rest = &r[ku..];
     }
@@ -361,6 +386,75 @@ fn push_face_stream(s: &[i64], out: &mut Vec<u32>, pts: &mut Vec<u32>) -> Result
         ));
     }
     Ok(())
+}
+
+/// Distinct values of short id lists in linear time: a small open-addressed
+/// table whose slots are cleared by a generation count, not by a sweep.
+/// (A polyhedron's face stream names each vertex about three times; sorting
+/// all of it to drop the repeats cost more than the rest of the read.)
+struct Distinct {
+    keys: Box<[u32; Distinct::SLOTS]>,
+    gens: Box<[u32; Distinct::SLOTS]>,
+    generation: u32,
+}
+
+impl Default for Distinct {
+    fn default() -> Self {
+        Distinct {
+            keys: Box::new([0; Distinct::SLOTS]),
+            gens: Box::new([0; Distinct::SLOTS]),
+            generation: 0,
+        }
+    }
+}
+
+impl Distinct {
+    const SLOTS: usize = 1024;
+
+    /// Appends the distinct point ids of a checked face stream
+    /// (`nf, n0, ids.., n1, ids..`) to `out`, in order of first appearance.
+    fn distinct_into(&mut self, stream: &[u32], out: &mut Vec<u32>) {
+        let big = stream.len() > Self::SLOTS / 2;
+        if !big {
+            self.generation = self.generation.wrapping_add(1);
+            if self.generation == 0 {
+                self.gens.fill(0);
+                self.generation = 1;
+            }
+        }
+        let first = out.len();
+        let mut i = 1usize;
+        while i < stream.len() {
+            let k = stream[i] as usize;
+            let face = &stream[i + 1..i + 1 + k];
+            i += 1 + k;
+            if big {
+                out.extend_from_slice(face);
+                continue;
+            }
+            for &id in face {
+                let mut slot = (id.wrapping_mul(0x9E37_79B1) >> 22) as usize;
+                loop {
+                    if self.gens[slot] != self.generation {
+                        self.gens[slot] = self.generation;
+                        self.keys[slot] = id;
+                        out.push(id);
+                        break;
+                    }
+                    if self.keys[slot] == id {
+                        break;
+                    }
+                    slot = (slot + 1) & (Self::SLOTS - 1);
+                }
+            }
+        }
+        if big {
+            out[first..].sort_unstable();
+            let mut tail = out.split_off(first);
+            tail.dedup();
+            out.extend_from_slice(&tail);
+        }
+    }
 }
 
 /// Assembles [`Cells`] from VTK's flat arrays. `offsets` has `types.len() + 1`
@@ -392,7 +486,7 @@ pub(crate) fn build_cells(
         cells.face_offsets.reserve(n + 1);
         cells.face_offsets.push(0);
     }
-    let mut pts = Vec::new();
+    let mut seen = Distinct::default();
     for (c, &t) in types.iter().enumerate() {
         let t8 = u8::try_from(t)
             .map_err(|_| cell_err(c, format!("cell type {t} is not a VTK cell type id")))?;
@@ -415,12 +509,11 @@ pub(crate) fn build_cells(
                     })?
                 }
             };
-            pts.clear();
-            push_face_stream(stream, &mut cells.face_stream, &mut pts)
-                .map_err(|m| cell_err(c, m))?;
-            pts.sort_unstable();
-            pts.dedup();
-            cells.connectivity.extend_from_slice(&pts);
+            let fs = cells.face_stream.len();
+            push_face_stream(stream, &mut cells.face_stream).map_err(|m| cell_err(c, m))?;
+            let first = cells.connectivity.len();
+            seen.distinct_into(&cells.face_stream[fs..], &mut cells.connectivity);
+            cells.connectivity[first..].sort_unstable();
         } else {
             for &v in ids {
                 cells
@@ -480,6 +573,77 @@ pub(crate) fn finish(grid: Grid, file: &str) -> Result<Grid, VtkReadError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The linear-time distinct ids of a face stream equal sort + dedup,
+    /// for small streams (the table) and large ones (the sort fallback),
+    /// with ids that collide in the table.
+    #[test]
+    fn distinct_ids_match_sort_and_dedup() {
+        let mut seen = Distinct::default();
+        let mut state = 7u64;
+        let mut next = |m: u64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) % m
+        };
+        for round in 0..300 {
+            let (nf, span) = if round % 10 == 0 {
+                (120, 5000)
+            } else {
+                (1 + next(20), 1 + next(60))
+            };
+            let mut stream = vec![nf as u32];
+            let mut want = Vec::new();
+            for _ in 0..nf {
+                let k = 3 + next(6) as u32;
+                stream.push(k);
+                for _ in 0..k {
+                    // Multiples of 1024 land on the same table slot.
+                    let id = (next(span) * if round % 3 == 0 { 1024 } else { 1 }) as u32;
+                    stream.push(id);
+                    want.push(id);
+                }
+            }
+            want.sort_unstable();
+            want.dedup();
+            let mut got = vec![99];
+            seen.distinct_into(&stream, &mut got);
+            assert_eq!(got[0], 99, "round {round}: prefix kept");
+            let mut tail = got.split_off(1);
+            let n = tail.len();
+            tail.sort_unstable();
+            tail.dedup();
+            assert_eq!(tail.len(), n, "round {round}: no repeats");
+            assert_eq!(tail, want, "round {round}");
+        }
+    }
+
+    /// The whole-stream fast path accepts what the checked path accepts
+    /// and reports the same errors.
+    #[test]
+    fn face_stream_fast_path_matches_checked_path() {
+        for s in [
+            vec![2i64, 3, 0, 1, 2, 3, 2, 1, 3],
+            vec![2, 3, 0, 1, 2, 3, 2, 1],
+            vec![2, 3, 0, 1, 2, 3, 2, 1, 3, 9],
+            vec![1, 3, 0, -1, 2],
+            vec![1, 3, 0, 1, 4_294_967_295],
+            vec![3, 3, 0, 1, 2],
+            vec![],
+            vec![1, -3, 0, 1, 2],
+        ] {
+            let (mut a, mut b) = (vec![5u32], vec![5u32]);
+            let fast = push_face_stream(&s, &mut a);
+            let slow = push_face_stream_checked(&s, &mut b);
+            assert_eq!(fast, slow, "{s:?}");
+            if slow.is_ok() {
+                assert_eq!(a, b, "{s:?}");
+            } else {
+                assert_eq!(a, vec![5], "{s:?}: nothing appended on error");
+            }
+        }
+    }
 
     #[test]
     fn fast_float_matches_std() {
