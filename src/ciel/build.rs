@@ -61,6 +61,10 @@ struct Scratch {
     pairs: Vec<(u32, u32, bool)>,
     /// Local `mate_face`.
     mate: Vec<u32>,
+    /// [`pair_edges`]' table: per unordered local edge, (first half-edge,
+    /// generation).
+    edge_table: Vec<(u32, u32)>,
+    edge_generation: u32,
     /// Face of each local half-edge.
     he_face: Vec<u32>,
     /// Face keys `(m, lo, hi, face)`.
@@ -72,6 +76,8 @@ struct Scratch {
     tmp2: Vec<u32>,
     bits: Vec<(u64, u32)>,
     pts: Vec<[f64; 3]>,
+    /// `pts` by coordinate (the convexity test vectorises over these).
+    xyz: [Vec<f64>; 3],
     /// Orientation propagation: per face 0 = unset, 1 = keep, 2 = flip.
     flip: Vec<u8>,
     adj_start: Vec<u32>,
@@ -270,10 +276,68 @@ fn local_ids(s: &mut Scratch) {
     }
 }
 
-/// Pairs the half-edges of one cell by edge into `s.pairs` (and `s.mate`)
-/// through per-vertex lists of outgoing half-edges: open and non-manifold
-/// edges are errors. Needs [`local_ids`].
+/// Pairs the half-edges of one cell by edge into `s.pairs` (and `s.mate`):
+/// open and non-manifold edges are errors. Needs [`local_ids`]. Cells of
+/// up to [`EDGE_TABLE_VERTICES`] vertices go through a table indexed by
+/// (local vertex, local vertex); any edge not used exactly twice, or
+/// larger cells, take the per-vertex lists of [`pair_edges_by_lists`],
+/// which name the offending edge.
 fn pair_edges(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
+    let n = s.ids.len();
+    let nv = s.verts.len();
+    if nv > EDGE_TABLE_VERTICES {
+        return pair_edges_by_lists(cell, s);
+    }
+    // Per unordered local edge (lo, hi): the first half-edge seen + 1
+    // (0 = none), under the current generation; a second fills `mate`.
+    if s.edge_table.len() < nv * nv {
+        s.edge_table
+            .resize(EDGE_TABLE_VERTICES * EDGE_TABLE_VERTICES, (0, 0));
+    }
+    s.edge_generation = s.edge_generation.wrapping_add(1);
+    if s.edge_generation == 0 {
+        s.edge_table.fill((0, 0));
+        s.edge_generation = 1;
+    }
+    let generation = s.edge_generation;
+    s.mate.clear();
+    s.mate.resize(n, NONE);
+    let mut ok = true;
+    for h in 0..n {
+        let (la, lb) = (s.lid[h], s.lid[s.nxt[h] as usize]);
+        let key = (la.min(lb) as usize) * nv + la.max(lb) as usize;
+        let e = &mut s.edge_table[key];
+        if e.1 != generation {
+            *e = (h as u32, generation);
+        } else {
+            let g = e.0;
+            if g == NONE || la == lb {
+                ok = false;
+                break;
+            }
+            s.mate[h] = g;
+            s.mate[g as usize] = h as u32;
+            e.0 = NONE; // a third half-edge on this edge is an error
+        }
+    }
+    if !ok || s.mate.contains(&NONE) {
+        return pair_edges_by_lists(cell, s);
+    }
+    s.pairs.clear();
+    for h in 0..n {
+        let g = s.mate[h];
+        if g as usize > h {
+            s.pairs.push((h as u32, g, s.lid[h] == s.lid[g as usize]));
+        }
+    }
+    Ok(())
+}
+
+/// Largest cell (distinct vertices) paired through the edge table.
+const EDGE_TABLE_VERTICES: usize = 128;
+
+/// [`pair_edges`] through per-vertex lists of outgoing half-edges.
+fn pair_edges_by_lists(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
     let n = s.ids.len();
     let nv = s.verts.len();
     s.out_start.clear();
@@ -588,6 +652,10 @@ fn check_cell(
     }
     // Convexity: every vertex on the inner side of every face plane.
     let mut non_convex = false;
+    for (k, col) in s.xyz.iter_mut().enumerate() {
+        col.clear();
+        col.extend(s.pts.iter().map(|p| p[k]));
+    }
     'faces: for w in s.starts.windows(2) {
         let face = &s.lid[w[0] as usize..w[1] as usize];
         let mut nrm = [0.0; 3];
@@ -610,11 +678,17 @@ fn check_cell(
         let inv = 1.0 / face.len() as f64;
         let d0 = (nrm[0] * c[0] + nrm[1] * c[1] + nrm[2] * c[2]) * inv;
         let tol = CONVEXITY_TOLERANCE * ext * len;
-        for p in &s.pts {
-            if nrm[0] * p[0] + nrm[1] * p[1] + nrm[2] * p[2] - d0 > tol {
-                non_convex = true;
-                break 'faces;
-            }
+        // Counted without an early exit so that the loop vectorises.
+        let [xs, ys, zs] = &s.xyz;
+        let n = xs.len();
+        let (ys, zs) = (&ys[..n], &zs[..n]);
+        let mut outside = 0u32;
+        for i in 0..n {
+            outside += (nrm[0] * xs[i] + nrm[1] * ys[i] + nrm[2] * zs[i] - d0 > tol) as u32;
+        }
+        if outside > 0 {
+            non_convex = true;
+            break 'faces;
         }
     }
     // mate_face: after orientation every edge is used both ways.
@@ -1039,4 +1113,76 @@ fn try_mate(
         j = if j == 0 { len - 1 } else { j - 1 };
     }
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The edge-table pairing and the per-vertex-list pairing agree on
+    /// pairs, mates and errors, over cube-like cells with random face
+    /// orders, flipped faces, dropped faces and extra faces.
+    #[test]
+    fn edge_table_pairing_matches_the_list_pairing() {
+        let cube: [[u32; 4]; 6] = [
+            [0, 3, 2, 1],
+            [4, 5, 6, 7],
+            [0, 1, 5, 4],
+            [1, 2, 6, 5],
+            [2, 3, 7, 6],
+            [3, 0, 4, 7],
+        ];
+        let mut state = 11u64;
+        let mut next = |m: u64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) % m
+        };
+        let mut kinds = [0usize; 2];
+        for round in 0..2000 {
+            let mut faces: Vec<Vec<u32>> = cube.iter().map(|f| f.to_vec()).collect();
+            for f in faces.iter_mut() {
+                if next(4) == 0 {
+                    f.reverse();
+                }
+                let r = next(4) as usize;
+                f.rotate_left(r);
+            }
+            match next(6) {
+                0 => {
+                    faces.remove(next(6) as usize);
+                }
+                1 => faces.push(vec![0, 1, 2 + next(6) as u32]),
+                _ => {}
+            }
+            let k = faces.len();
+            for i in 0..k {
+                faces.swap(i, next(k as u64) as usize);
+            }
+            let mut stream = vec![faces.len() as u32];
+            for f in &faces {
+                stream.push(f.len() as u32);
+                stream.extend(f.iter().map(|&v| v * 7 + 100));
+            }
+            let mut a = Scratch::default();
+            parse_faces_into(0, &stream, &mut a.ids, &mut a.starts).unwrap();
+            local_ids(&mut a);
+            let mut b = Scratch::default();
+            parse_faces_into(0, &stream, &mut b.ids, &mut b.starts).unwrap();
+            local_ids(&mut b);
+            let (ra, rb) = (pair_edges(0, &mut a), pair_edges_by_lists(0, &mut b));
+            assert_eq!(
+                ra.as_ref().map_err(|e| e.to_string()),
+                rb.as_ref().map_err(|e| e.to_string()),
+                "round {round}: {faces:?}"
+            );
+            if ra.is_ok() {
+                assert_eq!(a.pairs, b.pairs, "round {round}");
+                assert_eq!(a.mate, b.mate, "round {round}");
+            }
+            kinds[ra.is_ok() as usize] += 1;
+        }
+        assert!(kinds[0] > 100 && kinds[1] > 100, "{kinds:?}");
+    }
 }
