@@ -10,6 +10,7 @@
 //! transient vertex → incident-cells map that is dropped after the build. Slots are the input cell ids; hidden and degenerate cells stay as
 //! dead slots (never swept, never anyone's neighbour).
 
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 use std::sync::atomic::AtomicU32;
@@ -50,16 +51,28 @@ pub struct CGraph {
     pub sewn_faces: usize,
 }
 
-/// Resolves each cell to a meta-cell id and its local-order vertex ids.
-fn resolve_cells(
-    cells: &Cells,
+/// Resolves each cell to a meta-cell id and its local-order vertex ids
+/// (offsets and ids; borrowed from `cells` when every cell is a typed
+/// volumetric cell other than a voxel, whose ids are already in local order).
+fn resolve_cells<'a>(
+    cells: &'a Cells,
     points: &[[f64; 3]],
     catalog: &mut Catalog,
-) -> Result<(Vec<u16>, Vec<u32>, Vec<u32>), StructureError> {
+) -> Result<(Vec<u16>, Cow<'a, [u32]>, Cow<'a, [u32]>), StructureError> {
     let n = cells.len();
+    let borrow = cells
+        .types
+        .iter()
+        .all(|&t| t != vtk_type::POLYHEDRON && t != vtk_type::VOXEL && !is_lower_dimensional(t));
     let mut metas = Vec::with_capacity(n);
-    let mut offsets = Vec::with_capacity(n + 1);
-    let mut verts = Vec::with_capacity(cells.connectivity.len());
+    let (mut offsets, mut verts) = if borrow {
+        (Vec::new(), Vec::new())
+    } else {
+        (
+            Vec::with_capacity(n + 1),
+            Vec::with_capacity(cells.connectivity.len()),
+        )
+    };
     offsets.push(0u32);
     let mut by_type = [u16::MAX; 256];
     for c in 0..n {
@@ -97,6 +110,16 @@ fn resolve_cells(
                 }
                 m => m,
             };
+            if borrow {
+                if ids.len() != catalog.get(m).nv {
+                    return Err(StructureError::UnsupportedCell {
+                        cell: c,
+                        why: "vertex count does not match its type".into(),
+                    });
+                }
+                metas.push(m);
+                continue;
+            }
             if t == vtk_type::VOXEL {
                 verts.extend(VOXEL_TO_HEX.iter().map(|&i| ids[i]));
             } else {
@@ -113,7 +136,14 @@ fn resolve_cells(
         metas.push(m);
         offsets.push(verts.len() as u32);
     }
-    Ok((metas, offsets, verts))
+    if borrow {
+        return Ok((
+            metas,
+            Cow::Borrowed(&cells.offsets[..]),
+            Cow::Borrowed(&cells.connectivity[..]),
+        ));
+    }
+    Ok((metas, Cow::Owned(offsets), Cow::Owned(verts)))
 }
 
 /// Local vertex list (first-appearance order) and local face loops of a
@@ -208,7 +238,10 @@ impl CGraph {
         let mut catalog = Catalog::new();
         let (mut metas, voff, verts) = match &grid.topology {
             Topology::Unstructured(cells) => resolve_cells(cells, &grid.points, &mut catalog)?,
-            Topology::Structured { dims } => structured_as_hexes(*dims),
+            Topology::Structured { dims } => {
+                let (m, o, v) = structured_as_hexes(*dims);
+                (m, Cow::Owned(o), Cow::Owned(v))
+            }
         };
         let n = metas.len();
         if metas.iter().all(|&m| m == NON_VOLUMETRIC) {
