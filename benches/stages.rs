@@ -1,5 +1,7 @@
 //! One criterion benchmark per stage (load, build, minima, sweep, brute
-//! force), labelled by grid and output size.
+//! force), labelled by grid and output size; and the corner-point load +
+//! build stages (EGRID parse, `into_grid`, convex split + CGraph) on Reek
+//! when `STRATASWEEP_DATA` is set, else on a generated faulted grid.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use stratasweep::bruteforce::brute_force;
@@ -7,8 +9,10 @@ use stratasweep::cgraph::CGraph;
 use stratasweep::extract::{EmitContext, LevelMesh};
 use stratasweep::field::{AxisField, levels_by_count};
 use stratasweep::generate;
+use stratasweep::io::egrid::parse_egrid;
 use stratasweep::io::vtk_read::parse_vtk_xml;
 use stratasweep::io::writers::write_vtk_xml_grid;
+use stratasweep::pipeline::{Structure, StructureChoice};
 use stratasweep::scgraph::SCGraph;
 use stratasweep::sweep::{CellGraph, Sweeper};
 
@@ -123,9 +127,59 @@ fn bench_stages(c: &mut Criterion) {
     }
 }
 
+fn bench_cornerpoint(c: &mut Criterion) {
+    let reek = std::env::var_os("STRATASWEEP_DATA")
+        .map(|d| std::path::Path::new(&d).join("reek/2_R001_REEK-0.EGRID"))
+        .filter(|p| p.is_file());
+    let (label, bytes) = match &reek {
+        Some(p) => ("reek".to_string(), std::fs::read(p).unwrap()),
+        None => {
+            eprintln!("STRATASWEEP_DATA not set: corner-point stages on a generated 40x64x14 grid");
+            let g = generate::faulted([40, 64, 14], 3, 1);
+            let mut out = Vec::new();
+            use stratasweep::io::egrid::{EclData, write_array};
+            let [nx, ny, nz] = g.dims;
+            let head = EclData::Int(vec![1, nx as i32, ny as i32, nz as i32]);
+            write_array(&mut out, "GRIDHEAD", &head).unwrap();
+            let f32s = |v: &[f64]| EclData::Real(v.iter().map(|&x| x as f32).collect());
+            write_array(&mut out, "COORD", &f32s(&g.coord)).unwrap();
+            write_array(&mut out, "ZCORN", &f32s(&g.zcorn)).unwrap();
+            if let Some(a) = &g.actnum {
+                let ints = EclData::Int(a.iter().map(|&x| x as i32).collect());
+                write_array(&mut out, "ACTNUM", &ints).unwrap();
+            }
+            ("faulted40x64x14".to_string(), out)
+        }
+    };
+    let file = std::path::Path::new("bench.EGRID");
+    let cp = parse_egrid(&bytes, file).unwrap();
+    let (grid, _) = cp.clone().into_grid().unwrap();
+    let mut g = c.benchmark_group("cornerpoint");
+    g.bench_function(BenchmarkId::new("parse_egrid", &label), |b| {
+        b.iter(|| parse_egrid(&bytes, file).unwrap())
+    });
+    g.bench_function(BenchmarkId::new("into_grid", &label), |b| {
+        b.iter_batched(
+            || cp.clone(),
+            |cp| cp.into_grid().unwrap(),
+            criterion::BatchSize::LargeInput,
+        )
+    });
+    g.bench_function(BenchmarkId::new("build_cgraph", &label), |b| {
+        b.iter(|| Structure::build(&grid, StructureChoice::Auto).unwrap())
+    });
+    g.bench_function(BenchmarkId::new("load_build", &label), |b| {
+        b.iter(|| {
+            let (grid, _) = parse_egrid(&bytes, file).unwrap().into_grid().unwrap();
+            Structure::build(&grid, StructureChoice::Auto).unwrap()
+        })
+    });
+    g.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(10).warm_up_time(std::time::Duration::from_millis(500)).measurement_time(std::time::Duration::from_secs(2));
-    targets = bench_stages
+    targets = bench_stages, bench_cornerpoint
 }
 criterion_main!(benches);

@@ -10,6 +10,12 @@
 //! transient vertex → incident-cells map that is dropped after the build. Slots are the input cell ids; hidden and degenerate cells stay as
 //! dead slots (never swept, never anyone's neighbour).
 
+use std::borrow::Cow;
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+use std::sync::atomic::AtomicU32;
+use std::sync::atomic::Ordering::Relaxed;
+
 use rayon::prelude::*;
 
 use crate::grid::{Cells, Grid, Topology, is_lower_dimensional, vtk_type};
@@ -45,16 +51,28 @@ pub struct CGraph {
     pub sewn_faces: usize,
 }
 
-/// Resolves each cell to a meta-cell id and its local-order vertex ids.
-fn resolve_cells(
-    cells: &Cells,
+/// Resolves each cell to a meta-cell id and its local-order vertex ids
+/// (offsets and ids; borrowed from `cells` when every cell is a typed
+/// volumetric cell other than a voxel, whose ids are already in local order).
+fn resolve_cells<'a>(
+    cells: &'a Cells,
     points: &[[f64; 3]],
     catalog: &mut Catalog,
-) -> Result<(Vec<u16>, Vec<u32>, Vec<u32>), StructureError> {
+) -> Result<(Vec<u16>, Cow<'a, [u32]>, Cow<'a, [u32]>), StructureError> {
     let n = cells.len();
+    let borrow = cells
+        .types
+        .iter()
+        .all(|&t| t != vtk_type::POLYHEDRON && t != vtk_type::VOXEL && !is_lower_dimensional(t));
     let mut metas = Vec::with_capacity(n);
-    let mut offsets = Vec::with_capacity(n + 1);
-    let mut verts = Vec::with_capacity(cells.connectivity.len());
+    let (mut offsets, mut verts) = if borrow {
+        (Vec::new(), Vec::new())
+    } else {
+        (
+            Vec::with_capacity(n + 1),
+            Vec::with_capacity(cells.connectivity.len()),
+        )
+    };
     offsets.push(0u32);
     let mut by_type = [u16::MAX; 256];
     for c in 0..n {
@@ -92,6 +110,16 @@ fn resolve_cells(
                 }
                 m => m,
             };
+            if borrow {
+                if ids.len() != catalog.get(m).nv {
+                    return Err(StructureError::UnsupportedCell {
+                        cell: c,
+                        why: "vertex count does not match its type".into(),
+                    });
+                }
+                metas.push(m);
+                continue;
+            }
             if t == vtk_type::VOXEL {
                 verts.extend(VOXEL_TO_HEX.iter().map(|&i| ids[i]));
             } else {
@@ -108,7 +136,14 @@ fn resolve_cells(
         metas.push(m);
         offsets.push(verts.len() as u32);
     }
-    Ok((metas, offsets, verts))
+    if borrow {
+        return Ok((
+            metas,
+            Cow::Borrowed(&cells.offsets[..]),
+            Cow::Borrowed(&cells.connectivity[..]),
+        ));
+    }
+    Ok((metas, Cow::Owned(offsets), Cow::Owned(verts)))
 }
 
 /// Local vertex list (first-appearance order) and local face loops of a
@@ -203,7 +238,10 @@ impl CGraph {
         let mut catalog = Catalog::new();
         let (mut metas, voff, verts) = match &grid.topology {
             Topology::Unstructured(cells) => resolve_cells(cells, &grid.points, &mut catalog)?,
-            Topology::Structured { dims } => structured_as_hexes(*dims),
+            Topology::Structured { dims } => {
+                let (m, o, v) = structured_as_hexes(*dims);
+                (m, Cow::Owned(o), Cow::Owned(v))
+            }
         };
         let n = metas.len();
         if metas.iter().all(|&m| m == NON_VOLUMETRIC) {
@@ -252,17 +290,18 @@ impl CGraph {
                 live.set(c);
             }
         }
-        let nbrs = sew(&catalog, &metas, &voff, &verts, &live, grid.points.len());
+        let (nstart, nbrs) = sew(&catalog, &metas, &voff, &verts, &live, grid.points.len());
         let sewn_faces = nbrs.iter().filter(|&&x| x != NONE).count();
         let mut meta_counts = vec![0; catalog.metas.len()];
         for &m in metas.iter().filter(|&&m| m != NON_VOLUMETRIC) {
             meta_counts[m as usize] += 1;
         }
-        let cells = CellStore::build(&catalog, &metas, &voff, &verts, &nbrs);
+        let cells = CellStore::build(&metas, &voff, &verts, &nstart, &nbrs);
         drop(verts);
+        let positions = grid.rebased_positions();
         Ok(CGraph {
             origin: grid.origin(),
-            positions: grid.rebased_positions(),
+            positions,
             catalog,
             cells,
             live,
@@ -336,8 +375,15 @@ fn structured_as_hexes(dims: [usize; 3]) -> (Vec<u16>, Vec<u32>, Vec<u32>) {
     )
 }
 
-/// Finds face neighbours: for each face of each live cell, the live cell
-/// that has a face with exactly the same vertex set.
+/// Finds face neighbours: for each face of each live cell, the smallest
+/// other live cell that has a face with exactly the same vertex set.
+/// Returns per cell the start of its faces (`nstart`, `n + 1` entries) and
+/// the neighbours in face order.
+///
+/// Each shared face is searched once: when cell `c` finds `d > c` as the
+/// smallest match of its face, no cell below `c` holds that face, so `c`
+/// is also `d`'s smallest match and is written into `d`'s face too, which
+/// `d` then skips. Writes race only between equal values (atomics).
 fn sew(
     catalog: &Catalog,
     metas: &[u16],
@@ -345,8 +391,19 @@ fn sew(
     verts: &[u32],
     live: &BitSet,
     nv: usize,
-) -> Vec<u32> {
+) -> (Vec<u32>, Vec<u32>) {
     let n = metas.len();
+    let faces_of = |c: usize| match metas[c] {
+        NON_VOLUMETRIC => &[][..],
+        m => &catalog.get(m).faces[..],
+    };
+    let mut nstart = Vec::with_capacity(n + 1);
+    let mut total = 0u32;
+    nstart.push(0);
+    for c in 0..n {
+        total += faces_of(c).len() as u32;
+        nstart.push(total);
+    }
     // Transient vertex -> incident live cells map (CSR).
     let mut start = vec![0u32; nv + 1];
     for c in 0..n {
@@ -359,24 +416,24 @@ fn sew(
     for i in 0..nv {
         start[i + 1] += start[i];
     }
-    let mut fill = start.clone();
     let mut inc = vec![0u32; start[nv] as usize];
-    for c in 0..n {
-        if live.get(c) {
-            for &v in &verts[voff[c] as usize..voff[c + 1] as usize] {
-                inc[fill[v as usize] as usize] = c as u32;
-                fill[v as usize] += 1;
+    {
+        let mut fill = start.clone();
+        for c in 0..n {
+            if live.get(c) {
+                for &v in &verts[voff[c] as usize..voff[c + 1] as usize] {
+                    inc[fill[v as usize] as usize] = c as u32;
+                    fill[v as usize] += 1;
+                }
             }
         }
     }
-    drop(fill);
-    // The face neighbour of face `f` of live cell `c`: a live cell holding
-    // every vertex of the face whose face of the same length has the same
-    // vertex set.
+    // The smallest live cell `d != c` holding a face with the vertex set of
+    // face `f` of `c`, and that face's index.
     // Vertices of a live cell are distinct, so "same length and every
     // vertex in the set" is set equality: no sorting.
     let cells_of = |v: u32| &inc[start[v as usize] as usize..start[v as usize + 1] as usize];
-    let neighbour = |c: usize, f: &[u8]| -> u32 {
+    let neighbour = |c: usize, f: &[u8]| -> Option<(u32, usize)> {
         let ids = &verts[voff[c] as usize..voff[c + 1] as usize];
         let mut key = [0u32; 32];
         let k = f.len().min(32);
@@ -405,39 +462,44 @@ fn sew(
                 if !key.iter().all(|v| dv.contains(v)) {
                     continue;
                 }
-                let md = catalog.get(metas[d]);
-                if md
-                    .faces
-                    .iter()
-                    .any(|g| g.len() == k && g.iter().all(|&lv| key.contains(&dv[lv as usize])))
-                {
-                    return x;
+                if let Some(g) = faces_of(d).iter().position(|g| {
+                    g.len() == k && g.iter().all(|&lv| key.contains(&dv[lv as usize]))
+                }) {
+                    return Some((x, g));
                 }
             }
         }
-        NONE
+        None
     };
-    // Cells in blocks, each block's faces in order: one allocation per block.
+    const UNSET: u32 = NONE - 1;
+    let nbrs: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(UNSET)).collect();
     const BLOCK: usize = 4096;
-    let blocks: Vec<Vec<u32>> = (0..n.div_ceil(BLOCK))
-        .into_par_iter()
-        .map(|b| {
-            let mut out = Vec::new();
-            for c in b * BLOCK..((b + 1) * BLOCK).min(n) {
-                if metas[c] == NON_VOLUMETRIC {
+    (0..n.div_ceil(BLOCK)).into_par_iter().for_each(|b| {
+        for c in b * BLOCK..((b + 1) * BLOCK).min(n) {
+            let base = nstart[c] as usize;
+            for (f, face) in faces_of(c).iter().enumerate() {
+                let slot = &nbrs[base + f];
+                if !live.get(c) {
+                    slot.store(NONE, Relaxed);
                     continue;
                 }
-                let m = catalog.get(metas[c]);
-                if live.get(c) {
-                    out.extend(m.faces.iter().map(|f| neighbour(c, f)));
-                } else {
-                    out.extend(std::iter::repeat_n(NONE, m.faces.len()));
+                if slot.load(Relaxed) != UNSET {
+                    continue;
+                }
+                match neighbour(c, face) {
+                    Some((d, g)) => {
+                        slot.store(d, Relaxed);
+                        if d as usize > c {
+                            nbrs[nstart[d as usize] as usize + g].store(c as u32, Relaxed);
+                        }
+                    }
+                    None => slot.store(NONE, Relaxed),
                 }
             }
-            out
-        })
-        .collect();
-    blocks.concat()
+        }
+    });
+    let nbrs = nbrs.into_iter().map(AtomicU32::into_inner).collect();
+    (nstart, nbrs)
 }
 
 impl CellGraph for CGraph {
@@ -470,6 +532,27 @@ impl CellGraph for CGraph {
     }
 }
 
+/// Hasher for keys that are already 64-bit hashes: passes them through.
+#[derive(Default)]
+struct PassHasher(u64);
+
+impl Hasher for PassHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = self.0.rotate_left(8) ^ b as u64;
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = x;
+    }
+}
+
+/// Hash-map builder for [`PassHasher`].
+type PassHash = BuildHasherDefault<PassHasher>;
+
 /// Stencil id of cells stored explicitly.
 const ESCAPED: u16 = u16::MAX;
 
@@ -496,37 +579,26 @@ pub struct CellStore {
 
 impl CellStore {
     /// Codes cells given as meta ids, vertex ids (`verts[voff[c]..voff[c+1]]`)
-    /// and neighbours (`nbrs`, `nf` per volumetric cell, in cell order).
-    fn build(catalog: &Catalog, metas: &[u16], voff: &[u32], verts: &[u32], nbrs: &[u32]) -> Self {
+    /// and neighbours (`nbrs[nstart[c]..nstart[c+1]]`, in face order).
+    fn build(metas: &[u16], voff: &[u32], verts: &[u32], nstart: &[u32], nbrs: &[u32]) -> Self {
         let n = metas.len();
-        let mut nstart = Vec::with_capacity(n + 1);
-        nstart.push(0usize);
-        for &m in metas {
-            let nf = if m == NON_VOLUMETRIC {
-                0
-            } else {
-                catalog.get(m).faces.len()
-            };
-            nstart.push(nstart.last().copied().unwrap_or(0) + nf);
-        }
-        let key_of = |c: usize| -> Vec<i32> {
+        // A cell's key (meta, vertex deltas, neighbour deltas), streamed.
+        let key_of = |c: usize| {
             let v = &verts[voff[c] as usize..voff[c + 1] as usize];
-            let mut k = Vec::with_capacity(1 + v.len() + nstart[c + 1] - nstart[c]);
-            k.push(metas[c] as i32);
-            k.extend(v.iter().map(|&x| x.wrapping_sub(v[0]) as i32));
-            k.extend(nbrs[nstart[c]..nstart[c + 1]].iter().map(|&x| {
-                if x == NONE {
-                    NONE_DELTA
-                } else {
-                    x.wrapping_sub(c as u32) as i32
-                }
-            }));
-            k
-        };
-        let hash_of = |k: &[i32]| -> u64 {
-            k.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &x| {
-                (h ^ x as u32 as u64).wrapping_mul(0x0100_0000_01b3)
-            })
+            let v0 = v.first().copied().unwrap_or(0);
+            std::iter::once(metas[c] as i32)
+                .chain(v.iter().map(move |&x| x.wrapping_sub(v0) as i32))
+                .chain(
+                    nbrs[nstart[c] as usize..nstart[c + 1] as usize]
+                        .iter()
+                        .map(move |&x| {
+                            if x == NONE {
+                                NONE_DELTA
+                            } else {
+                                x.wrapping_sub(c as u32) as i32
+                            }
+                        }),
+                )
         };
         let hashes: Vec<u64> = (0..n)
             .into_par_iter()
@@ -534,32 +606,36 @@ impl CellStore {
                 if metas[c] == NON_VOLUMETRIC {
                     0
                 } else {
-                    hash_of(&key_of(c))
+                    key_of(c).fold(0xcbf2_9ce4_8422_2325u64, |h, x| {
+                        (h ^ x as u32 as u64).wrapping_mul(0x0100_0000_01b3)
+                    })
                 }
             })
             .collect();
-        // Count stencils (by hash), keep the most frequent repeated ones.
-        let mut count: std::collections::HashMap<u64, (u32, u32)> = Default::default();
+        // Count stencils (by hash: count, first cell, id), keep the most
+        // frequent repeated ones.
+        let mut count: HashMap<u64, (u32, u32, u16), PassHash> = HashMap::default();
         for c in 0..n {
             if metas[c] != NON_VOLUMETRIC {
-                count.entry(hashes[c]).or_insert((0, c as u32)).0 += 1;
+                count.entry(hashes[c]).or_insert((0, c as u32, ESCAPED)).0 += 1;
             }
         }
-        let mut common: Vec<(u64, u32, u32)> = count
-            .into_iter()
+        let mut common: Vec<(u32, u32, u64)> = count
+            .iter()
             .filter(|e| e.1.0 >= 2)
-            .map(|(h, (k, first))| (h, k, first))
+            .map(|(&h, &(k, first, _))| (k, first, h))
             .collect();
-        common.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(a.2.cmp(&b.2)));
+        common.sort_unstable_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
         common.truncate(ESCAPED as usize);
         let mut store = CellStore::default();
-        let mut id_of: std::collections::HashMap<u64, u16> = Default::default();
-        for (i, &(h, _, first)) in common.iter().enumerate() {
-            let k = key_of(first as usize);
-            store.stencil_meta.push(k[0] as u16);
+        for (i, &(_, first, h)) in common.iter().enumerate() {
+            let mut k = key_of(first as usize);
+            store.stencil_meta.push(k.next().unwrap_or(0) as u16);
             store.stencil_start.push(store.deltas.len() as u32);
-            store.deltas.extend_from_slice(&k[1..]);
-            id_of.insert(h, i as u16);
+            store.deltas.extend(k);
+            if let Some(e) = count.get_mut(&h) {
+                e.2 = i as u16;
+            }
         }
         store.stencil_start.push(store.deltas.len() as u32);
         store.anchor.reserve_exact(n);
@@ -567,13 +643,14 @@ impl CellStore {
         for c in 0..n {
             let v = &verts[voff[c] as usize..voff[c + 1] as usize];
             let coded = (metas[c] != NON_VOLUMETRIC)
-                .then(|| id_of.get(&hashes[c]).copied())
+                .then(|| count.get(&hashes[c]).map(|e| e.2))
                 .flatten()
                 // A hash collision must not merge two stencils: compare.
                 .filter(|&s| {
-                    let (a, b) = store.block(s);
-                    store.stencil_meta[s as usize] as i32 == metas[c] as i32
-                        && store.deltas[a..b] == key_of(c)[1..]
+                    s != ESCAPED && store.stencil_meta[s as usize] == metas[c] && {
+                        let (a, b) = store.block(s);
+                        store.deltas[a..b].iter().copied().eq(key_of(c).skip(1))
+                    }
                 });
             match coded {
                 Some(s) => {
@@ -587,7 +664,7 @@ impl CellStore {
                     store.explicit.extend_from_slice(v);
                     store
                         .explicit
-                        .extend_from_slice(&nbrs[nstart[c]..nstart[c + 1]]);
+                        .extend_from_slice(&nbrs[nstart[c] as usize..nstart[c + 1] as usize]);
                 }
             }
         }

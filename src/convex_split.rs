@@ -547,26 +547,33 @@ pub fn split_non_convex(
         k.sort_unstable();
         k
     };
-    for (_, faces) in &found {
-        for f in faces {
-            let next = table.split_uses.len();
-            let i = *table.index.entry(key(f)).or_insert(next);
-            if i == next {
-                table.split_uses.push(0);
-                table.plan.push(None);
-            }
-            table.split_uses[i] = table.split_uses[i].saturating_add(1);
-        }
-    }
+    // Per split cell, its faces' entries in the table (one lookup per face).
+    let face_ids: Vec<Vec<usize>> = found
+        .iter()
+        .map(|(_, faces)| {
+            faces
+                .iter()
+                .map(|f| {
+                    let next = table.split_uses.len();
+                    let i = *table.index.entry(key(f)).or_insert(next);
+                    if i == next {
+                        table.split_uses.push(0);
+                        table.plan.push(None);
+                    }
+                    table.split_uses[i] = table.split_uses[i].saturating_add(1);
+                    i
+                })
+                .collect()
+        })
+        .collect();
     // Bad faces (non-planar or non-convex) and whether a live cell that is
     // not split shares them.
     let pos = |v: u32| points[v as usize];
     let mut bad = vec![false; table.split_uses.len()];
     // Loops per face entry (first occurrence, canonical).
     let mut loops: Vec<Vec<u32>> = vec![Vec::new(); table.split_uses.len()];
-    for (_, faces) in &found {
-        for f in faces {
-            let i = table.index[&key(f)];
+    for ((_, faces), ids) in found.iter().zip(&face_ids) {
+        for (f, &i) in faces.iter().zip(ids) {
             if loops[i].is_empty() {
                 loops[i] = canonical(f).0;
             }
@@ -613,9 +620,8 @@ pub fn split_non_convex(
         non_convex: found.len(),
         ..Default::default()
     };
-    for (c, faces) in &found {
-        for (fi, f) in faces.iter().enumerate() {
-            let i = table.index[&key(f)];
+    for ((c, faces), ids) in found.iter().zip(&face_ids) {
+        for (fi, &i) in ids.iter().enumerate().take(faces.len()) {
             if table.plan[i].is_some() {
                 continue;
             }
@@ -645,7 +651,7 @@ pub fn split_non_convex(
     }
     // Cells: boundary elements, star point, pieces.
     let mut pieces_of: Vec<(usize, Vec<(u8, Vec<u32>)>)> = Vec::with_capacity(found.len());
-    for (c, faces) in &found {
+    for ((c, faces), ids) in found.iter().zip(&face_ids) {
         let cpos = |v: u32| -> P3 {
             if (v as usize) < np0 {
                 points[v as usize]
@@ -654,8 +660,7 @@ pub fn split_non_convex(
             }
         };
         let mut elems: Vec<(usize, Element)> = Vec::new();
-        for (fi, f) in faces.iter().enumerate() {
-            let i = table.index[&key(f)];
+        for (fi, (f, &i)) in faces.iter().zip(ids).enumerate() {
             let (can, same) = canonical(f);
             let orient = |t: [u32; 3]| if same { t } else { [t[0], t[2], t[1]] };
             match table.plan[i].as_ref().expect("planned") {
@@ -781,45 +786,89 @@ pub fn split_non_convex(
             np0 + new_points.len()
         )));
     }
-    // Assemble the output grid.
-    let mut out = Cells {
-        offsets: vec![0],
-        face_offsets: vec![0],
-        ..Default::default()
-    };
-    let mut source = Vec::with_capacity(n + report.pieces);
-    let mut next = pieces_of.iter().peekable();
-    for c in 0..n {
-        if let Some((_, pieces)) = next.next_if(|(s, _)| *s == c) {
-            for (t, ids) in pieces {
-                if *t == vtk_type::POLYHEDRON {
-                    let (apex, base) = ids.split_last().expect("base and apex");
-                    let k = base.len();
-                    let mut faces = vec![base.to_vec()];
-                    for j in 0..k {
-                        faces.push(vec![base[(j + 1) % k], base[j], *apex]);
-                    }
-                    out.push_polyhedron(&faces);
-                } else {
-                    out.push(*t, ids);
-                }
-                source.push(c as u32);
+    // Assemble the output grid: runs of unsplit cells copied in bulk, the
+    // pieces in place of their cell.
+    let piece_stream = |ids: &[u32]| 2 + 4 * (ids.len() - 1) + ids.len() - 1;
+    let (mut out_cells, mut out_conn, mut out_stream) = (n, cells.connectivity.len(), 0usize);
+    let stream_of = |c: usize| cells.faces_of(c).len();
+    out_stream += cells.face_stream.len();
+    for (c, pieces) in &pieces_of {
+        out_cells += pieces.len() - 1;
+        out_conn -= cells.cell(*c).len();
+        out_stream -= stream_of(*c);
+        for (t, ids) in pieces {
+            out_conn += ids.len();
+            if *t == vtk_type::POLYHEDRON {
+                out_stream += piece_stream(ids);
             }
-        } else {
-            let (a, b) = (cells.offsets[c] as usize, cells.offsets[c + 1] as usize);
-            out.types.push(cells.types[c]);
-            out.connectivity
-                .extend_from_slice(&cells.connectivity[a..b]);
-            out.offsets.push(out.connectivity.len() as u32);
-            out.face_stream.extend_from_slice(cells.faces_of(c));
-            out.face_offsets.push(out.face_stream.len() as u32);
-            source.push(c as u32);
         }
     }
-    if source.len() >= u32::MAX as usize {
-        return Err(SplitError::TooLarge(format!("{} cells", source.len())));
+    if out_cells >= u32::MAX as usize {
+        return Err(SplitError::TooLarge(format!("{out_cells} cells")));
     }
-    let mut all_points = points.clone();
+    let mut out = Cells {
+        types: Vec::with_capacity(out_cells),
+        offsets: Vec::with_capacity(out_cells + 1),
+        connectivity: Vec::with_capacity(out_conn),
+        face_offsets: Vec::with_capacity(out_cells + 1),
+        face_stream: Vec::with_capacity(out_stream),
+    };
+    out.offsets.push(0);
+    out.face_offsets.push(0);
+    let mut source = Vec::with_capacity(out_cells);
+    let copy_run = |out: &mut Cells, source: &mut Vec<u32>, a: usize, b: usize| {
+        if a == b {
+            return;
+        }
+        out.types.extend_from_slice(&cells.types[a..b]);
+        let (ca, cb) = (cells.offsets[a], cells.offsets[b]);
+        let shift = out.connectivity.len() as u32;
+        out.connectivity
+            .extend_from_slice(&cells.connectivity[ca as usize..cb as usize]);
+        out.offsets
+            .extend(cells.offsets[a + 1..=b].iter().map(|&o| o - ca + shift));
+        let fs = out.face_stream.len() as u32;
+        if cells.face_offsets.is_empty() {
+            out.face_offsets.extend(std::iter::repeat_n(fs, b - a));
+        } else {
+            let (fa, fb) = (cells.face_offsets[a], cells.face_offsets[b]);
+            out.face_stream
+                .extend_from_slice(&cells.face_stream[fa as usize..fb as usize]);
+            out.face_offsets
+                .extend(cells.face_offsets[a + 1..=b].iter().map(|&o| o - fa + fs));
+        }
+        source.extend(a as u32..b as u32);
+    };
+    let mut done = 0;
+    for (c, pieces) in &pieces_of {
+        copy_run(&mut out, &mut source, done, *c);
+        for (t, ids) in pieces {
+            if *t == vtk_type::POLYHEDRON {
+                let (apex, base) = ids.split_last().expect("base and apex");
+                let k = base.len();
+                let mut faces = vec![base.to_vec()];
+                for j in 0..k {
+                    faces.push(vec![base[(j + 1) % k], base[j], *apex]);
+                }
+                out.push_polyhedron(&faces);
+            } else {
+                out.push(*t, ids);
+            }
+            source.push(*c as u32);
+        }
+        done = c + 1;
+    }
+    copy_run(&mut out, &mut source, done, n);
+    debug_assert_eq!(
+        (
+            out.types.len(),
+            out.connectivity.len(),
+            out.face_stream.len()
+        ),
+        (out_cells, out_conn, out_stream)
+    );
+    let mut all_points = Vec::with_capacity(np0 + new_points.len());
+    all_points.extend_from_slice(points);
     all_points.extend_from_slice(&new_points);
     let map = SplitMap {
         source,

@@ -795,7 +795,11 @@ impl CornerPointGrid {
         let row_depths: Vec<(Vec<f64>, Vec<u32>)> = (0..=ny)
             .into_par_iter()
             .map(|pj| {
-                let mut lists: Vec<Vec<f64>> = vec![Vec::new(); npx];
+                // One scratch block of 8·nz depths per pillar (4 cells ×
+                // top and bottom per layer), sorted and deduplicated in place.
+                let per = 8 * nz;
+                let mut scratch = vec![0.0f64; per * npx];
+                let mut len = vec![0usize; npx];
                 for k in 0..nz {
                     for kk in 0..2 {
                         for (cj, jj) in [(pj.wrapping_sub(1), 1usize), (pj, 0)] {
@@ -807,8 +811,10 @@ impl CornerPointGrid {
                             let zrow = &zcorn[z0..z0 + 2 * nx];
                             for (i, &code) in row.iter().enumerate() {
                                 if kept(code) {
-                                    lists[i].push(zrow[2 * i]);
-                                    lists[i + 1].push(zrow[2 * i + 1]);
+                                    scratch[per * i + len[i]] = zrow[2 * i];
+                                    len[i] += 1;
+                                    scratch[per * (i + 1) + len[i + 1]] = zrow[2 * i + 1];
+                                    len[i + 1] += 1;
                                 }
                             }
                         }
@@ -816,11 +822,17 @@ impl CornerPointGrid {
                 }
                 let mut flat = Vec::new();
                 let mut lens = Vec::with_capacity(npx);
-                for mut d in lists {
-                    d.sort_unstable_by(|a, b| a.total_cmp(b));
-                    d.dedup();
-                    lens.push(d.len() as u32);
-                    flat.extend_from_slice(&d);
+                for (p, &l) in len.iter().enumerate() {
+                    let d = &mut scratch[per * p..per * p + l];
+                    // Runs in layer order: the stable sort merges them.
+                    d.sort_by(|a, b| a.total_cmp(b));
+                    let before = flat.len();
+                    for &z in d.iter() {
+                        if flat.len() == before || flat.last() != Some(&z) {
+                            flat.push(z);
+                        }
+                    }
+                    lens.push((flat.len() - before) as u32);
                 }
                 flat.shrink_to_fit();
                 (flat, lens)

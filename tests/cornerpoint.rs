@@ -957,3 +957,126 @@ fn generated_faulted_grids_read_by_xtgeo() {
         assert!(rel < 1e-5, "{dip:?}: {} vs xtgeo {}", rep.bulk_volume, x.4);
     }
 }
+
+/// Per cell, per face (catalog order) the neighbour a brute force expects:
+/// the smallest other live cell with a face of exactly the same vertex set
+/// (`NONE` without one, and for dead cells).
+fn brute_force_neighbours(g: &stratasweep::cgraph::CGraph) -> Vec<Vec<u32>> {
+    use std::collections::HashMap;
+    use stratasweep::sweep::CellGraph;
+    let none = stratasweep::cgraph::NONE;
+    let mut ids = [0u32; 12];
+    let faces_of = |c: u32, ids: &mut [u32; 12]| -> Vec<Vec<u32>> {
+        let (m, n) = g.cell(c, ids);
+        if n == 0 {
+            return Vec::new();
+        }
+        g.catalog
+            .get(m)
+            .faces
+            .iter()
+            .map(|f| {
+                let mut k: Vec<u32> = f.iter().map(|&l| ids[l as usize]).collect();
+                k.sort_unstable();
+                k
+            })
+            .collect()
+    };
+    let mut by_set: HashMap<Vec<u32>, Vec<u32>> = HashMap::new();
+    for c in 0..g.cell_count() as u32 {
+        if g.is_live(c) {
+            for k in faces_of(c, &mut ids) {
+                by_set.entry(k).or_default().push(c);
+            }
+        }
+    }
+    (0..g.cell_count() as u32)
+        .map(|c| {
+            let live = g.is_live(c);
+            faces_of(c, &mut ids)
+                .into_iter()
+                .map(|k| {
+                    let others = by_set[&k].iter().filter(|&&d| d != c);
+                    match (live, others.min()) {
+                        (true, Some(&d)) => d,
+                        _ => none,
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn assert_neighbours_brute_force(g: &stratasweep::cgraph::CGraph, what: &str) -> usize {
+    let want = brute_force_neighbours(g);
+    let mut sewn = 0;
+    for (c, w) in want.iter().enumerate() {
+        let got = g.neighbours(c as u32);
+        assert_eq!(&got, w, "{what}: neighbours of cell {c}");
+        sewn += w
+            .iter()
+            .filter(|&&d| d != stratasweep::cgraph::NONE)
+            .count();
+    }
+    assert_eq!(sewn, g.sewn_faces, "{what}: sewn face count");
+    sewn
+}
+
+fn cgraph_of(
+    grid: &stratasweep::grid::Grid,
+) -> stratasweep::convex_split::Split<stratasweep::cgraph::CGraph> {
+    match Structure::build(grid, StructureChoice::CGraph).unwrap() {
+        Structure::CGraph(g) => g,
+        _ => panic!("expected a CGraph"),
+    }
+}
+
+/// The CGraph's face neighbours (each shared face searched once, written on
+/// both sides) equal a brute-force matching of sorted face vertex sets, on
+/// a generated faulted grid (split cells included), on a face shared by
+/// three cells, and on Reek.
+#[test]
+fn cgraph_neighbours_match_brute_force_face_matching() {
+    let (grid, _) = stratasweep::generate::faulted([12, 10, 6], 3, 5)
+        .into_grid()
+        .unwrap();
+    let g = cgraph_of(&grid);
+    let sewn = assert_neighbours_brute_force(&g, "faulted 12x10x6");
+    assert!(sewn > 2 * g.cell_count(), "faulted: only {sewn} sewn faces");
+    // One face (z = 1) shared by three hexahedra: cell 0 below it, cells 1
+    // and 2 above it (tops at z = 2 and 3); cell 3 spans z = 2..3, so it
+    // shares its bottom with cell 1 and its top with cell 2. The smallest
+    // other cell wins.
+    let mut points: Vec<[f64; 3]> = Vec::new();
+    for z in [0.0, 1.0, 2.0, 3.0] {
+        points.extend([[0.0, 0.0, z], [1.0, 0.0, z], [1.0, 1.0, z], [0.0, 1.0, z]]);
+    }
+    let hex = |b: u32, t: u32| [b, b + 1, b + 2, b + 3, t, t + 1, t + 2, t + 3];
+    let mut cells = stratasweep::grid::Cells::default();
+    for (b, t) in [(0, 4), (4, 8), (4, 12), (8, 12)] {
+        cells.push(vtk_type::HEXAHEDRON, &hex(b, t));
+    }
+    let grid = stratasweep::grid::Grid {
+        points,
+        topology: Topology::Unstructured(cells),
+        point_data: Vec::new(),
+        cell_data: Vec::new(),
+    };
+    let g = cgraph_of(&grid);
+    assert_neighbours_brute_force(&g, "three cells on one face");
+    // VTK hexahedron faces 4 and 5 are the bottom and the top.
+    let bottom_of = |c: u32| g.neighbours(c)[4];
+    let top_of = |c: u32| g.neighbours(c)[5];
+    assert_eq!((top_of(0), bottom_of(1), bottom_of(2)), (1, 0, 0));
+    assert_eq!((top_of(1), bottom_of(3)), (3, 1));
+    assert_eq!((top_of(2), top_of(3)), (3, 2));
+    let Some(data) = data_dir("cgraph_neighbours_match_brute_force_face_matching (Reek)") else {
+        return;
+    };
+    let e = stratasweep::io::egrid::read_egrid(data.join("reek/2_R001_REEK-0.EGRID")).unwrap();
+    let (grid, _) = e.grid.into_grid().unwrap();
+    let g = cgraph_of(&grid);
+    assert!(g.map.is_some(), "Reek has non-convex cells to split");
+    let sewn = assert_neighbours_brute_force(&g, "Reek");
+    assert!(sewn > 4 * g.cell_count(), "Reek: only {sewn} sewn faces");
+}

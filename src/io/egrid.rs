@@ -243,8 +243,10 @@ impl<'a> ArrayReader<'a> {
         Ok(&self.bytes[off + 4..off + 4 + n])
     }
 
-    /// The next array, or `None` at the end of the file.
-    pub fn next_array(&mut self) -> Result<Option<EclArray>, EgridError> {
+    /// The next array's header, or `None` at the end of the file. Its
+    /// data records follow: read them with [`ArrayReader::data`] (or
+    /// [`ArrayReader::numeric`]) before the next header.
+    fn header(&mut self) -> Result<Option<Header>, EgridError> {
         if self.pos >= self.bytes.len() {
             return Ok(None);
         }
@@ -269,14 +271,14 @@ impl<'a> ArrayReader<'a> {
         }
         let count = count as usize;
         let (size, kind) = match ty.as_str() {
-            "INTE" => (4, 0),
-            "REAL" => (4, 1),
-            "DOUB" => (8, 2),
-            "LOGI" => (4, 3),
-            "CHAR" => (8, 4),
-            "MESS" => (0, 5),
+            "INTE" => (4, Kind::Int),
+            "REAL" => (4, Kind::Real),
+            "DOUB" => (8, Kind::Double),
+            "LOGI" => (4, Kind::Logical),
+            "CHAR" => (8, Kind::Char),
+            "MESS" => (0, Kind::Message),
             t if t.starts_with("C0") && t[2..].parse::<usize>().is_ok_and(|n| n > 0) => {
-                (t[2..].parse::<usize>().unwrap_or(8), 4)
+                (t[2..].parse::<usize>().unwrap_or(8), Kind::Char)
             }
             _ => {
                 return Err(EgridError::BadHeader {
@@ -286,12 +288,7 @@ impl<'a> ArrayReader<'a> {
                 });
             }
         };
-        if kind == 5 {
-            return Ok(Some(EclArray {
-                keyword,
-                data: EclData::Message,
-            }));
-        }
+        let count = if kind == Kind::Message { 0 } else { count };
         // The payload can never exceed the bytes left: reject absurd counts
         // before allocating.
         if count.saturating_mul(size) > self.bytes.len() - self.pos {
@@ -303,49 +300,110 @@ impl<'a> ArrayReader<'a> {
                 left: self.bytes.len() - self.pos,
             });
         }
-        let mut data = match kind {
-            0 => EclData::Int(Vec::with_capacity(count)),
-            1 => EclData::Real(Vec::with_capacity(count)),
-            2 => EclData::Double(Vec::with_capacity(count)),
-            3 => EclData::Logical(Vec::with_capacity(count)),
-            _ => EclData::Char(Vec::with_capacity(count)),
-        };
-        let mut got = 0usize;
-        while got < count {
+        Ok(Some(Header {
+            keyword,
+            count,
+            size,
+            kind,
+        }))
+    }
+
+    /// The data records of the array `h`, each element decoded by `conv`.
+    fn decode<T>(&mut self, h: &Header, conv: impl Fn(&[u8]) -> T) -> Result<Vec<T>, EgridError> {
+        let (count, size) = (h.count, h.size);
+        let mut v = Vec::with_capacity(count);
+        while v.len() < count {
             let roff = self.pos;
-            let r = self.record(&keyword)?;
+            let r = self.record(&h.keyword)?;
+            let got = v.len();
             if r.is_empty() || r.len() % size != 0 || got + r.len() / size > count {
                 return Err(EgridError::BadData {
                     file: self.file.clone(),
                     offset: roff,
-                    keyword,
+                    keyword: h.keyword.clone(),
                     why: format!(
                         "data record of {} bytes after {got} of {count} elements of {size} bytes",
                         r.len()
                     ),
                 });
             }
-            let chunks = r.chunks_exact(size);
-            match &mut data {
-                EclData::Int(v) => {
-                    v.extend(chunks.map(|c| i32::from_be_bytes(c.try_into().unwrap_or([0; 4]))))
-                }
-                EclData::Real(v) => {
-                    v.extend(chunks.map(|c| f32::from_be_bytes(c.try_into().unwrap_or([0; 4]))))
-                }
-                EclData::Double(v) => {
-                    v.extend(chunks.map(|c| f64::from_be_bytes(c.try_into().unwrap_or([0; 8]))))
-                }
-                EclData::Logical(v) => v.extend(chunks.map(|c| c != [0, 0, 0, 0])),
-                EclData::Char(v) => {
-                    v.extend(chunks.map(|c| String::from_utf8_lossy(c).trim_end().to_string()))
-                }
-                EclData::Message => {}
-            }
-            got += r.len() / size;
+            v.extend(r.chunks_exact(size).map(&conv));
         }
-        Ok(Some(EclArray { keyword, data }))
+        Ok(v)
     }
+
+    /// The data of the array `h`.
+    fn data(&mut self, h: &Header) -> Result<EclData, EgridError> {
+        let word = |c: &[u8]| c.try_into().unwrap_or([0; 4]);
+        Ok(match h.kind {
+            Kind::Int => EclData::Int(self.decode(h, |c| i32::from_be_bytes(word(c)))?),
+            Kind::Real => EclData::Real(self.decode(h, |c| f32::from_be_bytes(word(c)))?),
+            Kind::Double => EclData::Double(
+                self.decode(h, |c| f64::from_be_bytes(c.try_into().unwrap_or([0; 8])))?,
+            ),
+            Kind::Logical => EclData::Logical(self.decode(h, |c| c != [0, 0, 0, 0])?),
+            Kind::Char => EclData::Char(
+                self.decode(h, |c| String::from_utf8_lossy(c).trim_end().to_string())?,
+            ),
+            Kind::Message => EclData::Message,
+        })
+    }
+
+    /// The data of the numeric (INTE, REAL, DOUB) array `h`, each value
+    /// widened to f64 and mapped by `f`, without an intermediate array.
+    fn numeric<T>(&mut self, h: &Header, f: impl Fn(f64) -> T) -> Result<Vec<T>, EgridError> {
+        let word = |c: &[u8]| c.try_into().unwrap_or([0; 4]);
+        match h.kind {
+            Kind::Int => self.decode(h, |c| f(i32::from_be_bytes(word(c)) as f64)),
+            Kind::Real => self.decode(h, |c| f(f32::from_be_bytes(word(c)) as f64)),
+            _ => self.decode(h, |c| f(f64::from_be_bytes(c.try_into().unwrap_or([0; 8])))),
+        }
+    }
+
+    /// The next array, or `None` at the end of the file.
+    pub fn next_array(&mut self) -> Result<Option<EclArray>, EgridError> {
+        let Some(h) = self.header()? else {
+            return Ok(None);
+        };
+        let data = self.data(&h)?;
+        Ok(Some(EclArray {
+            keyword: h.keyword,
+            data,
+        }))
+    }
+}
+
+/// Element types of an array.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Int,
+    Real,
+    Double,
+    Logical,
+    Char,
+    Message,
+}
+
+impl Kind {
+    /// Type name as [`EclData::type_name`] gives it.
+    fn name(self) -> &'static str {
+        match self {
+            Kind::Int => "INTE",
+            Kind::Real => "REAL",
+            Kind::Double => "DOUB",
+            Kind::Logical => "LOGI",
+            Kind::Char => "CHAR",
+            Kind::Message => "MESS",
+        }
+    }
+}
+
+/// An array header (the data records follow it).
+struct Header {
+    keyword: String,
+    count: usize,
+    size: usize,
+    kind: Kind,
 }
 
 /// Appends one array in EGRID form (header record, then data records of at
@@ -413,21 +471,69 @@ pub fn parse_egrid(bytes: &[u8], file: &Path) -> Result<CornerPointGrid, EgridEr
     let mut mapaxes = None;
     let mut mapunits = None;
     let mut gridunit = None;
-    let count_err = |kw: &str, d: &EclData, expected: usize| EgridError::Count {
+    let count_err = |kw: &str, kind: &str, found: usize, expected: usize| EgridError::Count {
         file: file.into(),
         keyword: kw.into(),
-        kind: d.type_name().into(),
+        kind: kind.into(),
         expected,
-        found: d.len(),
+        found,
     };
-    while let Some(a) = r.next_array()? {
+    while let Some(h) = r.header()? {
+        if matches!(h.keyword.as_str(), "COORD" | "ZCORN" | "ACTNUM" | "MAPAXES") {
+            // Numeric arrays decoded straight to their final form.
+            let Some([nx, ny, nz]) = dims.or((h.keyword == "MAPAXES").then_some([0, 0, 0])) else {
+                return Err(EgridError::Missing {
+                    file: file.into(),
+                    keyword: format!("GRIDHEAD (before {})", h.keyword),
+                });
+            };
+            let expected = match h.keyword.as_str() {
+                "COORD" => 6 * (nx + 1) * (ny + 1),
+                "ZCORN" => 8 * nx * ny * nz,
+                "ACTNUM" => nx * ny * nz,
+                _ => 6,
+            };
+            let numeric = matches!(h.kind, Kind::Int | Kind::Real | Kind::Double);
+            if h.count != expected || !numeric {
+                return Err(count_err(&h.keyword, h.kind.name(), h.count, expected));
+            }
+            let non_finite = |i: usize, offset: usize| EgridError::BadData {
+                file: file.into(),
+                offset,
+                keyword: h.keyword.clone(),
+                why: format!("value {i} is not finite"),
+            };
+            if h.keyword == "ACTNUM" {
+                // 0/1 per cell, NaN kept as 2 to be reported.
+                let v = r.numeric(&h, |x| if x.is_finite() { (x != 0.0) as u8 } else { 2 })?;
+                if let Some(i) = v.iter().position(|&x| x == 2) {
+                    return Err(non_finite(i, r.pos));
+                }
+                actnum = Some(v);
+                continue;
+            }
+            let v = r.numeric(&h, |x| x)?;
+            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                return Err(non_finite(i, r.pos));
+            }
+            match h.keyword.as_str() {
+                "COORD" => coord = Some(v),
+                "ZCORN" => zcorn = Some(v),
+                _ => mapaxes = Some([v[0], v[1], v[2], v[3], v[4], v[5]]),
+            }
+            continue;
+        }
+        let a = EclArray {
+            data: r.data(&h)?,
+            keyword: h.keyword,
+        };
         match a.keyword.as_str() {
             "GRIDHEAD" => {
                 let EclData::Int(v) = &a.data else {
-                    return Err(count_err("GRIDHEAD", &a.data, 4));
+                    return Err(count_err("GRIDHEAD", a.data.type_name(), a.data.len(), 4));
                 };
                 if v.len() < 4 {
-                    return Err(count_err("GRIDHEAD", &a.data, 4));
+                    return Err(count_err("GRIDHEAD", a.data.type_name(), v.len(), 4));
                 }
                 if v[0] != 1 {
                     return Err(EgridError::Unsupported {
@@ -445,43 +551,6 @@ pub fn parse_egrid(bytes: &[u8], file: &Path) -> Result<CornerPointGrid, EgridEr
                     });
                 }
                 dims = Some([v[1] as usize, v[2] as usize, v[3] as usize]);
-            }
-            "COORD" | "ZCORN" | "ACTNUM" | "MAPAXES" => {
-                let Some([nx, ny, nz]) = dims.or((a.keyword == "MAPAXES").then_some([0, 0, 0]))
-                else {
-                    return Err(EgridError::Missing {
-                        file: file.into(),
-                        keyword: format!("GRIDHEAD (before {})", a.keyword),
-                    });
-                };
-                let expected = match a.keyword.as_str() {
-                    "COORD" => 6 * (nx + 1) * (ny + 1),
-                    "ZCORN" => 8 * nx * ny * nz,
-                    "ACTNUM" => nx * ny * nz,
-                    _ => 6,
-                };
-                let numeric = matches!(
-                    a.data,
-                    EclData::Int(_) | EclData::Real(_) | EclData::Double(_)
-                );
-                if a.data.len() != expected || !numeric {
-                    return Err(count_err(&a.keyword, &a.data, expected));
-                }
-                let v = a.data.to_f64().unwrap_or_default();
-                if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-                    return Err(EgridError::BadData {
-                        file: file.into(),
-                        offset: r.pos,
-                        keyword: a.keyword.clone(),
-                        why: format!("value {i} is not finite"),
-                    });
-                }
-                match a.keyword.as_str() {
-                    "COORD" => coord = Some(v),
-                    "ZCORN" => zcorn = Some(v),
-                    "ACTNUM" => actnum = Some(v.iter().map(|&x| (x != 0.0) as u8).collect()),
-                    _ => mapaxes = Some([v[0], v[1], v[2], v[3], v[4], v[5]]),
-                }
             }
             "MAPUNITS" | "GRIDUNIT" => {
                 if let EclData::Char(s) = &a.data {
