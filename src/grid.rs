@@ -433,6 +433,23 @@ fn validate_cells(cells: &Cells, np: usize) -> Result<(), GridError> {
             why: "inconsistent cell offsets".into(),
         });
     }
+    // One pass over each id array: when its largest value names a point,
+    // every id does and the per-cell searches are skipped (the face-stream
+    // counts are included, so this can only send a valid grid the slow way).
+    let np32 = np as u32; // np < u32::MAX was checked by the caller
+    let below_np = |v: &[u32]| {
+        // Eight independent lanes so that the loop vectorises.
+        let mut lanes = [0u32; 8];
+        let mut chunks = v.chunks_exact(8);
+        for ch in &mut chunks {
+            for k in 0..8 {
+                lanes[k] |= (ch[k] >= np32) as u32;
+            }
+        }
+        lanes.iter().all(|&l| l == 0) && chunks.remainder().iter().all(|&x| x < np32)
+    };
+    let ids_ok = below_np(&cells.connectivity);
+    let faces_ok = below_np(&cells.face_stream);
     for c in 0..nc {
         let t = cells.types[c];
         let (a, b) = (cells.offsets[c] as usize, cells.offsets[c + 1] as usize);
@@ -443,7 +460,12 @@ fn validate_cells(cells: &Cells, np: usize) -> Result<(), GridError> {
             });
         }
         let ids = &cells.connectivity[a..b];
-        if let Some(&bad) = ids.iter().find(|&&v| v as usize >= np) {
+        let bad = if ids_ok {
+            None
+        } else {
+            ids.iter().find(|&&v| v as usize >= np)
+        };
+        if let Some(&bad) = bad {
             return Err(GridError::MissingVertex {
                 cell: c,
                 point: bad as u64,
@@ -451,7 +473,7 @@ fn validate_cells(cells: &Cells, np: usize) -> Result<(), GridError> {
             });
         }
         if t == vtk_type::POLYHEDRON {
-            validate_face_stream(c, cells.faces_of(c), np)?;
+            validate_face_stream(c, cells.faces_of(c), np, !faces_ok)?;
         } else if let Some(n) = vertex_count_of(t) {
             if ids.len() != n {
                 return Err(GridError::WrongVertexCount {
@@ -471,7 +493,14 @@ fn validate_cells(cells: &Cells, np: usize) -> Result<(), GridError> {
     Ok(())
 }
 
-fn validate_face_stream(cell: usize, s: &[u32], np: usize) -> Result<(), GridError> {
+/// Checks the face stream of polyhedron `cell`; point ids are checked
+/// against `np` only when `check_ids`.
+fn validate_face_stream(
+    cell: usize,
+    s: &[u32],
+    np: usize,
+    check_ids: bool,
+) -> Result<(), GridError> {
     let bad = |why: String| GridError::BadPolyhedron { cell, why };
     let Some((&nf, mut rest)) = s.split_first() else {
         return Err(bad("no face stream".into()));
@@ -489,7 +518,12 @@ fn validate_face_stream(cell: usize, s: &[u32], np: usize) -> Result<(), GridErr
         if r.len() < n as usize {
             return Err(bad(format!("face {f} is truncated")));
         }
-        if let Some(&v) = r[..n as usize].iter().find(|&&v| v as usize >= np) {
+        let bad_id = if check_ids {
+            r[..n as usize].iter().find(|&&v| v as usize >= np)
+        } else {
+            None
+        };
+        if let Some(&v) = bad_id {
             return Err(bad(format!(
                 "face {f} references point {v}, but the grid has {np} points"
             )));
@@ -503,4 +537,63 @@ fn validate_face_stream(cell: usize, s: &[u32], np: usize) -> Result<(), GridErr
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tet_grid(faces: &[Vec<u32>], typed: &[u32]) -> Grid {
+        let mut cells = Cells::default();
+        cells.push(vtk_type::TETRA, typed);
+        cells.push_polyhedron(faces);
+        Grid {
+            points: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ],
+            topology: Topology::Unstructured(cells),
+            point_data: Vec::new(),
+            cell_data: Vec::new(),
+        }
+    }
+
+    /// Point ids past the grid are named, in the connectivity and in a
+    /// polyhedron's face stream alike (the one-pass range check only
+    /// skips the per-cell search when every id is in range).
+    #[test]
+    fn out_of_range_ids_are_named() {
+        let tet = |d: u32| vec![vec![0, 2, 1], vec![0, 1, d], vec![1, 2, d], vec![2, 0, d]];
+        assert!(tet_grid(&tet(3), &[0, 1, 2, 3]).validate().is_ok());
+        let e = tet_grid(&tet(3), &[0, 1, 2, 9]).validate().unwrap_err();
+        assert!(
+            matches!(
+                e,
+                GridError::MissingVertex {
+                    cell: 0,
+                    point: 9,
+                    points: 4
+                }
+            ),
+            "{e}"
+        );
+        let e = tet_grid(&tet(7), &[0, 1, 2, 3])
+            .validate()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("cell 1 references point 7"), "{e}");
+        // A face stream naming a point its connectivity does not.
+        let mut g = tet_grid(&tet(3), &[0, 1, 2, 3]);
+        if let Topology::Unstructured(c) = &mut g.topology {
+            let n = c.face_stream.len();
+            c.face_stream[n - 1] = 8;
+        }
+        let e = g.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("cell 1") && e.contains("references point 8"),
+            "{e}"
+        );
+    }
 }
