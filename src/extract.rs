@@ -76,10 +76,24 @@ impl EdgeMap {
         self.entries.capacity() * std::mem::size_of::<Entry>()
     }
 
-    /// Fibonacci hash of `key`: slot from the high bits, tag bits below.
+    /// Home slot and 16 tag bits of `key` (`min_id << 32 | max_id`).
+    ///
+    /// Edges with the same id difference whose smaller ids agree but for
+    /// the low 3 bits share one 8-slot run (the Fibonacci hash of the
+    /// pair picks the run; the low bits place the edge inside it), so
+    /// cells emitted in id order probe a few cache lines over and over
+    /// instead of a random line per corner. The tag holds hash bits above
+    /// the run's and the 3 low bits.
     #[inline(always)]
-    fn hash(key: u64) -> u64 {
-        key.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+    fn home(key: u64, mask: usize) -> (usize, u32) {
+        let ga = (key >> 32) as u32;
+        let run = (ga >> 3) as u64 | ((key as u32).wrapping_sub(ga) as u64) << 32;
+        let h = run.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let low = (ga & 7) as usize;
+        (
+            ((h >> 32) as usize & mask & !7) | low,
+            (h >> 16) as u32 & 0xFFF8 | low as u32,
+        )
     }
 
     #[cold]
@@ -90,8 +104,7 @@ impl EdgeMap {
         self.gen_ = 1;
         self.mask = cap - 1;
         for e in old.into_iter().filter(|e| e.tag >> 16 == old_gen) {
-            let h = Self::hash(keys[e.val as usize]);
-            let mut s = (h >> 32) as usize & self.mask;
+            let (mut s, _) = Self::home(keys[e.val as usize], self.mask);
             while self.entries[s].tag >> 16 == self.gen_ {
                 s = (s + 1) & self.mask;
             }
@@ -115,7 +128,7 @@ impl EdgeMap {
     /// Hints the CPU to fetch the slot where a probe for `key` starts.
     #[inline(always)]
     pub(crate) fn prefetch(&self, key: u64) {
-        prefetch(&self.entries, (Self::hash(key) >> 32) as usize & self.mask);
+        prefetch(&self.entries, Self::home(key, self.mask).0);
     }
 
     /// Returns the value for `key`, inserting `value_if_new` when absent; the
@@ -131,10 +144,9 @@ impl EdgeMap {
         keys: &[u64],
     ) -> (u32, bool) {
         debug_assert!((self.len + 1) * 8 <= self.entries.len() * 3);
-        let h = Self::hash(key);
-        let mut s = (h >> 32) as usize & self.mask;
+        let (mut s, bits) = Self::home(key, self.mask);
         let cur = self.gen_;
-        let tag = cur << 16 | (h >> 16) as u32 & 0xFFFF;
+        let tag = cur << 16 | bits;
         loop {
             let e = self.entries[s];
             if e.tag >> 16 != cur {

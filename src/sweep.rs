@@ -520,20 +520,9 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
                 g.prefetch_cell(ahead, ctx);
             }
             i += 1;
-            let (m, n, lo, hi) = load_phi(g, f, c, &mut ids, &mut phi);
+            let (_, _, lo, hi) = load_phi(g, f, c, &mut ids, &mut phi);
             if intersects(lo, hi, t) {
                 b.active.push(c);
-                let code = code_of(&phi[..n], t);
-                emit_cell(
-                    catalog.get(m),
-                    &ids[..n],
-                    &phi[..n],
-                    t,
-                    code,
-                    c,
-                    ctx,
-                    &mut b.mesh,
-                );
             }
             let stamps = &mut b.stamps;
             let work = &mut b.work;
@@ -561,10 +550,28 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
                 },
             );
         }
+        // As in the lattice loop: A_k is emitted in slot order, and the
+        // next step visits it in that order.
+        radix_sort_slots(&mut b.active, &mut b.sort_scratch, start, len);
+        for (n, &c) in b.active.iter().enumerate() {
+            if let Some(&ahead) = b.active.get(n + PREFETCH_AHEAD) {
+                g.prefetch_cell(ahead, ctx);
+            }
+            let (m, n, _, _) = load_phi(g, f, c, &mut ids, &mut phi);
+            let code = code_of(&phi[..n], t);
+            emit_cell(
+                catalog.get(m),
+                &ids[..n],
+                &phi[..n],
+                t,
+                code,
+                c,
+                ctx,
+                &mut b.mesh,
+            );
+        }
         let stats = LevelStats::of(&b.mesh, b.work.len() as u64);
         on_level(k, &b.mesh, &stats);
-        // As in the lattice loop: the next step visits A_k in slot order.
-        radix_sort_slots(&mut b.active, &mut b.sort_scratch, start, len);
         t_prev = t;
     }
 }
@@ -616,19 +623,13 @@ fn sweep_block_lattice(
         while i < work.len() {
             let c = work[i];
             if let Some(&ahead) = work.get(i + 2 * PREFETCH_AHEAD) {
-                // The four vertex rows of the cell four entries ahead: φ,
-                // positions and attribute (read when it is cut).
+                // The four φ rows of the cell four entries ahead, the stamps
+                // of its j and k neighbours (the i ones share its line), and
+                // the φ rows of their far faces.
                 let v = ahead - lat.base;
                 for o in [off[0], off[3], off[4], off[7]] {
-                    let r = (v + o) as usize;
-                    prefetch(phi, r);
-                    prefetch(ctx.positions, r);
-                    if let Some(a) = ctx.attribute {
-                        prefetch(a, r);
-                    }
+                    prefetch(phi, (v + o) as usize);
                 }
-                // The stamps of its j and k neighbours (the i ones share
-                // its line), and the φ rows of their far faces.
                 let [_, dj, dk] = lat.deltas;
                 for nb in [ahead - dj, ahead + dj, ahead - dk, ahead + dk] {
                     prefetch(stamps, nb.wrapping_sub(start) as usize);
@@ -646,28 +647,12 @@ fn sweep_block_lattice(
                     prefetch(phi, r as usize);
                 }
             }
-            if !ctx.cells_only
-                && let Some(&ahead) = work.get(i + PREFETCH_AHEAD)
-            {
-                // Two entries ahead, its φ rows have arrived: the weld-map
-                // slots of its corners, whose first probe would miss.
-                let v = ahead - lat.base;
-                let fa: [f32; 8] = std::array::from_fn(|q| at(v + off[q]));
-                let code = code8(&fa, t);
-                if code != 0 && code != 255 {
-                    let ids: [u32; 8] = std::array::from_fn(|q| v + off[q]);
-                    lat.table.prefetch_corners(&ids, code, mesh);
-                }
-            }
             i += 1;
             let v0 = c - lat.base;
             let f: [f32; 8] = std::array::from_fn(|q| at(v0 + off[q]));
             let (lo, hi) = min_max8(&f);
             if intersects(lo, hi, t) {
                 active.push(c);
-                let ids: [u32; 8] = std::array::from_fn(|q| v0 + off[q]);
-                lat.table
-                    .emit(lat.meta, &ids, &f, t, code8(&f, t), c, ctx, mesh);
             }
             // The six neighbours, unrolled: stamp every one examined (see
             // `sweep_block`); its lo is the min of the shared face's φ and
@@ -708,11 +693,42 @@ fn sweep_block_lattice(
             visit!(c - dk, 4, |v| v - dk);
             visit!(c + dk, 5, |v| v + dk);
         }
+        // A_k in slot order: this level's polygons are emitted in that
+        // order (consecutive cells share cache lines of φ, positions and
+        // weld slots), and the next step visits A_k first, in that order.
+        radix_sort_slots(active, &mut b.sort_scratch, start, len);
+        if ctx.cells_only {
+            mesh.cells.extend_from_slice(active);
+            mesh.cut_cells = active.len() as u32;
+        } else {
+            for (n, &c) in active.iter().enumerate() {
+                if let Some(&ahead) = active.get(n + 2 * PREFETCH_AHEAD) {
+                    // The cell's vertex rows: positions and attribute.
+                    let v = ahead - lat.base;
+                    for o in [off[0], off[3], off[4], off[7]] {
+                        let r = (v + o) as usize;
+                        prefetch(ctx.positions, r);
+                        if let Some(a) = ctx.attribute {
+                            prefetch(a, r);
+                        }
+                    }
+                }
+                if let Some(&ahead) = active.get(n + PREFETCH_AHEAD) {
+                    // Two entries ahead, the weld-map slots of its corners.
+                    let v = ahead - lat.base;
+                    let fa: [f32; 8] = std::array::from_fn(|q| at(v + off[q]));
+                    let ids: [u32; 8] = std::array::from_fn(|q| v + off[q]);
+                    lat.table.prefetch_corners(&ids, code8(&fa, t), mesh);
+                }
+                let v0 = c - lat.base;
+                let f: [f32; 8] = std::array::from_fn(|q| at(v0 + off[q]));
+                let ids: [u32; 8] = std::array::from_fn(|q| v0 + off[q]);
+                lat.table
+                    .emit(lat.meta, &ids, &f, t, code8(&f, t), c, ctx, mesh);
+            }
+        }
         let stats = LevelStats::of(mesh, work.len() as u64);
         on_level(k, mesh, &stats);
-        // The next step visits A_k first, in this order: sorted by slot,
-        // consecutive cells share cache lines of φ, positions and stamps.
-        radix_sort_slots(active, &mut b.sort_scratch, start, len);
         t_prev = t;
     }
 }
