@@ -576,10 +576,27 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     }
 }
 
+/// φ of the lattice cell with first vertex `v0` in geometric order
+/// (`g = i + 2j + 4k`): four (i, i+1) pairs, rows `dj` and layers `dk` apart.
+///
+/// # Safety
+/// `v0 + dj + dk + 1` must be a vertex (< `phi.len()`).
+#[inline(always)]
+unsafe fn load8(phi: &[f32], v0: u32, dj: u32, dk: u32) -> [f32; 8] {
+    let p = phi.as_ptr();
+    let pair = |v: u32| {
+        // SAFETY: the caller guarantees v + 1 < phi.len().
+        unsafe { [*p.add(v as usize), *p.add(v as usize + 1)] }
+    };
+    let [a, b, c, d] = [pair(v0), pair(v0 + dj), pair(v0 + dk), pair(v0 + dj + dk)];
+    [a[0], a[1], b[0], b[1], c[0], c[1], d[0], d[1]]
+}
+
 /// [`sweep_block`] specialised for a hexahedral [`Lattice`] with φ stored
 /// per vertex: the same steps, queues, stamps and output (tests compare it
-/// with the generic loop and the brute force), with the cell's vertices,
-/// neighbours and shared faces from the lattice's constant tables.
+/// with the generic loop and the brute force). Cells are read in geometric
+/// vertex order (`g = i + 2j + 4k`, see [`LatticeHexTable`]), so faces,
+/// neighbours and far vertices are constants of the lattice.
 #[inline(never)]
 fn sweep_block_lattice(
     lat: &Lattice,
@@ -591,7 +608,11 @@ fn sweep_block_lattice(
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
     let start = b.start;
-    let off = lat.offsets;
+    let [di, dj, dk] = lat.deltas;
+    debug_assert_eq!(
+        lat.table.geometric_offsets(),
+        [0, di, dj, dj + di, dk, dk + di, dk + dj, dk + dj + di]
+    );
     // Every live cell's vertices, and those of its live neighbours, are
     // below `lat.vertices`: this one check makes the unchecked φ reads
     // below sound.
@@ -601,9 +622,11 @@ fn sweep_block_lattice(
         phi.len(),
         lat.vertices
     );
-    // SAFETY (for `at`): callers pass vertex ids of a live cell, or of a live
-    // neighbour (stamp < step, so not a never-sweep slot), all < lat.vertices.
+    // SAFETY (for `at` and `cell`): callers pass vertex ids of a live cell,
+    // or of a live neighbour (stamp < step, so not a never-sweep slot), all
+    // < lat.vertices.
     let at = |v: u32| unsafe { *phi.get_unchecked(v as usize) };
+    let cell = |c: u32| unsafe { load8(phi, c - lat.base, dj, dk) };
     b.work.clear();
     b.active.clear();
     let mut next_min = 0;
@@ -627,10 +650,9 @@ fn sweep_block_lattice(
                 // of its j and k neighbours (the i ones share its line), and
                 // the φ rows of their far faces.
                 let v = ahead - lat.base;
-                for o in [off[0], off[3], off[4], off[7]] {
-                    prefetch(phi, (v + o) as usize);
+                for r in [v, v + dj, v + dk, v + dj + dk] {
+                    prefetch(phi, r as usize);
                 }
-                let [_, dj, dk] = lat.deltas;
                 for nb in [ahead - dj, ahead + dj, ahead - dk, ahead + dk] {
                     prefetch(stamps, nb.wrapping_sub(start) as usize);
                 }
@@ -649,14 +671,25 @@ fn sweep_block_lattice(
             }
             i += 1;
             let v0 = c - lat.base;
-            let f: [f32; 8] = std::array::from_fn(|q| at(v0 + off[q]));
-            let (lo, hi) = min_max8(&f);
+            let f = cell(c);
+            // Per (i, j) column the min over k; then each face's min.
+            let col = [0, 1, 2, 3].map(|q| fmin(f[q], f[q + 4]));
+            let face = [
+                fmin(col[0], col[2]),
+                fmin(col[1], col[3]),
+                fmin(col[0], col[1]),
+                fmin(col[2], col[3]),
+                fmin(fmin(f[0], f[1]), fmin(f[2], f[3])),
+                fmin(fmin(f[4], f[5]), fmin(f[6], f[7])),
+            ];
+            let lo = fmin(face[4], face[5]);
+            let hi = max8(&f);
             if intersects(lo, hi, t) {
                 active.push(c);
             }
             // The six neighbours, unrolled: stamp every one examined (see
             // `sweep_block`); its lo is the min of the shared face's φ and
-            // of its 4 far vertices.
+            // of its 4 far vertices `far + {0, e1, e2, e1 + e2}`.
             //
             // A neighbour's lo is at most the min of the shared face: when
             // that is below t_prev the neighbour cannot enter at this step
@@ -664,34 +697,29 @@ fn sweep_block_lattice(
             // stamp or its far vertices; that is the case of every face
             // behind the front.
             macro_rules! visit {
-                ($nb:expr, $face:expr, $far:expr) => {{
+                ($nb:expr, $face:expr, $far:expr, $e1:expr, $e2:expr) => {{
                     let nb: u32 = $nb;
-                    let face = &lat.faces[$face];
-                    let shared = face
-                        .iter()
-                        .fold(f32::INFINITY, |m, &l| fmin(m, f[l as usize]));
+                    let shared = face[$face];
                     let j = nb.wrapping_sub(start);
                     if shared >= t_prev && j < len && stamps[j as usize] < step {
                         stamps[j as usize] = step;
-                        let mut lo_n = shared;
-                        for &l in face {
-                            #[allow(clippy::redundant_closure_call)]
-                            let far: u32 = $far(v0 + off[l as usize]);
-                            lo_n = fmin(lo_n, at(far));
-                        }
+                        let far: u32 = $far;
+                        let lo_n = fmin(
+                            fmin(shared, fmin(at(far), at(far + $e1))),
+                            fmin(at(far + $e2), at(far + $e1 + $e2)),
+                        );
                         if lo_n >= t_prev && lo_n < t {
                             work.push(nb);
                         }
                     }
                 }};
             }
-            let [di, dj, dk] = lat.deltas;
-            visit!(c - di, 0, |v| v - di);
-            visit!(c + di, 1, |v| v + di);
-            visit!(c - dj, 2, |v| v - dj);
-            visit!(c + dj, 3, |v| v + dj);
-            visit!(c - dk, 4, |v| v - dk);
-            visit!(c + dk, 5, |v| v + dk);
+            visit!(c - di, 0, v0.wrapping_sub(di), dj, dk);
+            visit!(c + di, 1, v0 + 2 * di, dj, dk);
+            visit!(c - dj, 2, v0.wrapping_sub(dj), di, dk);
+            visit!(c + dj, 3, v0 + 2 * dj, di, dk);
+            visit!(c - dk, 4, v0.wrapping_sub(dk), di, dj);
+            visit!(c + dk, 5, v0 + 2 * dk, di, dj);
         }
         // A_k in slot order: this level's polygons are emitted in that
         // order (consecutive cells share cache lines of φ, positions and
@@ -705,26 +733,22 @@ fn sweep_block_lattice(
                 if let Some(&ahead) = active.get(n + 2 * PREFETCH_AHEAD) {
                     // The cell's vertex rows: positions and attribute.
                     let v = ahead - lat.base;
-                    for o in [off[0], off[3], off[4], off[7]] {
-                        let r = (v + o) as usize;
-                        prefetch(ctx.positions, r);
+                    for r in [v, v + dj, v + dk, v + dj + dk] {
+                        prefetch(ctx.positions, r as usize);
                         if let Some(a) = ctx.attribute {
-                            prefetch(a, r);
+                            prefetch(a, r as usize);
                         }
                     }
                 }
                 if let Some(&ahead) = active.get(n + PREFETCH_AHEAD) {
                     // Two entries ahead, the weld-map slots of its corners.
-                    let v = ahead - lat.base;
-                    let fa: [f32; 8] = std::array::from_fn(|q| at(v + off[q]));
-                    let ids: [u32; 8] = std::array::from_fn(|q| v + off[q]);
-                    lat.table.prefetch_corners(&ids, code8(&fa, t), mesh);
+                    let fa = cell(ahead);
+                    lat.table
+                        .prefetch_corners(ahead - lat.base, code8(&fa, t), mesh);
                 }
-                let v0 = c - lat.base;
-                let f: [f32; 8] = std::array::from_fn(|q| at(v0 + off[q]));
-                let ids: [u32; 8] = std::array::from_fn(|q| v0 + off[q]);
+                let f = cell(c);
                 lat.table
-                    .emit(lat.meta, &ids, &f, t, code8(&f, t), c, ctx, mesh);
+                    .emit(lat.meta, c - lat.base, &f, t, code8(&f, t), c, ctx, mesh);
             }
         }
         let stats = LevelStats::of(mesh, work.len() as u64);
@@ -772,16 +796,14 @@ fn fmin(a: f32, b: f32) -> f32 {
     if a < b { a } else { b }
 }
 
-/// (min, max) of eight non-NaN values.
+/// max of eight non-NaN values.
 #[inline(always)]
-fn min_max8(f: &[f32; 8]) -> (f32, f32) {
-    let mut lo = f[0];
-    let mut hi = f[0];
-    for &x in &f[1..] {
-        lo = if x < lo { x } else { lo };
-        hi = if x > hi { x } else { hi };
-    }
-    (lo, hi)
+fn max8(f: &[f32; 8]) -> f32 {
+    let m = |a: f32, b: f32| if a > b { a } else { b };
+    m(
+        m(m(f[0], f[1]), m(f[2], f[3])),
+        m(m(f[4], f[5]), m(f[6], f[7])),
+    )
 }
 
 /// [`code_of`] for eight values: bit q set iff `f[q] >= t`.
