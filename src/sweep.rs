@@ -730,18 +730,19 @@ fn sweep_block_lattice(
             mesh.cut_cells = active.len() as u32;
         } else {
             for (n, &c) in active.iter().enumerate() {
-                if let Some(&ahead) = active.get(n + 2 * PREFETCH_AHEAD) {
-                    // The cell's vertex rows: positions and attribute.
+                if let Some(&ahead) = active.get(n + 4 * PREFETCH_AHEAD) {
+                    // The cell's vertex rows: φ, positions and attribute.
                     let v = ahead - lat.base;
                     for r in [v, v + dj, v + dk, v + dj + dk] {
+                        prefetch(phi, r as usize);
                         prefetch(ctx.positions, r as usize);
                         if let Some(a) = ctx.attribute {
                             prefetch(a, r as usize);
                         }
                     }
                 }
-                if let Some(&ahead) = active.get(n + PREFETCH_AHEAD) {
-                    // Two entries ahead, the weld-map slots of its corners.
+                if let Some(&ahead) = active.get(n + 2 * PREFETCH_AHEAD) {
+                    // Four entries ahead, the weld-map slots of its corners.
                     let fa = cell(ahead);
                     lat.table
                         .prefetch_corners(ahead - lat.base, code8(&fa, t), mesh);
