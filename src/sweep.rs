@@ -82,6 +82,17 @@ pub trait CellGraph: Sync {
     }
     /// Id of the cell in `slot` in the input grid's numbering.
     fn source_cell(&self, slot: u32) -> u32;
+    /// The range (min, max) of φ over the vertices of live cells, when the
+    /// structure can tell it without a scan of every cell: when every cell
+    /// is live and every vertex belongs to a cell, it is the range over all
+    /// vertices. `None`: the caller scans the live cells.
+    fn phi_range_if_all_live<F: ScalarField>(&self, f: &F) -> Option<(f32, f32)>
+    where
+        Self: Sized,
+    {
+        let _ = f;
+        None
+    }
     /// The lattice layout when every cell is a hexahedron with vertex ids
     /// `slot - base + offsets[local]` (the S-CGraph): the sweep then runs a
     /// specialised loop ([`Lattice`]). `None` for general graphs.
