@@ -244,9 +244,7 @@ impl CellGraph for SCGraph {
         Some(Lattice {
             vertices: self.positions.len(),
             base: slab,
-            offsets: self.offsets,
             deltas: [1, self.dims[0] as u32, slab],
-            faces: self.faces,
             meta: self.catalog.get(builtin::HEXAHEDRON),
             table: &self.table,
         })

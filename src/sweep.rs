@@ -145,25 +145,21 @@ pub fn cell_lo<G: CellGraph + ?Sized, F: ScalarField>(g: &G, f: &F, slot: u32) -
 }
 
 /// An implicit hexahedral lattice, for the specialised sweep loop: cell
-/// `slot` has vertices `slot - base + offsets[l]` and face neighbours
-/// `slot ± deltas[axis]`; the face toward neighbour direction `d`
-/// (−i, +i, −j, +j, −k, +k) holds local vertices `faces[d]`. Neighbour
-/// slots outside the grid are dead (never-sweep) slots, so no bounds checks.
+/// `slot` has first vertex `v0 = slot - base`, vertices
+/// `v0 + {0, di} + {0, dj} + {0, dk}` (`deltas = [di, dj, dk]`, with
+/// `di = 1`) and face neighbours `slot ± deltas[axis]`. Neighbour slots
+/// outside the grid are dead (never-sweep) slots, so no bounds checks.
 #[derive(Clone, Copy, Debug)]
 pub struct Lattice<'a> {
     /// Vertex count: every live cell's vertex ids are below it.
     pub vertices: usize,
     /// Slot of the cell whose first vertex is 0.
     pub base: u32,
-    /// Local vertex offsets.
-    pub offsets: [u32; 8],
-    /// Slot steps along i, j, k.
+    /// Slot (and vertex id) steps along i, j, k.
     pub deltas: [u32; 3],
-    /// Local vertices of the face toward each neighbour direction.
-    pub faces: [[u8; 4]; 6],
     /// The hexahedron's meta-cell.
     pub meta: &'a MetaCell,
-    /// Its tables flattened for `offsets`.
+    /// Its tables flattened for the lattice's offsets.
     pub table: &'a LatticeHexTable,
 }
 
