@@ -527,9 +527,20 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
                 g.prefetch_cell(ahead, ctx);
             }
             i += 1;
-            let (_, _, lo, hi) = load_phi(g, f, c, &mut ids, &mut phi);
+            let (m, n, lo, hi) = load_phi(g, f, c, &mut ids, &mut phi);
             if intersects(lo, hi, t) {
                 b.active.push(c);
+                let code = code_of(&phi[..n], t);
+                emit_cell(
+                    catalog.get(m),
+                    &ids[..n],
+                    &phi[..n],
+                    t,
+                    code,
+                    c,
+                    ctx,
+                    &mut b.mesh,
+                );
             }
             let stamps = &mut b.stamps;
             let work = &mut b.work;
@@ -557,28 +568,10 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
                 },
             );
         }
-        // As in the lattice loop: A_k is emitted in slot order, and the
-        // next step visits it in that order.
-        radix_sort_slots(&mut b.active, &mut b.sort_scratch, start, len);
-        for (n, &c) in b.active.iter().enumerate() {
-            if let Some(&ahead) = b.active.get(n + PREFETCH_AHEAD) {
-                g.prefetch_cell(ahead, ctx);
-            }
-            let (m, n, _, _) = load_phi(g, f, c, &mut ids, &mut phi);
-            let code = code_of(&phi[..n], t);
-            emit_cell(
-                catalog.get(m),
-                &ids[..n],
-                &phi[..n],
-                t,
-                code,
-                c,
-                ctx,
-                &mut b.mesh,
-            );
-        }
         let stats = LevelStats::of(&b.mesh, b.work.len() as u64);
         on_level(k, &b.mesh, &stats);
+        // As in the lattice loop: the next step visits A_k in slot order.
+        radix_sort_slots(&mut b.active, &mut b.sort_scratch, start, len);
         t_prev = t;
     }
 }
