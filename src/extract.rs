@@ -76,10 +76,24 @@ impl EdgeMap {
         self.entries.capacity() * std::mem::size_of::<Entry>()
     }
 
-    /// Fibonacci hash of `key`: slot from the high bits, tag bits below.
+    /// Home slot and 16 tag bits of `key` (`min_id << 32 | max_id`).
+    ///
+    /// Edges with the same id difference whose smaller ids agree but for
+    /// the low 3 bits share one 8-slot run (the Fibonacci hash of the
+    /// pair picks the run; the low bits place the edge inside it), so
+    /// cells emitted in id order probe a few cache lines over and over
+    /// instead of a random line per corner. The tag holds hash bits above
+    /// the run's and the 3 low bits.
     #[inline(always)]
-    fn hash(key: u64) -> u64 {
-        key.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+    fn home(key: u64, mask: usize) -> (usize, u32) {
+        let ga = (key >> 32) as u32;
+        let run = (ga >> 3) as u64 | ((key as u32).wrapping_sub(ga) as u64) << 32;
+        let h = run.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let low = (ga & 7) as usize;
+        (
+            ((h >> 32) as usize & mask & !7) | low,
+            (h >> 16) as u32 & 0xFFF8 | low as u32,
+        )
     }
 
     #[cold]
@@ -90,8 +104,7 @@ impl EdgeMap {
         self.gen_ = 1;
         self.mask = cap - 1;
         for e in old.into_iter().filter(|e| e.tag >> 16 == old_gen) {
-            let h = Self::hash(keys[e.val as usize]);
-            let mut s = (h >> 32) as usize & self.mask;
+            let (mut s, _) = Self::home(keys[e.val as usize], self.mask);
             while self.entries[s].tag >> 16 == self.gen_ {
                 s = (s + 1) & self.mask;
             }
@@ -115,7 +128,7 @@ impl EdgeMap {
     /// Hints the CPU to fetch the slot where a probe for `key` starts.
     #[inline(always)]
     pub(crate) fn prefetch(&self, key: u64) {
-        prefetch(&self.entries, (Self::hash(key) >> 32) as usize & self.mask);
+        prefetch(&self.entries, Self::home(key, self.mask).0);
     }
 
     /// Returns the value for `key`, inserting `value_if_new` when absent; the
@@ -131,10 +144,9 @@ impl EdgeMap {
         keys: &[u64],
     ) -> (u32, bool) {
         debug_assert!((self.len + 1) * 8 <= self.entries.len() * 3);
-        let h = Self::hash(key);
-        let mut s = (h >> 32) as usize & self.mask;
+        let (mut s, bits) = Self::home(key, self.mask);
         let cur = self.gen_;
-        let tag = cur << 16 | (h >> 16) as u32 & 0xFFFF;
+        let tag = cur << 16 | bits;
         loop {
             let e = self.entries[s];
             if e.tag >> 16 != cur {
@@ -499,55 +511,73 @@ fn decide_faces(meta: &MetaCell, gids: &[u32], phi: &[f32], t: f32, code: usize)
 }
 
 /// The hexahedron's tables flattened for a lattice (S-CGraph) where every
-/// cell's vertex ids are `v0 + offsets[local]`: which end of each edge has
-/// the smaller global id is then the same for every cell, so a corner is
-/// two table reads. Codes with an ambiguous face fall back to [`emit_cell`].
+/// cell's vertex ids are `v0 + offsets[local]`. The tables are indexed in
+/// *geometric* vertex order: vertex `g = i + 2j + 4k` of the cell is the one
+/// with the g-th smallest offset, so φ loads as four (i, i+1) pairs and
+/// the code needs no permutation. Which end of each edge has the smaller
+/// global id is the same for every cell (the smaller g), so a corner is
+/// one table byte. Codes with an ambiguous face fall back to [`emit_cell`].
 #[derive(Clone, Debug)]
 pub struct LatticeHexTable {
-    /// Per code: start of its polygons in `polys`, or `u16::MAX` when ambiguous.
+    /// Per geometric code: start of its polygons in `polys`, or `u16::MAX`
+    /// when ambiguous.
     start: Vec<u16>,
-    /// Per code: polygon count, then per polygon its corner count and edges.
+    /// Per code: polygon count, then per polygon its corner count and
+    /// corners (`a | b << 4`, geometric vertices, `a < b`).
     polys: Vec<u8>,
-    /// Per edge: (local vertex with the smaller offset, the other one).
-    edges: [(u8, u8); 12],
+    /// Offset of each geometric vertex (ascending).
+    goff: [u32; 8],
+    /// Local vertex offsets (the meta-cell's order).
+    offsets: [u32; 8],
+    /// Geometric vertex of each local vertex.
+    geo: [u8; 8],
 }
 
 impl LatticeHexTable {
-    /// Flattens the tables of hexahedron `meta` for vertex offsets `offsets`.
+    /// Flattens the tables of hexahedron `meta` for vertex offsets `offsets`
+    /// (eight distinct values of the form `i + j·npi + k·slab`).
     pub fn new(meta: &MetaCell, offsets: &[u32; 8]) -> Self {
-        let mut edges = [(0u8, 0u8); 12];
-        for (e, &[a, b]) in meta.edges.iter().enumerate().take(12) {
-            edges[e] = if offsets[a as usize] < offsets[b as usize] {
-                (a, b)
-            } else {
-                (b, a)
-            };
-        }
+        let mut goff = *offsets;
+        goff.sort_unstable();
+        let geo = offsets.map(|o| goff.iter().position(|&g| g == o).unwrap_or(0) as u8);
         let mut start = vec![u16::MAX; 256];
         let mut polys = Vec::new();
-        for code in 0..256.min(meta.code_count()) {
-            if meta.config_is_ambiguous(code) {
+        for (code, st) in start.iter_mut().enumerate() {
+            let local = (0..8).fold(0, |l, q| l | (code >> geo[q] & 1) << q);
+            if local >= meta.code_count() || meta.config_is_ambiguous(local) {
                 continue;
             }
-            start[code] = polys.len() as u16;
-            let loops: Vec<&[u8]> = meta.loops(code, 0).collect();
+            *st = polys.len() as u16;
+            let loops: Vec<&[u8]> = meta.loops(local, 0).collect();
             polys.push(loops.len() as u8);
             for lp in loops {
                 polys.push(lp.len() as u8);
-                polys.extend_from_slice(lp);
+                for &e in lp {
+                    let [la, lb] = meta.edges[e as usize];
+                    let (a, b) = (geo[la as usize], geo[lb as usize]);
+                    polys.push(a.min(b) | a.max(b) << 4);
+                }
             }
         }
         LatticeHexTable {
             start,
             polys,
-            edges,
+            goff,
+            offsets: *offsets,
+            geo,
         }
     }
 
+    /// Offsets of the geometric vertices `g = i + 2j + 4k` (ascending).
+    pub fn geometric_offsets(&self) -> [u32; 8] {
+        self.goff
+    }
+
     /// Prefetches the weld-map slots of the corners that [`Self::emit`]
-    /// will look up for this cell (nothing for ambiguous codes).
+    /// will look up for the cell with first vertex `v0` and geometric code
+    /// `code` (nothing for ambiguous codes).
     #[inline(always)]
-    pub fn prefetch_corners(&self, gids: &[u32; 8], code: usize, mesh: &LevelMesh) {
+    pub fn prefetch_corners(&self, v0: u32, code: usize, mesh: &LevelMesh) {
         let s = self.start[code & 255];
         if s == u16::MAX {
             return;
@@ -556,22 +586,23 @@ impl LatticeHexTable {
         let mut p = 1;
         for _ in 0..polys[0] {
             let n = polys[p] as usize;
-            for &e in &polys[p + 1..p + 1 + n] {
-                let (a, b) = self.edges[e as usize];
-                mesh.prefetch_corner(gids[a as usize], gids[b as usize]);
+            for &ab in &polys[p + 1..p + 1 + n] {
+                let (a, b) = ((ab & 15) as usize, (ab >> 4) as usize);
+                mesh.prefetch_corner(v0 + self.goff[a], v0 + self.goff[b]);
             }
             p += 1 + n;
         }
     }
 
-    /// [`emit_cell`] for a lattice hexahedron (same polygons, same order).
+    /// [`emit_cell`] for the lattice hexahedron with first vertex `v0`, φ
+    /// `f` and code `code` in geometric order (same polygons, same order).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn emit(
         &self,
         meta: &MetaCell,
-        gids: &[u32; 8],
-        phi: &[f32; 8],
+        v0: u32,
+        f: &[f32; 8],
         t: f32,
         code: usize,
         slot: u32,
@@ -580,7 +611,7 @@ impl LatticeHexTable {
     ) {
         let s = self.start[code & 255];
         if s == u16::MAX || ctx.cells_only {
-            emit_cell(meta, gids, phi, t, code, slot, ctx, mesh);
+            self.emit_local(meta, v0, f, t, slot, ctx, mesh);
             return;
         }
         mesh.cut_cells += 1;
@@ -589,13 +620,32 @@ impl LatticeHexTable {
         for _ in 0..polys[0] {
             let n = polys[p] as usize;
             let first = mesh.begin_polygon();
-            for &e in &polys[p + 1..p + 1 + n] {
-                let (a, b) = self.edges[e as usize];
-                let (a, b) = (a as usize, b as usize);
-                mesh.corner(gids[a], gids[b], phi[a], phi[b], t, ctx);
+            for &ab in &polys[p + 1..p + 1 + n] {
+                let (a, b) = ((ab & 15) as usize, (ab >> 4) as usize);
+                mesh.corner(v0 + self.goff[a], v0 + self.goff[b], f[a], f[b], t, ctx);
             }
             mesh.end_polygon(first, slot);
             p += 1 + n;
         }
+    }
+
+    /// The general path ([`emit_cell`] in the meta-cell's local order),
+    /// for ambiguous codes.
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn emit_local(
+        &self,
+        meta: &MetaCell,
+        v0: u32,
+        f: &[f32; 8],
+        t: f32,
+        slot: u32,
+        ctx: &EmitContext,
+        mesh: &mut LevelMesh,
+    ) {
+        let ids = self.offsets.map(|o| v0 + o);
+        let phi = self.geo.map(|g| f[g as usize]);
+        let code = code_of(&phi, t);
+        emit_cell(meta, &ids, &phi, t, code, slot, ctx, mesh);
     }
 }

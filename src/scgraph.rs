@@ -244,12 +244,34 @@ impl CellGraph for SCGraph {
         Some(Lattice {
             vertices: self.positions.len(),
             base: slab,
-            offsets: self.offsets,
             deltas: [1, self.dims[0] as u32, slab],
-            faces: self.faces,
             meta: self.catalog.get(builtin::HEXAHEDRON),
             table: &self.table,
         })
+    }
+    /// Every vertex of an IJK grid belongs to a cell, so when no cell is
+    /// hidden or degenerate the range is that of all vertices (one pass over
+    /// φ, in parallel, instead of eight reads per cell).
+    fn phi_range_if_all_live<F: ScalarField>(&self, f: &F) -> Option<(f32, f32)> {
+        let [npi, npj, npk] = self.dims;
+        if self.live.count() != (npi - 1) * (npj - 1) * (npk - 1) {
+            return None;
+        }
+        let n = self.positions.len();
+        let range = |(a, b): (f32, f32), p: f32| (a.min(p), b.max(p));
+        let merge = |(a, b): (f32, f32), (c, d): (f32, f32)| (a.min(c), b.max(d));
+        let empty = (f32::INFINITY, f32::NEG_INFINITY);
+        let (lo, hi) = match f.values() {
+            Some(phi) => phi[..n]
+                .par_chunks(1 << 16)
+                .map(|c| c.iter().fold(empty, |r, &p| range(r, p)))
+                .reduce(|| empty, merge),
+            None => (0..n as u32)
+                .into_par_iter()
+                .fold(|| empty, |r, v| range(r, f.phi(v)))
+                .reduce(|| empty, merge),
+        };
+        (lo <= hi).then_some((lo, hi))
     }
     fn source_cell(&self, slot: u32) -> u32 {
         let [npi, npj, _] = self.dims;

@@ -175,6 +175,56 @@ fn scgraph_and_cgraph_match_brute_force_on_random_structured_grids() {
     }
 }
 
+/// φ range over live cells by a scan of every cell (the reference).
+fn scan_range<G: CellGraph, F: ScalarField>(g: &G, f: &F) -> Option<(f32, f32)> {
+    let mut ids = [0u32; stratasweep::metacell::MAX_META_VERTICES];
+    let mut r: Option<(f32, f32)> = None;
+    for s in (0..g.slot_count() as u32).filter(|&s| g.is_live(s)) {
+        let (_, n) = g.cell(s, &mut ids);
+        for &v in &ids[..n] {
+            let p = f.phi(v);
+            r = Some(r.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
+        }
+    }
+    r
+}
+
+/// `phi_range_if_all_live` on the S-CGraph: the scanned range when every
+/// cell is live (planes and the property, materialised or not), `None`
+/// when some cell is hidden.
+#[test]
+fn scgraph_phi_range_without_a_scan_equals_the_scan() {
+    let mut rng = Rng(19);
+    for case in 0..6 {
+        let n = [1 + rng.below(6), 1 + rng.below(6), 1 + rng.below(6)];
+        let holes = if case < 4 { 0.0 } else { 0.3 };
+        let g = structured(n, 0.3, holes, &mut rng);
+        let hidden = g.hidden_cells();
+        let s = SCGraph::build(&g, hidden.as_deref()).unwrap();
+        let vals = f32_values(&g);
+        let plane = PlaneField {
+            normal: [0.48, -0.6, 0.64],
+            positions: &s.positions,
+        };
+        let phi = materialise(&plane, s.positions.len());
+        let label = format!("case {case} {n:?}");
+        let all_live = hidden.is_none_or(|h| h.iter().all(|&x| !x));
+        let want = scan_range(&s, &plane);
+        let fast = [
+            s.phi_range_if_all_live(&plane),
+            s.phi_range_if_all_live(&VertexField { values: &phi }),
+        ];
+        for got in fast {
+            assert_eq!(got, if all_live { want } else { None }, "{label} plane");
+        }
+        let prop = VertexField { values: &vals };
+        let got = s.phi_range_if_all_live(&prop);
+        let want = scan_range(&s, &prop);
+        assert_eq!(got, if all_live { want } else { None }, "{label} property");
+        assert!(want.is_some(), "{label}: no live cell");
+    }
+}
+
 #[test]
 fn cgraph_matches_brute_force_on_random_zoo_grids() {
     let mut rng = Rng(11);
