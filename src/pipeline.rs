@@ -416,6 +416,9 @@ pub fn slice(
 
 /// φ range over the vertices of live cells.
 pub fn live_range<G: CellGraph, F: ScalarField>(g: &G, f: &F) -> Option<(f32, f32)> {
+    if let Some(r) = g.phi_range_if_all_live(f) {
+        return Some(r);
+    }
     let mut ids = [0u32; crate::metacell::MAX_META_VERTICES];
     let mut lo = f32::INFINITY;
     let mut hi = f32::NEG_INFINITY;
