@@ -151,12 +151,29 @@ pub fn read_vtk(path: &Path) -> Result<Grid, VtkReadError> {
         "vtu" | "vts" => parse_vtk_xml,
         _ => return Err(VtkReadError::UnsupportedExtension { file, ext }),
     };
-    let bytes = std::fs::read(path).map_err(|source| VtkReadError::Io {
+    let io_err = |source| VtkReadError::Io {
         file: file.clone(),
         source,
-    })?;
+    };
+    let f = std::fs::File::open(path).map_err(io_err)?;
+    let len = f.metadata().map_err(io_err)?.len();
+    if len >= MAP_AT_LEAST {
+        // SAFETY: the map is read-only and lives only for this parse. If
+        // another process truncated the file meanwhile, reads past its new
+        // end would fault (SIGBUS): the same race a reading process always
+        // has with a writer, traded for not copying the whole file into
+        // fresh memory (120 MB for a 100k-cell Voronoi grid).
+        if let Ok(map) = unsafe { memmap2::Mmap::map(&f) } {
+            return parse(&map, &file);
+        }
+    }
+    let mut bytes = Vec::with_capacity(len as usize);
+    std::io::Read::read_to_end(&mut &f, &mut bytes).map_err(io_err)?;
     parse(&bytes, &file)
 }
+
+/// Files at least this large are memory-mapped rather than read.
+const MAP_AT_LEAST: u64 = 1 << 24;
 
 /// Parses the bytes of a legacy VTK file (`# vtk DataFile Version ...`);
 /// `file` is only used in error messages. Never panics.
