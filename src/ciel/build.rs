@@ -52,8 +52,9 @@ struct Scratch {
     lid: Vec<u32>,
     /// Next half-edge in its face.
     nxt: Vec<u32>,
-    /// Global → local vertex id table.
-    table: Vec<(u32, u32)>,
+    /// Global → local vertex id table: (global, local, generation).
+    table: Vec<(u32, u32, u32)>,
+    table_generation: u32,
     /// Outgoing half-edges per local vertex (CSR).
     out_start: Vec<u32>,
     out: Vec<u32>,
@@ -247,32 +248,51 @@ fn sorted_into(face: &[u32], out: &mut Vec<u32>) {
 /// a small open-addressing table (no sort).
 fn local_ids(s: &mut Scratch) {
     let n = s.ids.len();
-    let cap = (2 * n).next_power_of_two().max(16);
-    s.table.clear();
-    s.table.resize(cap, (u32::MAX, 0));
+    // Open addressing over a table that only grows; slots of earlier
+    // cells are told apart by a generation instead of being cleared.
+    let cap = (2 * n).next_power_of_two().max(256);
+    if s.table.len() < cap {
+        s.table.clear();
+        s.table.resize(cap, (0, 0, 0));
+        s.table_generation = 0;
+    }
+    s.table_generation = s.table_generation.wrapping_add(1);
+    if s.table_generation == 0 {
+        s.table.fill((0, 0, 0));
+        s.table_generation = 1;
+    }
+    let generation = s.table_generation;
+    let mask = s.table.len() - 1;
     s.verts.clear();
     s.lid.clear();
-    for &v in &s.ids {
-        let mut k = (v.wrapping_mul(0x9E37_79B9) >> 7) as usize & (cap - 1);
+    s.lid.resize(n, 0);
+    let (ids, lid, table) = (&s.ids[..n], &mut s.lid[..n], &mut s.table[..]);
+    for (i, &v) in ids.iter().enumerate() {
+        let mut k = (v.wrapping_mul(0x9E37_79B9) >> 7) as usize & mask;
         loop {
-            let e = s.table[k];
-            if e.0 == v {
-                s.lid.push(e.1);
-                break;
-            }
-            if e.0 == u32::MAX {
-                s.table[k] = (v, s.verts.len() as u32);
-                s.lid.push(s.verts.len() as u32);
+            let e = table[k];
+            if e.2 != generation {
+                let l = s.verts.len() as u32;
+                table[k] = (v, l, generation);
+                lid[i] = l;
                 s.verts.push(v);
                 break;
             }
-            k = (k + 1) & (cap - 1);
+            if e.0 == v {
+                lid[i] = e.1;
+                break;
+            }
+            k = (k + 1) & mask;
         }
     }
     s.nxt.clear();
+    s.nxt.resize(n, 0);
     for w in s.starts.windows(2) {
-        s.nxt.extend(w[0] + 1..w[1]);
-        s.nxt.push(w[0]);
+        let (a, b) = (w[0] as usize, w[1] as usize);
+        for (i, x) in s.nxt[a..b].iter_mut().enumerate() {
+            *x = (a + i + 1) as u32;
+        }
+        s.nxt[b - 1] = a as u32;
     }
 }
 
