@@ -141,6 +141,38 @@ pub(crate) fn decode_i64(
     })
 }
 
+/// Decodes binary integer values straight to u32 when every one is in
+/// `0..u32::MAX` (ids and counts); `None` otherwise (the caller then takes
+/// [`decode_i64`] and names the bad value).
+pub(crate) fn decode_u32_ids(bytes: &[u8], ty: Scalar, big: bool) -> Option<Vec<u32>> {
+    macro_rules! narrow {
+        ($t:ty) => {{
+            const N: usize = std::mem::size_of::<$t>();
+            let mut out = Vec::with_capacity(bytes.len() / N);
+            let mut ok = true;
+            for c in bytes.chunks_exact(N) {
+                let mut a = [0u8; N];
+                a.copy_from_slice(c);
+                let v = if big {
+                    <$t>::from_be_bytes(a)
+                } else {
+                    <$t>::from_le_bytes(a)
+                } as i128;
+                ok &= (0..u32::MAX as i128).contains(&v);
+                out.push(v as u32);
+            }
+            ok.then_some(out)
+        }};
+    }
+    match ty {
+        Scalar::I32 => narrow!(i32),
+        Scalar::U32 => narrow!(u32),
+        Scalar::I64 => narrow!(i64),
+        Scalar::U64 => narrow!(u64),
+        _ => None,
+    }
+}
+
 /// ASCII whitespace as understood by C's `isspace`.
 #[inline]
 pub(crate) fn is_ws(b: u8) -> bool {
@@ -303,14 +335,14 @@ pub(crate) fn decode_name(raw: &[u8]) -> String {
 }
 
 /// Where the faces of polyhedra come from.
-pub(crate) enum PolyFaces<'a> {
+pub(crate) enum PolyFaces<'a, T> {
     /// The connectivity entry of a polyhedron is its legacy face stream
     /// (`nf, n0, ids.., n1, ids..`), as VTK's legacy writer stores it.
     InConnectivity,
     /// A separate face stream per cell (`None` for cells without one).
     Streams {
         /// All face streams, concatenated.
-        stream: &'a [i64],
+        stream: &'a [T],
         /// Per cell, the range of its face stream in `stream`.
         ranges: &'a [Option<(usize, usize)>],
     },
@@ -324,17 +356,38 @@ fn point_id(v: i64) -> Result<u32, String> {
     }
 }
 
+/// A face-stream value as read: i64, or u32 when the reader could narrow
+/// the whole array on the way in.
+pub(crate) trait StreamValue: Copy {
+    /// The value as i64 (exact).
+    fn to_i64(self) -> i64;
+}
+
+impl StreamValue for i64 {
+    #[inline(always)]
+    fn to_i64(self) -> i64 {
+        self
+    }
+}
+
+impl StreamValue for u32 {
+    #[inline(always)]
+    fn to_i64(self) -> i64 {
+        i64::from(self)
+    }
+}
+
 /// Appends a legacy face stream to `out` (converted to u32); checks that
 /// every value fits and that the stream is exactly consumed.
-fn push_face_stream(s: &[i64], out: &mut Vec<u32>) -> Result<(), String> {
+fn push_face_stream<T: StreamValue>(s: &[T], out: &mut Vec<u32>) -> Result<(), String> {
     // Fast path: every value checked at once (branch-free), the stream
     // copied whole, then its face counts walked; any failure reruns the
     // entry-by-entry path below for its precise message.
     let first = out.len();
     if s.iter()
-        .fold(true, |ok, &v| ok & ((v as u64) < u32::MAX as u64))
+        .fold(true, |ok, &v| ok & ((v.to_i64() as u64) < u32::MAX as u64))
     {
-        out.extend(s.iter().map(|&v| v as u32));
+        out.extend(s.iter().map(|&v| v.to_i64() as u32));
         let st = &out[first..];
         if let Some((&nf, _)) = st.split_first() {
             let mut i = 1usize;
@@ -349,7 +402,8 @@ fn push_face_stream(s: &[i64], out: &mut Vec<u32>) -> Result<(), String> {
         }
         out.truncate(first);
     }
-    push_face_stream_checked(s, out).inspect_err(|_| out.truncate(first))
+    let wide: Vec<i64> = s.iter().map(|&v| v.to_i64()).collect();
+    push_face_stream_checked(&wide, out).inspect_err(|_| out.truncate(first))
 }
 
 /// [`push_face_stream`] entry by entry, naming the first bad entry.
@@ -460,11 +514,11 @@ impl Distinct {
 /// Assembles [`Cells`] from VTK's flat arrays. `offsets` has `types.len() + 1`
 /// entries indexing `conn`. Polyhedra get their face stream and the sorted
 /// unique ids of their faces as connectivity.
-pub(crate) fn build_cells(
+pub(crate) fn build_cells<T: StreamValue>(
     types: &[i64],
     offsets: &[usize],
     conn: &[i64],
-    faces: PolyFaces<'_>,
+    faces: PolyFaces<'_, T>,
     file: &str,
 ) -> Result<Cells, VtkReadError> {
     let n = types.len();
@@ -498,19 +552,20 @@ pub(crate) fn build_cells(
             .get(a..b)
             .ok_or_else(|| cell_err(c, format!("connectivity range {a}..{b} out of bounds")))?;
         if t8 == vtk_type::POLYHEDRON {
-            let stream = match &faces {
-                PolyFaces::InConnectivity => ids,
+            let fs = cells.face_stream.len();
+            match &faces {
+                PolyFaces::InConnectivity => push_face_stream(ids, &mut cells.face_stream),
                 PolyFaces::Streams { stream, ranges } => {
                     let Some((fa, fb)) = ranges.get(c).copied().flatten() else {
                         return Err(cell_err(c, "polyhedron without faces".into()));
                     };
-                    stream.get(fa..fb).ok_or_else(|| {
+                    let stream = stream.get(fa..fb).ok_or_else(|| {
                         cell_err(c, format!("face range {fa}..{fb} out of bounds"))
-                    })?
+                    })?;
+                    push_face_stream(stream, &mut cells.face_stream)
                 }
-            };
-            let fs = cells.face_stream.len();
-            push_face_stream(stream, &mut cells.face_stream).map_err(|m| cell_err(c, m))?;
+            }
+            .map_err(|m| cell_err(c, m))?;
             let first = cells.connectivity.len();
             seen.distinct_into(&cells.face_stream[fs..], &mut cells.connectivity);
             cells.connectivity[first..].sort_unstable();
@@ -616,6 +671,55 @@ mod tests {
             tail.dedup();
             assert_eq!(tail.len(), n, "round {round}: no repeats");
             assert_eq!(tail, want, "round {round}");
+        }
+    }
+
+    /// Narrowing to u32 ids agrees with the i64 decode for every integer
+    /// type and byte order, and refuses (None) any array holding a value
+    /// outside `0..u32::MAX`.
+    #[test]
+    fn u32_ids_match_the_i64_decode() {
+        let vals: [i64; 5] = [0, 1, 7, 65_535, 4_294_967_294];
+        for big in [false, true] {
+            for ty in [Scalar::I32, Scalar::U32, Scalar::I64, Scalar::U64] {
+                let size = ty.size();
+                let enc = |v: i64| -> Vec<u8> {
+                    let b = v.to_le_bytes();
+                    let mut x = b[..size].to_vec();
+                    if big {
+                        x.reverse();
+                    }
+                    x
+                };
+                let fits = |v: i64| match ty {
+                    Scalar::I32 => i32::try_from(v).is_ok(),
+                    Scalar::U32 => u32::try_from(v).is_ok(),
+                    _ => true,
+                };
+                let good: Vec<u8> = vals
+                    .iter()
+                    .filter(|&&v| fits(v))
+                    .flat_map(|&v| enc(v))
+                    .collect();
+                let want: Vec<u32> = decode_i64(&good, ty, big, 0)
+                    .unwrap()
+                    .iter()
+                    .map(|&v| v as u32)
+                    .collect();
+                assert_eq!(
+                    decode_u32_ids(&good, ty, big),
+                    Some(want),
+                    "{ty:?} big {big}"
+                );
+                for bad in [-1i64, 4_294_967_295, 1 << 40] {
+                    if !fits(bad) || (bad < 0 && matches!(ty, Scalar::U32 | Scalar::U64)) {
+                        continue;
+                    }
+                    let mut b = good.clone();
+                    b.extend(enc(bad));
+                    assert_eq!(decode_u32_ids(&b, ty, big), None, "{ty:?} {bad}");
+                }
+            }
         }
     }
 

@@ -666,7 +666,7 @@ impl<'a> Parser<'a> {
                     &tys,
                     &offsets,
                     &conn,
-                    PolyFaces::InConnectivity,
+                    PolyFaces::<i64>::InConnectivity,
                     self.file,
                 )?)
             }

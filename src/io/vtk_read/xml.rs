@@ -4,7 +4,8 @@
 
 use super::VtkReadError;
 use super::common::{
-    PolyFaces, Scalar, build_cells, decode_f64, decode_i64, is_ws, parse_f64, parse_i64, to_points,
+    PolyFaces, Scalar, build_cells, decode_f64, decode_i64, decode_u32_ids, is_ws, parse_f64,
+    parse_i64, to_points,
 };
 use crate::grid::{Cells, Grid, Property, Topology};
 use std::borrow::Cow;
@@ -757,6 +758,21 @@ impl<'a> Ctx<'a, '_> {
         }
     }
 
+    /// A binary integer array narrowed to u32 on the way in, when every
+    /// value is in `0..u32::MAX`; `None` for text payloads or other values
+    /// (then [`Ctx::values_i64`] reads it and the bad value is named later).
+    fn values_u32_ids(&self, i: usize) -> Result<Option<Vec<u32>>, VtkReadError> {
+        let e = self.el(i);
+        let ty = self.scalar(e)?;
+        match self.payload(e)? {
+            Payload::Text(_) => Ok(None),
+            Payload::Bytes(b) => {
+                self.check_bytes(e, &b, ty)?;
+                Ok(decode_u32_ids(&b, ty, self.big))
+            }
+        }
+    }
+
     /// An integer array that must have `n` values.
     fn ints(&self, i: usize, n: usize, what: &str) -> Result<Vec<i64>, VtkReadError> {
         let v = self.values_i64(i)?;
@@ -914,7 +930,9 @@ impl<'a> Ctx<'a, '_> {
         }
         let types = self.ints(need("types")?, nc, "values (NumberOfCells)")?;
         let has_poly = types.contains(&42);
-        let mut stream = Vec::new();
+        let mut stream: Vec<i64> = Vec::new();
+        // The pre-9.4 `faces` array narrowed to u32 when it fits (no i64 copy).
+        let mut stream32: Option<Vec<u32>> = None;
         let mut ranges: Vec<Option<(usize, usize)>> = Vec::new();
         if !has_poly {
             // faces arrays, if any, are irrelevant
@@ -924,7 +942,11 @@ impl<'a> Ctx<'a, '_> {
         ) {
             // VTK < 9.4: per polyhedron a legacy face stream; faceoffsets are
             // end offsets, -1 for other cells.
-            stream = self.values_i64(fi)?;
+            stream32 = self.values_u32_ids(fi)?;
+            if stream32.is_none() {
+                stream = self.values_i64(fi)?;
+            }
+            let stream_len = stream32.as_ref().map_or(stream.len(), Vec::len);
             let fo = self.ints(foi, nc, "values (NumberOfCells)")?;
             let mut prev = 0usize;
             for (c, &o) in fo.iter().enumerate() {
@@ -934,7 +956,7 @@ impl<'a> Ctx<'a, '_> {
                 }
                 let end = usize::try_from(o)
                     .ok()
-                    .filter(|&e| e >= prev && e <= stream.len())
+                    .filter(|&e| e >= prev && e <= stream_len)
                     .ok_or_else(|| {
                         self.xml_err(
                             label(self.el(foi)),
@@ -989,6 +1011,13 @@ impl<'a> Ctx<'a, '_> {
                 }
                 ranges.push(Some((start, stream.len())));
             }
+        }
+        if let Some(stream) = &stream32 {
+            let faces = PolyFaces::Streams {
+                stream,
+                ranges: &ranges,
+            };
+            return build_cells(&types, &offsets, &conn, faces, self.file);
         }
         let faces = if has_poly {
             PolyFaces::Streams {
