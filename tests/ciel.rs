@@ -812,22 +812,25 @@ fn non_convex_cells_are_counted() {
     // The L is still sliced: its z-slices have the L's area (3).
     let phi: Vec<f32> = c.positions.iter().map(|p| p[2]).collect();
     let f = VertexField { values: &phi };
+    for a in sweep_areas(&c, &f, &[-0.25, 0.0, 0.25], true) {
+        assert!((a - 3.0).abs() < 1e-5, "{a}");
+    }
+}
+
+/// Per-level slice areas of a CIEL sweep.
+fn sweep_areas(c: &Ciel, f: &VertexField, levels: &[f32], planar: bool) -> Vec<f64> {
     let ctx = EmitContext {
         positions: &c.positions,
         attribute: None,
         cells_only: false,
     };
-    let mut sw = CielSweeper::new(&c);
-    sw.prepare_minima(&f);
-    sw.set_planar(true);
+    let mut sw = CielSweeper::new(c);
+    sw.prepare_minima(f);
+    sw.set_planar(planar);
     let mut mesh = LevelMesh::default();
     let mut areas = Vec::new();
-    sw.sweep(&f, &[-0.25, 0.0, 0.25], &ctx, &mut mesh, |_, _, st| {
-        areas.push(st.area)
-    });
-    for a in areas {
-        assert!((a - 3.0).abs() < 1e-5, "{a}");
-    }
+    sw.sweep(f, levels, &ctx, &mut mesh, |_, _, st| areas.push(st.area));
+    areas
 }
 
 /// A U-shaped prism cut across both arms has two polygons per level: a
@@ -878,17 +881,7 @@ fn planar_sweep_draws_every_polygon_of_a_non_convex_cell() {
         let got = ciel_sweep(&c, &f, &levels, planar);
         assert_eq!(got[0].len(), 1, "planar {planar}: base");
         assert_eq!(got[1].len(), 2, "planar {planar}: both arms");
-        let ctx = EmitContext {
-            positions: &c.positions,
-            attribute: None,
-            cells_only: false,
-        };
-        let mut sw = CielSweeper::new(&c);
-        sw.prepare_minima(&f);
-        sw.set_planar(planar);
-        let mut mesh = LevelMesh::default();
-        let mut areas = Vec::new();
-        sw.sweep(&f, &levels, &ctx, &mut mesh, |_, _, st| areas.push(st.area));
+        let areas = sweep_areas(&c, &f, &levels, planar);
         assert!((areas[0] - 3.0).abs() < 1e-5, "{areas:?}");
         assert!((areas[1] - 2.0).abs() < 1e-5, "{areas:?}");
     }
