@@ -514,24 +514,80 @@ impl Distinct {
 /// Assembles [`Cells`] from VTK's flat arrays. `offsets` has `types.len() + 1`
 /// entries indexing `conn`. Polyhedra get their face stream and the sorted
 /// unique ids of their faces as connectivity.
-pub(crate) fn build_cells<T: StreamValue>(
+pub(crate) fn build_cells<T: StreamValue + Sync>(
     types: &[i64],
     offsets: &[usize],
     conn: &[i64],
     faces: PolyFaces<'_, T>,
     file: &str,
 ) -> Result<Cells, VtkReadError> {
+    use rayon::prelude::*;
+    const CHUNK: usize = 8192;
     let n = types.len();
+    let any_poly = types.contains(&i64::from(vtk_type::POLYHEDRON));
+    let range = |r: std::ops::Range<usize>| {
+        build_cell_range(r, types, offsets, conn, &faces, any_poly, file)
+    };
+    if n <= CHUNK {
+        return range(0..n);
+    }
+    // Chunks of cells in parallel, each with offsets from 0, then joined in
+    // order (the first error in cell order wins, as in one pass).
+    let parts: Vec<Result<Cells, VtkReadError>> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|k| range(k * CHUNK..((k + 1) * CHUNK).min(n)))
+        .collect();
+    let mut cells = Cells::default();
+    for (k, part) in parts.into_iter().enumerate() {
+        let part = part?;
+        if k == 0 {
+            cells = part;
+            continue;
+        }
+        let over = |c: usize, what: &str| VtkReadError::Cell {
+            file: file.to_string(),
+            cell: c,
+            msg: format!("{what} exceeds u32 offsets"),
+        };
+        let (cb, fb) = (cells.connectivity.len(), cells.face_stream.len());
+        for (i, &o) in part.offsets[1..].iter().enumerate() {
+            let g =
+                u32::try_from(cb + o as usize).map_err(|_| over(k * CHUNK + i, "connectivity"))?;
+            cells.offsets.push(g);
+        }
+        for (i, &o) in part.face_offsets.iter().skip(1).enumerate() {
+            let g =
+                u32::try_from(fb + o as usize).map_err(|_| over(k * CHUNK + i, "face stream"))?;
+            cells.face_offsets.push(g);
+        }
+        cells.types.extend_from_slice(&part.types);
+        cells.connectivity.extend_from_slice(&part.connectivity);
+        cells.face_stream.extend_from_slice(&part.face_stream);
+    }
+    Ok(cells)
+}
+
+/// [`build_cells`] for cells `range` (`any_poly`: of the whole grid), with
+/// offsets counted from the range's first cell.
+fn build_cell_range<T: StreamValue>(
+    range: std::ops::Range<usize>,
+    types: &[i64],
+    offsets: &[usize],
+    conn: &[i64],
+    faces: &PolyFaces<'_, T>,
+    any_poly: bool,
+    file: &str,
+) -> Result<Cells, VtkReadError> {
+    let n = range.len();
     let cell_err = |cell: usize, msg: String| VtkReadError::Cell {
         file: file.to_string(),
         cell,
         msg,
     };
-    let any_poly = types.contains(&i64::from(vtk_type::POLYHEDRON));
     let mut cells = Cells {
         types: Vec::with_capacity(n),
         offsets: Vec::with_capacity(n + 1),
-        connectivity: Vec::with_capacity(conn.len()),
+        connectivity: Vec::new(),
         face_offsets: Vec::new(),
         face_stream: Vec::new(),
     };
@@ -541,7 +597,8 @@ pub(crate) fn build_cells<T: StreamValue>(
         cells.face_offsets.push(0);
     }
     let mut seen = Distinct::default();
-    for (c, &t) in types.iter().enumerate() {
+    for c in range {
+        let t = types[c];
         let t8 = u8::try_from(t)
             .map_err(|_| cell_err(c, format!("cell type {t} is not a VTK cell type id")))?;
         let (a, b) = (
@@ -553,7 +610,7 @@ pub(crate) fn build_cells<T: StreamValue>(
             .ok_or_else(|| cell_err(c, format!("connectivity range {a}..{b} out of bounds")))?;
         if t8 == vtk_type::POLYHEDRON {
             let fs = cells.face_stream.len();
-            match &faces {
+            match faces {
                 PolyFaces::InConnectivity => push_face_stream(ids, &mut cells.face_stream),
                 PolyFaces::Streams { stream, ranges } => {
                     let Some((fa, fb)) = ranges.get(c).copied().flatten() else {
@@ -721,6 +778,58 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Cells built in parallel chunks equal one sequential pass, and the
+    /// first bad cell in cell order is the one named.
+    #[test]
+    fn chunked_cells_equal_one_pass() {
+        let n = 20_000usize;
+        let (mut types, mut offsets, mut conn) = (Vec::new(), vec![0usize], Vec::new());
+        let (mut stream, mut ranges) = (Vec::<i64>::new(), Vec::new());
+        for c in 0..n as i64 {
+            let v = [c, c + 1, c + 2, c + 3];
+            conn.extend_from_slice(&v);
+            offsets.push(conn.len());
+            if c % 3 == 0 {
+                types.push(i64::from(vtk_type::POLYHEDRON));
+                let a = stream.len();
+                stream.push(4);
+                for f in [[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]] {
+                    stream.push(3);
+                    stream.extend(f.iter().map(|&i| v[i]));
+                }
+                ranges.push(Some((a, stream.len())));
+            } else {
+                types.push(i64::from(vtk_type::TETRA));
+                ranges.push(None);
+            }
+        }
+        fn faces<'a>(
+            stream: &'a [i64],
+            ranges: &'a [Option<(usize, usize)>],
+        ) -> PolyFaces<'a, i64> {
+            PolyFaces::Streams { stream, ranges }
+        }
+        let whole = build_cells(&types, &offsets, &conn, faces(&stream, &ranges), "f").unwrap();
+        let one = build_cell_range(
+            0..n,
+            &types,
+            &offsets,
+            &conn,
+            &faces(&stream, &ranges),
+            true,
+            "f",
+        )
+        .unwrap();
+        assert_eq!(whole, one);
+        assert_eq!(whole.len(), n);
+        // Two bad cells in different chunks: the earlier one is named.
+        for bad in [17_000usize, 9_001] {
+            stream[ranges[bad - bad % 3].unwrap().0 + 2] = -5;
+        }
+        let e = build_cells(&types, &offsets, &conn, faces(&stream, &ranges), "f").unwrap_err();
+        assert!(e.to_string().contains("cell 9000"), "{e}");
     }
 
     /// The whole-stream fast path accepts what the checked path accepts
