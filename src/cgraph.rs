@@ -397,6 +397,10 @@ fn sew(
         NON_VOLUMETRIC => &[][..],
         m => &catalog.get(m).faces[..],
     };
+    let masks_of = |c: usize| match metas[c] {
+        NON_VOLUMETRIC => &[][..],
+        m => catalog.get(m).face_masks(),
+    };
     let mut nstart = Vec::with_capacity(n + 1);
     let mut total = 0u32;
     nstart.push(0);
@@ -458,13 +462,25 @@ fn sew(
                 if d == c {
                     continue;
                 }
+                // The key's local positions in `d` (all must be there), as
+                // a bit set: the face of `d` with the same set has the same
+                // mask (the vertices of live cells and of faces are distinct).
                 let dv = &verts[voff[d] as usize..voff[d + 1] as usize];
-                if !key.iter().all(|v| dv.contains(v)) {
+                let mut mask = 0u16;
+                let mut all = true;
+                for v in key {
+                    match dv.iter().position(|w| w == v) {
+                        Some(p) => mask |= 1 << (p & 15),
+                        None => {
+                            all = false;
+                            break;
+                        }
+                    }
+                }
+                if !all {
                     continue;
                 }
-                if let Some(g) = faces_of(d).iter().position(|g| {
-                    g.len() == k && g.iter().all(|&lv| key.contains(&dv[lv as usize]))
-                }) {
+                if let Some(g) = masks_of(d).iter().position(|&m| m == mask) {
                     return Some((x, g));
                 }
             }

@@ -94,6 +94,8 @@ pub struct MetaCell {
     /// 6 quadrilateral faces (the hexahedron): [`MetaCell::signed_volume`]
     /// then runs a fully unrolled loop.
     hex_faces: Option<[[u8; 4]; 6]>,
+    /// Per face, the bit set of its local vertices.
+    face_masks: Vec<u16>,
 }
 
 impl MetaCell {
@@ -173,6 +175,10 @@ impl MetaCell {
         let ncodes = 1usize << nv;
         let hex_faces = (nv == 8 && faces.len() == 6 && faces.iter().all(|f| f.len() == 4))
             .then(|| std::array::from_fn(|f| std::array::from_fn(|k| faces[f][k])));
+        let face_masks = faces
+            .iter()
+            .map(|f| f.iter().fold(0u16, |m, &v| m | 1 << (v & 15)))
+            .collect();
         let mut mc = MetaCell {
             name: name.into(),
             nv,
@@ -185,6 +191,7 @@ impl MetaCell {
             loop_start: vec![0],
             config: Vec::new(),
             hex_faces,
+            face_masks,
         };
         let mut next = vec![u8::MAX; mc.edges.len()];
         for code in 0..ncodes {
@@ -466,6 +473,13 @@ impl Catalog {
 }
 
 impl MetaCell {
+    /// Per face, the bit set of its local vertex ids (bit `v` for vertex `v`):
+    /// two faces of a cell with distinct vertices have the same vertex set
+    /// exactly when their masks are equal.
+    pub fn face_masks(&self) -> &[u16] {
+        &self.face_masks
+    }
+
     /// Signed volume of a cell of this type (positive for outward faces),
     /// by a fan of tetrahedra from the vertex centroid over triangulated faces.
     /// Exact for planar faces; for warped quads it is the volume of the

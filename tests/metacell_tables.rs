@@ -362,3 +362,24 @@ fn signed_volume_and_class_are_bit_identical_to_the_reference_formula() {
         assert!(seen[c as usize] > 100, "class {c:?} seen {seen:?}");
     }
 }
+
+#[test]
+fn face_masks_are_the_vertex_sets_of_the_faces() {
+    for m in &catalog_with_prisms().metas {
+        let masks = m.face_masks();
+        assert_eq!(masks.len(), m.faces.len(), "{}", m.name);
+        for (f, (&mask, face)) in masks.iter().zip(&m.faces).enumerate() {
+            let want: u16 = (0..m.nv as u8)
+                .filter(|v| face.contains(v))
+                .map(|v| 1u16 << v)
+                .sum();
+            assert_eq!(mask, want, "{} face {f}", m.name);
+        }
+        // Distinct faces, distinct sets: a mask names one face.
+        for a in 0..masks.len() {
+            for b in a + 1..masks.len() {
+                assert_ne!(masks[a], masks[b], "{} faces {a}, {b}", m.name);
+            }
+        }
+    }
+}
