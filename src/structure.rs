@@ -57,11 +57,13 @@ pub const CELL_CLASS_NAMES: [&str; 5] = [
     "non_volumetric",
 ];
 
-/// Classifies one cell from its global vertex ids (local order) and the f64 points.
+/// Classifies one cell from its global vertex ids (local order) and the f64
+/// points. A vertex list that fits no meta-cell (empty, or longer than
+/// [`MAX_META_VERTICES`]) is [`CellClass::NonVolumetric`].
 pub fn classify_cell(meta: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellClass {
     match ids.len() {
         8 => classify_fixed::<8>(meta, ids, points),
-        n if n == 0 || n > MAX_META_VERTICES => classify_cell_general(meta, ids, points),
+        n if n == 0 || n > MAX_META_VERTICES => CellClass::NonVolumetric,
         _ => classify_fixed::<MAX_META_VERTICES>(meta, ids, points),
     }
 }
@@ -102,27 +104,6 @@ fn classify_fixed<const N: usize>(meta: &MetaCell, ids: &[u32], points: &[[f64; 
     }
     let ext = ext[0].max(ext[1]).max(ext[2]);
     class_of_volume(meta.signed_volume_of(&mut local), ext)
-}
-
-/// [`classify_cell`] for cells outside the fixed-size path (no vertices, or
-/// more than [`MAX_META_VERTICES`]).
-fn classify_cell_general(meta: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellClass {
-    for a in 0..ids.len() {
-        for b in a + 1..ids.len() {
-            if ids[a] == ids[b] || points[ids[a] as usize] == points[ids[b] as usize] {
-                return CellClass::RepeatedVertex;
-            }
-        }
-    }
-    let p0 = points[ids[0] as usize];
-    let mut local = [[0.0f64; 3]; MAX_META_VERTICES];
-    let mut ext = 0.0f64;
-    for (l, &v) in local.iter_mut().zip(ids) {
-        let p = points[v as usize];
-        *l = [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]];
-        ext = ext.max(l[0].abs()).max(l[1].abs()).max(l[2].abs());
-    }
-    class_of_volume(meta.signed_volume(&|v| local[v]), ext)
 }
 
 /// Class of a cell of signed volume `vol` and extent `ext` from its first vertex.

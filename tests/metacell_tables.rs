@@ -285,13 +285,10 @@ fn reference_class(m: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellClass 
             l
         })
         .collect();
-    let vol = reference_signed_volume(m, &local);
-    if vol.is_nan() || vol.abs() <= 1e-12 * ext * ext * ext {
-        CellClass::ZeroVolume
-    } else if vol < 0.0 {
-        CellClass::Inverted
-    } else {
-        CellClass::Valid
+    match reference_signed_volume(m, &local) {
+        v if v.is_nan() || v.abs() <= 1e-12 * ext * ext * ext => CellClass::ZeroVolume,
+        v if v < 0.0 => CellClass::Inverted,
+        _ => CellClass::Valid,
     }
 }
 
@@ -382,4 +379,14 @@ fn face_masks_are_the_vertex_sets_of_the_faces() {
             }
         }
     }
+}
+
+#[test]
+fn vertex_lists_that_fit_no_meta_cell_are_non_volumetric() {
+    let cat = Catalog::new();
+    let hex = cat.get(builtin::HEXAHEDRON);
+    let points: Vec<[f64; 3]> = (0..13).map(|i| [i as f64, (i * i) as f64, 1.0]).collect();
+    let ids: Vec<u32> = (0..13).collect();
+    assert_eq!(classify_cell(hex, &[], &points), CellClass::NonVolumetric);
+    assert_eq!(classify_cell(hex, &ids, &points), CellClass::NonVolumetric);
 }
