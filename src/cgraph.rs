@@ -397,6 +397,10 @@ fn sew(
         NON_VOLUMETRIC => &[][..],
         m => &catalog.get(m).faces[..],
     };
+    let masks_of = |c: usize| match metas[c] {
+        NON_VOLUMETRIC => &[][..],
+        m => catalog.get(m).face_masks(),
+    };
     let mut nstart = Vec::with_capacity(n + 1);
     let mut total = 0u32;
     nstart.push(0);
@@ -458,13 +462,25 @@ fn sew(
                 if d == c {
                     continue;
                 }
+                // The key's local positions in `d` (all must be there), as
+                // a bit set: the face of `d` with the same set has the same
+                // mask (the vertices of live cells and of faces are distinct).
                 let dv = &verts[voff[d] as usize..voff[d + 1] as usize];
-                if !key.iter().all(|v| dv.contains(v)) {
+                let mut mask = 0u16;
+                let mut all = true;
+                for v in key {
+                    match dv.iter().position(|w| w == v) {
+                        Some(p) => mask |= 1 << (p & 15),
+                        None => {
+                            all = false;
+                            break;
+                        }
+                    }
+                }
+                if !all {
                     continue;
                 }
-                if let Some(g) = faces_of(d).iter().position(|g| {
-                    g.len() == k && g.iter().all(|&lv| key.contains(&dv[lv as usize]))
-                }) {
+                if let Some(g) = masks_of(d).iter().position(|&m| m == mask) {
                     return Some((x, g));
                 }
             }
@@ -613,38 +629,46 @@ impl CellStore {
             })
             .collect();
         // Count stencils (by hash: count, first cell, id), keep the most
-        // frequent repeated ones.
-        let mut count: HashMap<u64, (u32, u32, u16), PassHash> = HashMap::default();
+        // frequent repeated ones. The map gives each hash an entry once;
+        // every cell then keeps its entry's index (no second lookup).
+        let mut entry_of: HashMap<u64, u32, PassHash> = HashMap::default();
+        let mut entries: Vec<(u32, u32, u16)> = Vec::new();
+        let mut cell_entry = vec![u32::MAX; n];
         for c in 0..n {
             if metas[c] != NON_VOLUMETRIC {
-                count.entry(hashes[c]).or_insert((0, c as u32, ESCAPED)).0 += 1;
+                let e = *entry_of.entry(hashes[c]).or_insert_with(|| {
+                    entries.push((0, c as u32, ESCAPED));
+                    entries.len() as u32 - 1
+                }) as usize;
+                entries[e].0 += 1;
+                cell_entry[c] = e as u32;
             }
         }
-        let mut common: Vec<(u32, u32, u64)> = count
+        drop(entry_of);
+        let mut common: Vec<(u32, u32, usize)> = entries
             .iter()
+            .enumerate()
             .filter(|e| e.1.0 >= 2)
-            .map(|(&h, &(k, first, _))| (k, first, h))
+            .map(|(e, &(k, first, _))| (k, first, e))
             .collect();
         common.sort_unstable_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
         common.truncate(ESCAPED as usize);
         let mut store = CellStore::default();
-        for (i, &(_, first, h)) in common.iter().enumerate() {
+        for (i, &(_, first, e)) in common.iter().enumerate() {
             let mut k = key_of(first as usize);
             store.stencil_meta.push(k.next().unwrap_or(0) as u16);
             store.stencil_start.push(store.deltas.len() as u32);
             store.deltas.extend(k);
-            if let Some(e) = count.get_mut(&h) {
-                e.2 = i as u16;
-            }
+            entries[e].2 = i as u16;
         }
         store.stencil_start.push(store.deltas.len() as u32);
         store.anchor.reserve_exact(n);
         store.stencil.reserve_exact(n);
         for c in 0..n {
             let v = &verts[voff[c] as usize..voff[c + 1] as usize];
-            let coded = (metas[c] != NON_VOLUMETRIC)
-                .then(|| count.get(&hashes[c]).map(|e| e.2))
-                .flatten()
+            let coded = entries
+                .get(cell_entry[c] as usize)
+                .map(|e| e.2)
                 // A hash collision must not merge two stencils: compare.
                 .filter(|&s| {
                     s != ESCAPED && store.stencil_meta[s as usize] == metas[c] && {

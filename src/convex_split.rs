@@ -36,6 +36,7 @@
 //! ([`SplitMap::source`]) and carries its source cell's cell properties.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 use std::ops::Deref;
 
 use rayon::prelude::*;
@@ -488,10 +489,40 @@ fn kernel_point(planes: &[(P3, P3)], margin: f64, slack: f64) -> Option<P3> {
     (count > 0).then(|| scale(sum, 1.0 / count as f64))
 }
 
+/// Multiplicative hasher for small keys of vertex ids (the face table's
+/// sorted id lists): much cheaper than SipHash, and the keys are not
+/// adversarial.
+#[derive(Default)]
+struct IdsHasher(u64);
+
+impl Hasher for IdsHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        let mut chunks = bytes.chunks_exact(8);
+        for c in &mut chunks {
+            self.write_u64(u64::from_le_bytes(c.try_into().expect("8 bytes")));
+        }
+        for &b in chunks.remainder() {
+            self.write_u64(b as u64);
+        }
+    }
+    fn write_u32(&mut self, x: u32) {
+        self.write_u64(x as u64);
+    }
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64);
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+}
+
 /// The shared face table of a split: per canonical face (sorted ids), how
 /// many split cells use it and how it is cut.
 struct FaceTable {
-    index: HashMap<Vec<u32>, usize>,
+    index: HashMap<Vec<u32>, usize, BuildHasherDefault<IdsHasher>>,
     split_uses: Vec<u8>,
     plan: Vec<Option<FacePlan>>,
 }
@@ -538,28 +569,32 @@ pub fn split_non_convex(
     }
     // Canonical faces of split cells.
     let mut table = FaceTable {
-        index: HashMap::new(),
+        index: HashMap::default(),
         split_uses: Vec::new(),
         plan: Vec::new(),
     };
-    let key = |f: &[u32]| {
-        let mut k = f.to_vec();
-        k.sort_unstable();
-        k
-    };
-    // Per split cell, its faces' entries in the table (one lookup per face).
+    // Per split cell, its faces' entries in the table (one lookup per face;
+    // a key is allocated only for a face not seen before).
+    let mut k: Vec<u32> = Vec::new();
     let face_ids: Vec<Vec<usize>> = found
         .iter()
         .map(|(_, faces)| {
             faces
                 .iter()
                 .map(|f| {
-                    let next = table.split_uses.len();
-                    let i = *table.index.entry(key(f)).or_insert(next);
-                    if i == next {
-                        table.split_uses.push(0);
-                        table.plan.push(None);
-                    }
+                    k.clear();
+                    k.extend_from_slice(f);
+                    k.sort_unstable();
+                    let i = match table.index.get(&k[..]) {
+                        Some(&i) => i,
+                        None => {
+                            let i = table.split_uses.len();
+                            table.index.insert(k.clone(), i);
+                            table.split_uses.push(0);
+                            table.plan.push(None);
+                            i
+                        }
+                    };
                     table.split_uses[i] = table.split_uses[i].saturating_add(1);
                     i
                 })

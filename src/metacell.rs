@@ -90,6 +90,12 @@ pub struct MetaCell {
     /// Intersected local edges of every loop, in the order met when turning
     /// around the faces (the paper's `config`).
     pub config: Vec<u8>,
+    /// The faces again, as a fixed array, when the cell has 8 vertices and
+    /// 6 quadrilateral faces (the hexahedron): [`MetaCell::signed_volume`]
+    /// then runs a fully unrolled loop.
+    hex_faces: Option<[[u8; 4]; 6]>,
+    /// Per face, the bit set of its local vertices.
+    face_masks: Vec<u16>,
 }
 
 impl MetaCell {
@@ -167,6 +173,12 @@ impl MetaCell {
             .collect();
 
         let ncodes = 1usize << nv;
+        let hex_faces = (nv == 8 && faces.len() == 6 && faces.iter().all(|f| f.len() == 4))
+            .then(|| std::array::from_fn(|f| std::array::from_fn(|k| faces[f][k])));
+        let face_masks = faces
+            .iter()
+            .map(|f| f.iter().fold(0u16, |m, &v| m | 1 << (v & 15)))
+            .collect();
         let mut mc = MetaCell {
             name: name.into(),
             nv,
@@ -178,6 +190,8 @@ impl MetaCell {
             config_size: Vec::new(),
             loop_start: vec![0],
             config: Vec::new(),
+            hex_faces,
+            face_masks,
         };
         let mut next = vec![u8::MAX; mc.edges.len()];
         for code in 0..ncodes {
@@ -459,48 +473,78 @@ impl Catalog {
 }
 
 impl MetaCell {
+    /// Per face, the bit set of its local vertex ids (bit `v` for vertex `v`):
+    /// two faces of a cell with distinct vertices have the same vertex set
+    /// exactly when their masks are equal.
+    pub fn face_masks(&self) -> &[u16] {
+        &self.face_masks
+    }
+
     /// Signed volume of a cell of this type (positive for outward faces),
     /// by a fan of tetrahedra from the vertex centroid over triangulated faces.
     /// Exact for planar faces; for warped quads it is the volume of the
     /// polyhedron with the faces split into triangles around their centroid.
     pub fn signed_volume<F: Fn(usize) -> [f64; 3] + ?Sized>(&self, pos: &F) -> f64 {
-        // Positions fetched once, then taken relative to the vertex mean c,
-        // so that each tetrahedron (c, face centre, a, b) is one determinant.
-        let n = self.nv;
         let mut pts = [[0.0f64; 3]; MAX_META_VERTICES];
-        let mut c = [0.0; 3];
-        for (v, p) in pts.iter_mut().enumerate().take(n) {
+        for (v, p) in pts.iter_mut().enumerate().take(self.nv) {
             *p = pos(v);
+        }
+        self.signed_volume_of(&mut pts)
+    }
+
+    /// [`MetaCell::signed_volume`] of the positions `pts[..nv]` (local vertex
+    /// order), which are overwritten (recentred). Same arithmetic in the same
+    /// order, so bit-identical; hexahedra take an unrolled loop.
+    pub fn signed_volume_of(&self, pts: &mut [[f64; 3]; MAX_META_VERTICES]) -> f64 {
+        // Positions taken relative to the vertex mean c, so that each
+        // tetrahedron (c, face centre, a, b) is one determinant.
+        let n = self.nv.min(MAX_META_VERTICES);
+        let mut c = [0.0; 3];
+        for p in &pts[..n] {
             for a in 0..3 {
                 c[a] += p[a];
             }
         }
-        let inv_n = 1.0 / n as f64;
+        let inv_n = 1.0 / self.nv as f64;
         for p in &mut pts[..n] {
             for a in 0..3 {
                 p[a] -= c[a] * inv_n;
             }
         }
+        // One accumulator over all faces, in face order (as before).
         let mut six_vol = 0.0;
-        for f in &self.faces {
-            let mut fc = [0.0; 3];
-            for &v in f {
-                let p = pts[v as usize];
-                for a in 0..3 {
-                    fc[a] += p[a];
-                }
+        if let Some(faces) = &self.hex_faces {
+            for f in faces {
+                face_six_volume(pts, f, &mut six_vol);
             }
-            let inv_k = 1.0 / f.len() as f64;
-            let fc = fc.map(|x| x * inv_k);
-            let mut prev = pts[*f.last().expect("faces have vertices") as usize];
-            for &v in f {
-                let cur = pts[v as usize];
-                six_vol += fc[0] * (prev[1] * cur[2] - prev[2] * cur[1])
-                    - fc[1] * (prev[0] * cur[2] - prev[2] * cur[0])
-                    + fc[2] * (prev[0] * cur[1] - prev[1] * cur[0]);
-                prev = cur;
+        } else {
+            for f in &self.faces {
+                face_six_volume(pts, f, &mut six_vol);
             }
         }
         six_vol / 6.0
+    }
+}
+
+/// Adds to `six_vol`, edge by edge, six times the signed volume of the cone
+/// from the origin over one face split into triangles around its vertex mean.
+#[inline(always)]
+fn face_six_volume(pts: &[[f64; 3]; MAX_META_VERTICES], f: &[u8], six_vol: &mut f64) {
+    let mut fc = [0.0; 3];
+    for &v in f {
+        let p = pts[v as usize];
+        for a in 0..3 {
+            fc[a] += p[a];
+        }
+    }
+    let inv_k = 1.0 / f.len() as f64;
+    let fc = fc.map(|x| x * inv_k);
+    let mut prev = pts[*f.last().expect("faces have vertices") as usize];
+    for &v in f {
+        let cur = pts[v as usize];
+        *six_vol += fc[0] * (prev[1] * cur[2] - prev[2] * cur[1])
+            - fc[1] * (prev[0] * cur[2] - prev[2] * cur[0])
+            + fc[2] * (prev[0] * cur[1] - prev[1] * cur[0]);
+        prev = cur;
     }
 }

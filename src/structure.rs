@@ -57,24 +57,57 @@ pub const CELL_CLASS_NAMES: [&str; 5] = [
     "non_volumetric",
 ];
 
-/// Classifies one cell from its global vertex ids (local order) and the f64 points.
+/// Classifies one cell from its global vertex ids (local order) and the f64
+/// points. A vertex list that fits no meta-cell (empty, or longer than
+/// [`MAX_META_VERTICES`]) is [`CellClass::NonVolumetric`].
 pub fn classify_cell(meta: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellClass {
-    for a in 0..ids.len() {
-        for b in a + 1..ids.len() {
-            if ids[a] == ids[b] || points[ids[a] as usize] == points[ids[b] as usize] {
-                return CellClass::RepeatedVertex;
+    match ids.len() {
+        8 => classify_fixed::<8>(meta, ids, points),
+        n if n == 0 || n > MAX_META_VERTICES => CellClass::NonVolumetric,
+        _ => classify_fixed::<MAX_META_VERTICES>(meta, ids, points),
+    }
+}
+
+/// [`classify_cell`] for `0 < ids.len() <= N <= MAX_META_VERTICES`, each
+/// point read once; `N` = the exact count unrolls every loop.
+#[inline(always)]
+fn classify_fixed<const N: usize>(meta: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellClass {
+    let n = ids.len().min(N);
+    let mut local = [[0.0f64; 3]; MAX_META_VERTICES];
+    for (l, &v) in local[..n].iter_mut().zip(ids) {
+        *l = points[v as usize];
+    }
+    // Repeated vertex: same id or equal points, over all pairs.
+    let mut repeated = false;
+    for a in 0..n {
+        for b in a + 1..n {
+            let (pa, pb) = (local[a], local[b]);
+            repeated |=
+                (ids[a] == ids[b]) | ((pa[0] == pb[0]) & (pa[1] == pb[1]) & (pa[2] == pb[2]));
+        }
+    }
+    if repeated {
+        return CellClass::RepeatedVertex;
+    }
+    let p0 = local[0];
+    // Extent: largest |coordinate| from p0 (a plain maximum skips NaN just
+    // as f64::max does, and max is order-free without NaN).
+    let mut ext = [0.0f64; 3];
+    for l in &mut local[..n] {
+        *l = [l[0] - p0[0], l[1] - p0[1], l[2] - p0[2]];
+        for a in 0..3 {
+            let x = l[a].abs();
+            if x > ext[a] {
+                ext[a] = x;
             }
         }
     }
-    let p0 = points[ids[0] as usize];
-    let mut local = [[0.0f64; 3]; MAX_META_VERTICES];
-    let mut ext = 0.0f64;
-    for (l, &v) in local.iter_mut().zip(ids) {
-        let p = points[v as usize];
-        *l = [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]];
-        ext = ext.max(l[0].abs()).max(l[1].abs()).max(l[2].abs());
-    }
-    let vol = meta.signed_volume(&|v| local[v]);
+    let ext = ext[0].max(ext[1]).max(ext[2]);
+    class_of_volume(meta.signed_volume_of(&mut local), ext)
+}
+
+/// Class of a cell of signed volume `vol` and extent `ext` from its first vertex.
+fn class_of_volume(vol: f64, ext: f64) -> CellClass {
     if vol.is_nan() || vol.abs() <= 1e-12 * ext * ext * ext {
         CellClass::ZeroVolume
     } else if vol < 0.0 {

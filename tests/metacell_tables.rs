@@ -4,6 +4,7 @@
 
 use stratasweep::grid::vtk_type;
 use stratasweep::metacell::{Catalog, MetaCell, builtin};
+use stratasweep::structure::{CellClass, classify_cell};
 
 fn catalog_with_prisms() -> Catalog {
     let mut c = Catalog::new();
@@ -227,4 +228,165 @@ fn invalid_face_descriptions_are_rejected() {
     let tiny = vec![vec![0u8, 1]];
     assert!(MetaCell::from_faces("degenerate", 2, tiny).is_err());
     assert!(MetaCell::from_faces("big", 13, vec![]).is_err());
+}
+
+/// The signed volume as first written (generic over the face lists, one
+/// accumulator), kept here as the reference for the unrolled paths.
+fn reference_signed_volume(m: &MetaCell, pos: &[[f64; 3]]) -> f64 {
+    let n = m.nv;
+    let mut c = [0.0; 3];
+    for p in &pos[..n] {
+        for a in 0..3 {
+            c[a] += p[a];
+        }
+    }
+    let pts: Vec<[f64; 3]> = pos[..n]
+        .iter()
+        .map(|p| std::array::from_fn(|a| p[a] - c[a] * (1.0 / n as f64)))
+        .collect();
+    let mut six_vol = 0.0;
+    for f in &m.faces {
+        let mut fc = [0.0; 3];
+        for &v in f {
+            for a in 0..3 {
+                fc[a] += pts[v as usize][a];
+            }
+        }
+        let fc = fc.map(|x| x * (1.0 / f.len() as f64));
+        let mut prev = pts[*f.last().unwrap() as usize];
+        for &v in f {
+            let cur = pts[v as usize];
+            six_vol += fc[0] * (prev[1] * cur[2] - prev[2] * cur[1])
+                - fc[1] * (prev[0] * cur[2] - prev[2] * cur[0])
+                + fc[2] * (prev[0] * cur[1] - prev[1] * cur[0]);
+            prev = cur;
+        }
+    }
+    six_vol / 6.0
+}
+
+/// The cell classification as first written, kept as the reference.
+fn reference_class(m: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellClass {
+    for a in 0..ids.len() {
+        for b in a + 1..ids.len() {
+            if ids[a] == ids[b] || points[ids[a] as usize] == points[ids[b] as usize] {
+                return CellClass::RepeatedVertex;
+            }
+        }
+    }
+    let p0 = points[ids[0] as usize];
+    let mut ext = 0.0f64;
+    let local: Vec<[f64; 3]> = ids
+        .iter()
+        .map(|&v| {
+            let p = points[v as usize];
+            let l = [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]];
+            ext = ext.max(l[0].abs()).max(l[1].abs()).max(l[2].abs());
+            l
+        })
+        .collect();
+    match reference_signed_volume(m, &local) {
+        v if v.is_nan() || v.abs() <= 1e-12 * ext * ext * ext => CellClass::ZeroVolume,
+        v if v < 0.0 => CellClass::Inverted,
+        _ => CellClass::Valid,
+    }
+}
+
+/// xorshift64*, in [-0.5, 0.5).
+fn jitter(s: &mut u64) -> f64 {
+    *s ^= *s << 13;
+    *s ^= *s >> 7;
+    *s ^= *s << 17;
+    (s.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+}
+
+#[test]
+fn signed_volume_and_class_are_bit_identical_to_the_reference_formula() {
+    let cat = catalog_with_prisms();
+    let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+    let mut seen = [0usize; 5];
+    for m in &cat.metas {
+        let base = reference_coords(m);
+        for trial in 0..4000 {
+            // Large offsets (world coordinates), warps of every size, and
+            // now and then a mirrored, flattened, repeated or NaN vertex.
+            let off = [4.6e5, 5.93e6, -1.7e3];
+            let amp = [0.0, 1e-9, 0.05, 0.4, 2.0][trial % 5];
+            let mut pts: Vec<[f64; 3]> = base
+                .iter()
+                .map(|p| std::array::from_fn(|a| off[a] + 25.0 * (p[a] + amp * jitter(&mut seed))))
+                .collect();
+            let mut ids: Vec<u32> = (0..pts.len() as u32).collect();
+            match trial % 11 {
+                1 => pts.iter_mut().for_each(|p| p[2] = -p[2]),
+                2 => pts.iter_mut().for_each(|p| p[2] = off[2]),
+                3 => {
+                    let (a, b) = (trial % pts.len(), (trial / 7) % pts.len());
+                    pts[a] = pts[b];
+                }
+                4 => {
+                    let k = ids.len();
+                    ids[trial % k] = ids[(trial / 3) % k];
+                }
+                5 => pts[trial % m.nv][1] = f64::NAN,
+                6 => pts[trial % m.nv][0] = -0.0 * pts[0][0],
+                _ => {}
+            }
+            let got = m.signed_volume(&|v| pts[v]);
+            let want = reference_signed_volume(m, &pts);
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "{} trial {trial}: volume {got:e} != reference {want:e}",
+                m.name
+            );
+            let class = classify_cell(m, &ids, &pts);
+            assert_eq!(
+                class,
+                reference_class(m, &ids, &pts),
+                "{} trial {trial}: class",
+                m.name
+            );
+            seen[class as usize] += 1;
+        }
+    }
+    // Every swept / skipped class the catalog cells can take was exercised.
+    for c in [
+        CellClass::Valid,
+        CellClass::Inverted,
+        CellClass::ZeroVolume,
+        CellClass::RepeatedVertex,
+    ] {
+        assert!(seen[c as usize] > 100, "class {c:?} seen {seen:?}");
+    }
+}
+
+#[test]
+fn face_masks_are_the_vertex_sets_of_the_faces() {
+    for m in &catalog_with_prisms().metas {
+        let masks = m.face_masks();
+        assert_eq!(masks.len(), m.faces.len(), "{}", m.name);
+        for (f, (&mask, face)) in masks.iter().zip(&m.faces).enumerate() {
+            let want: u16 = (0..m.nv as u8)
+                .filter(|v| face.contains(v))
+                .map(|v| 1u16 << v)
+                .sum();
+            assert_eq!(mask, want, "{} face {f}", m.name);
+        }
+        // Distinct faces, distinct sets: a mask names one face.
+        for a in 0..masks.len() {
+            for b in a + 1..masks.len() {
+                assert_ne!(masks[a], masks[b], "{} faces {a}, {b}", m.name);
+            }
+        }
+    }
+}
+
+#[test]
+fn vertex_lists_that_fit_no_meta_cell_are_non_volumetric() {
+    let cat = Catalog::new();
+    let hex = cat.get(builtin::HEXAHEDRON);
+    let points: Vec<[f64; 3]> = (0..13).map(|i| [i as f64, (i * i) as f64, 1.0]).collect();
+    let ids: Vec<u32> = (0..13).collect();
+    assert_eq!(classify_cell(hex, &[], &points), CellClass::NonVolumetric);
+    assert_eq!(classify_cell(hex, &ids, &points), CellClass::NonVolumetric);
 }
