@@ -311,8 +311,9 @@ fn pair_edges(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
     // Per unordered local edge (lo, hi): the first half-edge seen + 1
     // (0 = none), under the current generation; a second fills `mate`.
     if s.edge_table.len() < nv * nv {
-        s.edge_table
-            .resize(EDGE_TABLE_VERTICES * EDGE_TABLE_VERTICES, (0, 0));
+        // Grown to this cell's need only: a fresh scratch (one per
+        // `polyhedron_faces` call) must not clear the whole 128² table.
+        s.edge_table.resize(nv * nv, (0, 0));
     }
     s.edge_generation = s.edge_generation.wrapping_add(1);
     if s.edge_generation == 0 {
