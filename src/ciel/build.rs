@@ -891,24 +891,8 @@ impl Ciel {
         }
         let mut counts = CielCounts::default();
         let mut non_convex_cells = Vec::new();
-        let mut origins = Vec::with_capacity(total);
-        let mut mate_face = Vec::with_capacity(total);
-        let mut cell_start = Vec::with_capacity(n + 1);
         let nfaces: usize = chunks.iter().map(|c| c.faces.len()).sum();
-        let mut faces: Vec<FaceRec> = Vec::with_capacity(nfaces);
-        for ch in chunks {
-            let base = origins.len() as u32;
-            let mut s = base;
-            for &l in &ch.lens {
-                cell_start.push(s);
-                s += l;
-            }
-            origins.extend_from_slice(&ch.origins);
-            mate_face.extend_from_slice(&ch.mate_face);
-            faces.extend(ch.faces.iter().map(|f| FaceRec {
-                start: f.start + base,
-                ..*f
-            }));
+        for ch in &chunks {
             for k in 0..5 {
                 counts.class_counts[k] += ch.class_counts[k];
             }
@@ -917,7 +901,56 @@ impl Ciel {
             counts.non_convex += ch.non_convex.len();
             non_convex_cells.extend_from_slice(&ch.non_convex);
         }
-        cell_start.push(total as u32);
+        // Each chunk copied into its own disjoint parts of the final
+        // arrays, in parallel (these are the largest arrays of the build).
+        let mut origins = vec![0u32; total];
+        let mut mate_face = vec![0i16; total];
+        let mut cell_start = vec![0u32; n + 1];
+        let zero = FaceRec {
+            start: 0,
+            m: 0,
+            lo: 0,
+            hi: 0,
+        };
+        let mut faces: Vec<FaceRec> = vec![zero; nfaces];
+        let parts_of = |len: fn(&ChunkOut) -> usize| chunks.iter().map(len).collect::<Vec<_>>();
+        let he_parts = split_lengths(&mut origins, &parts_of(|c| c.origins.len()));
+        let mf_parts = split_lengths(&mut mate_face, &parts_of(|c| c.origins.len()));
+        let face_parts = split_lengths(&mut faces, &parts_of(|c| c.faces.len()));
+        let cs_parts = split_lengths(&mut cell_start[..n], &parts_of(|c| c.lens.len()));
+        let mut base = 0u32;
+        let bases: Vec<u32> = chunks
+            .iter()
+            .map(|c| {
+                let b = base;
+                base += c.origins.len() as u32;
+                b
+            })
+            .collect();
+        chunks
+            .par_iter()
+            .zip(bases)
+            .zip(he_parts)
+            .zip(mf_parts)
+            .zip(face_parts)
+            .zip(cs_parts)
+            .for_each(|(((((ch, base), he), mf), fc), cs)| {
+                he.copy_from_slice(&ch.origins);
+                mf.copy_from_slice(&ch.mate_face);
+                for (d, f) in fc.iter_mut().zip(&ch.faces) {
+                    *d = FaceRec {
+                        start: f.start + base,
+                        ..*f
+                    };
+                }
+                let mut s = base;
+                for (d, &l) in cs.iter_mut().zip(&ch.lens) {
+                    *d = s;
+                    s += l;
+                }
+            });
+        drop(chunks);
+        cell_start[n] = total as u32;
         counts.faces = nfaces;
         // 3. mate_cell: faces bucketed by smallest vertex (counting sort).
         let mut bstart = vec![0u32; np + 1];
@@ -1098,6 +1131,18 @@ impl Ciel {
             counts,
         })
     }
+}
+
+/// `s` cut into consecutive parts of the given lengths (which sum to its
+/// length), to be filled in parallel.
+fn split_lengths<'a, T>(mut s: &'a mut [T], lens: &[usize]) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(lens.len());
+    for &l in lens {
+        let (a, b) = std::mem::take(&mut s).split_at_mut(l);
+        out.push(a);
+        s = b;
+    }
+    out
 }
 
 /// Mates the half-edges of loops `f` and `g` (global half-edge ranges) if
