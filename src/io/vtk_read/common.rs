@@ -145,22 +145,35 @@ pub(crate) fn decode_i64(
 /// `0..u32::MAX` (ids and counts); `None` otherwise (the caller then takes
 /// [`decode_i64`] and names the bad value).
 pub(crate) fn decode_u32_ids(bytes: &[u8], ty: Scalar, big: bool) -> Option<Vec<u32>> {
+    use rayon::prelude::*;
+    /// Values per parallel task.
+    const BLOCK: usize = 1 << 16;
     macro_rules! narrow {
         ($t:ty) => {{
             const N: usize = std::mem::size_of::<$t>();
-            let mut out = Vec::with_capacity(bytes.len() / N);
-            let mut ok = true;
-            for c in bytes.chunks_exact(N) {
-                let mut a = [0u8; N];
-                a.copy_from_slice(c);
-                let v = if big {
-                    <$t>::from_be_bytes(a)
-                } else {
-                    <$t>::from_le_bytes(a)
-                } as i128;
-                ok &= (0..u32::MAX as i128).contains(&v);
-                out.push(v as u32);
-            }
+            let mut out = vec![0u32; bytes.len() / N];
+            // Through i64 then u64: negatives and values past u32::MAX - 1
+            // (including u64 values past i64::MAX) all land at or above
+            // u32::MAX.
+            let ok = out
+                .par_chunks_mut(BLOCK)
+                .zip(bytes.par_chunks(BLOCK * N))
+                .map(|(o, b)| {
+                    let mut ok = true;
+                    for (d, c) in o.iter_mut().zip(b.chunks_exact(N)) {
+                        let mut a = [0u8; N];
+                        a.copy_from_slice(c);
+                        let v = if big {
+                            <$t>::from_be_bytes(a)
+                        } else {
+                            <$t>::from_le_bytes(a)
+                        } as i64 as u64;
+                        ok &= v < u32::MAX as u64;
+                        *d = v as u32;
+                    }
+                    ok
+                })
+                .reduce(|| true, |a, b| a & b);
             ok.then_some(out)
         }};
     }
