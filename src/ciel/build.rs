@@ -25,7 +25,7 @@ use super::{
 };
 use crate::grid::{Cells, Grid, Topology, is_lower_dimensional, vtk_type};
 use crate::metacell::{Catalog, VOXEL_TO_HEX, builtin};
-use crate::structure::{CellClass, classify_cell, is_sweepable};
+use crate::structure::{CellClass, classify_cell, is_sweepable, split_lengths};
 
 /// Cells per parallel task of the per-cell phase.
 const CHUNK_CELLS: usize = 1024;
@@ -1131,18 +1131,6 @@ impl Ciel {
             counts,
         })
     }
-}
-
-/// `s` cut into consecutive parts of the given lengths (which sum to its
-/// length), to be filled in parallel.
-fn split_lengths<'a, T>(mut s: &'a mut [T], lens: &[usize]) -> Vec<&'a mut [T]> {
-    let mut out = Vec::with_capacity(lens.len());
-    for &l in lens {
-        let (a, b) = std::mem::take(&mut s).split_at_mut(l);
-        out.push(a);
-        s = b;
-    }
-    out
 }
 
 /// Mates the half-edges of loops `f` and `g` (global half-edge ranges) if

@@ -3,6 +3,7 @@
 
 use super::VtkReadError;
 use crate::grid::{Cells, Grid, Topology, vtk_type};
+use crate::structure::split_lengths;
 
 /// A VTK scalar type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -550,33 +551,77 @@ pub(crate) fn build_cells<T: StreamValue + Sync>(
         .into_par_iter()
         .map(|k| range(k * CHUNK..((k + 1) * CHUNK).min(n)))
         .collect();
-    let mut cells = Cells::default();
-    for (k, part) in parts.into_iter().enumerate() {
-        let part = part?;
-        if k == 0 {
-            cells = part;
-            continue;
+    let parts: Vec<Cells> = parts.into_iter().collect::<Result<_, _>>()?;
+    // Offsets rebased (checked against u32, naming the first cell past it),
+    // then every array filled by chunk in parallel.
+    let over = |c: usize, what: &str| VtkReadError::Cell {
+        file: file.to_string(),
+        cell: c,
+        msg: format!("{what} exceeds u32 offsets"),
+    };
+    let (mut cb, mut fb) = (0usize, 0usize);
+    let mut bases = Vec::with_capacity(parts.len());
+    for (k, p) in parts.iter().enumerate() {
+        let last = |o: &[u32]| o.last().copied().unwrap_or(0) as usize;
+        if u32::try_from(cb + last(&p.offsets)).is_err() {
+            let i = p
+                .offsets
+                .iter()
+                .position(|&o| u32::try_from(cb + o as usize).is_err());
+            return Err(over(k * CHUNK + i.unwrap_or(1) - 1, "connectivity"));
         }
-        let over = |c: usize, what: &str| VtkReadError::Cell {
-            file: file.to_string(),
-            cell: c,
-            msg: format!("{what} exceeds u32 offsets"),
-        };
-        let (cb, fb) = (cells.connectivity.len(), cells.face_stream.len());
-        for (i, &o) in part.offsets[1..].iter().enumerate() {
-            let g =
-                u32::try_from(cb + o as usize).map_err(|_| over(k * CHUNK + i, "connectivity"))?;
-            cells.offsets.push(g);
+        if u32::try_from(fb + last(&p.face_offsets)).is_err() {
+            let i = p
+                .face_offsets
+                .iter()
+                .position(|&o| u32::try_from(fb + o as usize).is_err());
+            return Err(over(k * CHUNK + i.unwrap_or(1) - 1, "face stream"));
         }
-        for (i, &o) in part.face_offsets.iter().skip(1).enumerate() {
-            let g =
-                u32::try_from(fb + o as usize).map_err(|_| over(k * CHUNK + i, "face stream"))?;
-            cells.face_offsets.push(g);
-        }
-        cells.types.extend_from_slice(&part.types);
-        cells.connectivity.extend_from_slice(&part.connectivity);
-        cells.face_stream.extend_from_slice(&part.face_stream);
+        bases.push((cb, fb));
+        cb += p.connectivity.len();
+        fb += p.face_stream.len();
     }
+    let mut cells = Cells {
+        types: vec![0; n],
+        offsets: vec![0; n + 1],
+        connectivity: vec![0; cb],
+        face_offsets: if any_poly { vec![0; n + 1] } else { Vec::new() },
+        face_stream: vec![0; fb],
+    };
+    cells.offsets[n] = cb as u32;
+    if any_poly {
+        cells.face_offsets[n] = fb as u32;
+    }
+    let counts = |f: fn(&Cells) -> usize| parts.iter().map(f).collect::<Vec<_>>();
+    let cell_counts = counts(|p| p.types.len());
+    let types = split_lengths(&mut cells.types, &cell_counts);
+    let offs = split_lengths(&mut cells.offsets[..n], &cell_counts);
+    let foffs = if any_poly {
+        split_lengths(&mut cells.face_offsets[..n], &cell_counts)
+    } else {
+        (0..parts.len()).map(|_| &mut [][..]).collect()
+    };
+    let conn_parts = split_lengths(&mut cells.connectivity, &counts(|p| p.connectivity.len()));
+    let fs_parts = split_lengths(&mut cells.face_stream, &counts(|p| p.face_stream.len()));
+    parts
+        .par_iter()
+        .zip(bases)
+        .zip(types)
+        .zip(offs)
+        .zip(foffs)
+        .zip(conn_parts)
+        .zip(fs_parts)
+        .for_each(|((((((p, (cb, fb)), t), o), fo), cn), fs)| {
+            t.copy_from_slice(&p.types);
+            for (d, &x) in o.iter_mut().zip(&p.offsets) {
+                *d = (cb + x as usize) as u32;
+            }
+            for (d, &x) in fo.iter_mut().zip(&p.face_offsets) {
+                *d = (fb + x as usize) as u32;
+            }
+            cn.copy_from_slice(&p.connectivity);
+            fs.copy_from_slice(&p.face_stream);
+        });
     Ok(cells)
 }
 
@@ -661,7 +706,10 @@ fn build_cell_range<T: StreamValue>(
 
 /// Groups a flat coordinate vector into points (`flat.len()` must be a multiple of 3).
 pub(crate) fn to_points(flat: &[f64]) -> Vec<[f64; 3]> {
-    flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+    use rayon::prelude::*;
+    flat.par_chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect()
 }
 
 /// Number of cells of a structured grid with point dims `d`, or `None` on overflow.
