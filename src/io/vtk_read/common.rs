@@ -528,10 +528,10 @@ impl Distinct {
 /// Assembles [`Cells`] from VTK's flat arrays. `offsets` has `types.len() + 1`
 /// entries indexing `conn`. Polyhedra get their face stream and the sorted
 /// unique ids of their faces as connectivity.
-pub(crate) fn build_cells<T: StreamValue + Sync>(
+pub(crate) fn build_cells<C: StreamValue + Sync, T: StreamValue + Sync>(
     types: &[i64],
     offsets: &[usize],
-    conn: &[i64],
+    conn: &[C],
     faces: PolyFaces<'_, T>,
     file: &str,
 ) -> Result<Cells, VtkReadError> {
@@ -627,11 +627,11 @@ pub(crate) fn build_cells<T: StreamValue + Sync>(
 
 /// [`build_cells`] for cells `range` (`any_poly`: of the whole grid), with
 /// offsets counted from the range's first cell.
-fn build_cell_range<T: StreamValue>(
+fn build_cell_range<C: StreamValue, T: StreamValue>(
     range: std::ops::Range<usize>,
     types: &[i64],
     offsets: &[usize],
-    conn: &[i64],
+    conn: &[C],
     faces: &PolyFaces<'_, T>,
     any_poly: bool,
     file: &str,
@@ -688,7 +688,7 @@ fn build_cell_range<T: StreamValue>(
             for &v in ids {
                 cells
                     .connectivity
-                    .push(point_id(v).map_err(|m| cell_err(c, m))?);
+                    .push(point_id(v.to_i64()).map_err(|m| cell_err(c, m))?);
             }
         }
         let end = u32::try_from(cells.connectivity.len())

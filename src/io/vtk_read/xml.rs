@@ -917,15 +917,22 @@ impl<'a> Ctx<'a, '_> {
                 .ok_or_else(|| self.xml_err("<Cells>", format!("no DataArray named '{name}'")))
         };
         let conn_i = need("connectivity")?;
-        let conn = self.values_i64(conn_i)?;
+        // Narrowed to u32 on the way in when every id fits (else i64, and
+        // the bad id is named later).
+        let conn32 = self.values_u32_ids(conn_i)?;
+        let conn64 = match conn32 {
+            Some(_) => Vec::new(),
+            None => self.values_i64(conn_i)?,
+        };
+        let conn_len = conn32.as_ref().map_or(conn64.len(), Vec::len);
         let offsets = self.end_offsets(need("offsets")?, nc, None)?;
         let last = offsets.last().copied().unwrap_or(0);
-        if last != conn.len() {
+        if last != conn_len {
             return Err(self.count_err(
                 label(self.el(conn_i)),
                 "values (the last cell offset)",
                 last,
-                conn.len(),
+                conn_len,
             ));
         }
         let types = self.ints(need("types")?, nc, "values (NumberOfCells)")?;
@@ -1012,22 +1019,30 @@ impl<'a> Ctx<'a, '_> {
                 ranges.push(Some((start, stream.len())));
             }
         }
-        if let Some(stream) = &stream32 {
-            let faces = PolyFaces::Streams {
-                stream,
-                ranges: &ranges,
-            };
-            return build_cells(&types, &offsets, &conn, faces, self.file);
+        macro_rules! assemble {
+            ($conn:expr) => {{
+                if let Some(stream) = &stream32 {
+                    let faces = PolyFaces::Streams {
+                        stream,
+                        ranges: &ranges,
+                    };
+                    return build_cells(&types, &offsets, $conn, faces, self.file);
+                }
+                let faces = if has_poly {
+                    PolyFaces::Streams {
+                        stream: &stream,
+                        ranges: &ranges,
+                    }
+                } else {
+                    PolyFaces::InConnectivity
+                };
+                build_cells(&types, &offsets, $conn, faces, self.file)
+            }};
         }
-        let faces = if has_poly {
-            PolyFaces::Streams {
-                stream: &stream,
-                ranges: &ranges,
-            }
-        } else {
-            PolyFaces::InConnectivity
-        };
-        build_cells(&types, &offsets, &conn, faces, self.file)
+        match &conn32 {
+            Some(conn) => assemble!(conn),
+            None => assemble!(&conn64),
+        }
     }
 
     fn unstructured(&self, ds: &Elem) -> Result<Grid, VtkReadError> {
