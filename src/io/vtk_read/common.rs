@@ -77,9 +77,11 @@ impl Scalar {
 macro_rules! decode_chunks {
     ($bytes:expr, $t:ty, $big:expr, $conv:expr) => {{
         const N: usize = std::mem::size_of::<$t>();
-        $bytes
-            .chunks_exact(N)
-            .map(|c| {
+        // Indexed parallel decode (keeps the order; large arrays split
+        // across threads).
+        rayon::iter::ParallelIterator::collect(rayon::iter::ParallelIterator::map(
+            rayon::slice::ParallelSlice::par_chunks_exact($bytes, N),
+            |c| {
                 let mut a = [0u8; N];
                 a.copy_from_slice(c);
                 let v = if $big {
@@ -88,8 +90,8 @@ macro_rules! decode_chunks {
                     <$t>::from_le_bytes(a)
                 };
                 $conv(v)
-            })
-            .collect()
+            },
+        ))
     }};
 }
 
