@@ -18,7 +18,7 @@ use std::sync::atomic::Ordering::Relaxed;
 
 use rayon::prelude::*;
 
-use crate::grid::{Cells, Grid, Topology, is_lower_dimensional, vtk_type};
+use crate::grid::{Cells, Grid, Topology, hex_corner_offsets, is_lower_dimensional, vtk_type};
 use crate::metacell::{Catalog, MAX_META_VERTICES, VOXEL_TO_HEX, builtin};
 use crate::structure::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
 use crate::sweep::CellGraph;
@@ -353,16 +353,7 @@ fn structured_as_hexes(dims: [usize; 3]) -> (Vec<u16>, Vec<u32>, Vec<u32>) {
         for j in 0..npj - 1 {
             for i in 0..npi - 1 {
                 let v0 = i + j * npi + k * slab;
-                for o in [
-                    0,
-                    1,
-                    1 + npi,
-                    npi,
-                    slab,
-                    slab + 1,
-                    slab + 1 + npi,
-                    slab + npi,
-                ] {
+                for o in hex_corner_offsets(npi, slab) {
                     verts.push((v0 + o) as u32);
                 }
             }

@@ -281,6 +281,22 @@ pub fn vertex_count_of(vtk_type: u8) -> Option<usize> {
     })
 }
 
+/// Offsets from its first vertex of the eight corners of a lattice
+/// hexahedron (VTK order) in an IJK point grid with `npi` points per row and
+/// `slab` per layer.
+pub fn hex_corner_offsets(npi: usize, slab: usize) -> [usize; 8] {
+    [
+        0,
+        1,
+        1 + npi,
+        npi,
+        slab,
+        slab + 1,
+        slab + 1 + npi,
+        slab + npi,
+    ]
+}
+
 /// True for VTK's linear 0D/1D/2D cell types (vertex, poly-vertex, line,
 /// poly-line, triangle, triangle strip, polygon, pixel, quad). They have no
 /// volume: grids may carry them (boundary patches), and the sweep skips them.

@@ -29,9 +29,15 @@ pub fn cell_to_vertex<G: CellGraph>(g: &G, cell_values: &[f64], vertex_count: us
             wsum[v as usize] += vol;
         }
     }
+    weighted_means(&sum, &wsum, cell_values)
+}
+
+/// Per vertex `sum / wsum` (the volume-weighted average gathered by a
+/// caller); vertices with no weight get the mean of all `cell_values`.
+pub(crate) fn weighted_means(sum: &[f64], wsum: &[f64], cell_values: &[f64]) -> Vec<f32> {
     let mean = cell_values.iter().sum::<f64>() / cell_values.len().max(1) as f64;
     sum.iter()
-        .zip(&wsum)
+        .zip(wsum)
         .map(|(&s, &w)| if w > 0.0 { (s / w) as f32 } else { mean as f32 })
         .collect()
 }

@@ -6,7 +6,7 @@
 //! layer: they exist only in the stamp array, marked never-sweep, so the six
 //! neighbours `slot ± 1, ± npi, ± npi·npj` need no bounds checks.
 
-use crate::grid::{Grid, Topology};
+use crate::grid::{Grid, Topology, hex_corner_offsets};
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use rayon::prelude::*;
 
@@ -57,17 +57,7 @@ impl SCGraph {
         let origin = grid.origin();
         let positions = grid.rebased_positions();
         let slab = npi * npj;
-        let mut offsets = [
-            0,
-            1,
-            1 + npi,
-            npi,
-            slab,
-            slab + 1,
-            slab + 1 + npi,
-            slab + npi,
-        ]
-        .map(|o| o as u32);
+        let mut offsets = hex_corner_offsets(npi, slab).map(|o| o as u32);
         let catalog = Catalog::new();
         let mut live = BitSet::new(slots);
         let mut class_counts = [0usize; 5];

@@ -3,7 +3,7 @@
 
 use stratasweep::cgraph::CGraph;
 use stratasweep::field::FieldSpec;
-use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
+use stratasweep::grid::{Cells, Grid, Property, Topology, hex_corner_offsets, vtk_type};
 use stratasweep::pipeline::{
     LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice, slice, vertex_property,
 };
@@ -247,19 +247,7 @@ fn stencil_coded_cgraph_decodes_exactly_and_fits_the_budget() {
         for j in 0..npj - 1 {
             for i in 0..npi - 1 {
                 let v0 = i + j * npi + k * slab;
-                hexes.push(
-                    [
-                        0,
-                        1,
-                        1 + npi,
-                        npi,
-                        slab,
-                        slab + 1,
-                        slab + 1 + npi,
-                        slab + npi,
-                    ]
-                    .map(|o| (v0 + o) as u32),
-                );
+                hexes.push(hex_corner_offsets(npi, slab).map(|o| (v0 + o) as u32));
             }
         }
     }

@@ -56,7 +56,7 @@ use thiserror::Error;
 
 use crate::extract::{EmitContext, LevelMesh, face_above_connected, prefetch};
 use crate::field::ScalarField;
-use crate::grid::{Cells, vtk_type};
+use crate::grid::{Cells, hex_corner_offsets, vtk_type};
 use crate::structure::StructureError;
 
 mod build;
@@ -500,11 +500,7 @@ impl Ciel {
                 wsum[v as usize] += vol;
             }
         }
-        let mean = cell_values.iter().sum::<f64>() / cell_values.len().max(1) as f64;
-        sum.iter()
-            .zip(&wsum)
-            .map(|(&s, &w)| if w > 0.0 { (s / w) as f32 } else { mean as f32 })
-            .collect()
+        crate::properties::weighted_means(&sum, &wsum, cell_values)
     }
 
     /// Min and max of φ over the vertices of live cells.
@@ -941,17 +937,7 @@ fn structured_as_cells(dims: [usize; 3]) -> Cells {
         for j in 0..npj.saturating_sub(1) {
             for i in 0..npi.saturating_sub(1) {
                 let v0 = i + j * npi + k * slab;
-                let ids = [
-                    0,
-                    1,
-                    1 + npi,
-                    npi,
-                    slab,
-                    slab + 1,
-                    slab + 1 + npi,
-                    slab + npi,
-                ]
-                .map(|o| (v0 + o) as u32);
+                let ids = hex_corner_offsets(npi, slab).map(|o| (v0 + o) as u32);
                 cells.push(vtk_type::HEXAHEDRON, &ids);
             }
         }

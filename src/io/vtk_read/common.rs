@@ -564,21 +564,19 @@ pub(crate) fn build_cells<C: StreamValue + Sync, T: StreamValue + Sync>(
     let (mut cb, mut fb) = (0usize, 0usize);
     let mut bases = Vec::with_capacity(parts.len());
     for (k, p) in parts.iter().enumerate() {
-        let last = |o: &[u32]| o.last().copied().unwrap_or(0) as usize;
-        if u32::try_from(cb + last(&p.offsets)).is_err() {
-            let i = p
-                .offsets
-                .iter()
-                .position(|&o| u32::try_from(cb + o as usize).is_err());
-            return Err(over(k * CHUNK + i.unwrap_or(1) - 1, "connectivity"));
-        }
-        if u32::try_from(fb + last(&p.face_offsets)).is_err() {
-            let i = p
-                .face_offsets
-                .iter()
-                .position(|&o| u32::try_from(fb + o as usize).is_err());
-            return Err(over(k * CHUNK + i.unwrap_or(1) - 1, "face stream"));
-        }
+        // The first cell of chunk `k` whose end, rebased by `base`, passes u32.
+        // Offsets only grow: when the last fits, all do; else name the
+        // first cell of chunk `k` whose end, rebased by `base`, passes u32.
+        let check = |base: usize, offs: &[u32], what: &str| {
+            let fits = |o: &u32| u32::try_from(base + *o as usize).is_ok();
+            if offs.last().is_none_or(fits) {
+                return Ok(());
+            }
+            let i = offs.iter().position(|o| !fits(o)).unwrap_or(1);
+            Err(over(k * CHUNK + i.max(1) - 1, what))
+        };
+        check(cb, &p.offsets, "connectivity")?;
+        check(fb, &p.face_offsets, "face stream")?;
         bases.push((cb, fb));
         cb += p.connectivity.len();
         fb += p.face_stream.len();
