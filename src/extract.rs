@@ -125,12 +125,6 @@ impl EdgeMap {
         }
     }
 
-    /// Hints the CPU to fetch the slot where a probe for `key` starts.
-    #[inline(always)]
-    pub(crate) fn prefetch(&self, key: u64) {
-        prefetch(&self.entries, Self::home(key, self.mask).0);
-    }
-
     /// Returns the value for `key`, inserting `value_if_new` when absent; the
     /// bool tells whether it was inserted. `keys[v]` must be the key of
     /// every value `v` inserted since the last clear (the caller appends
@@ -189,7 +183,7 @@ pub struct LevelMesh {
     /// Per polygon: the squared norm of its summed fan cross products (see
     /// [`polygon_norm2`]), computed while emitting so that the area needs
     /// no second pass over the indices.
-    norms: Vec<f64>,
+    area: f64,
     /// Running count of fan triangles.
     triangle_sum: usize,
     weld: EdgeMap,
@@ -206,7 +200,7 @@ impl LevelMesh {
         self.indices.clear();
         self.cells.clear();
         self.cut_cells = 0;
-        self.norms.clear();
+        self.area = 0.0;
         self.triangle_sum = 0;
         self.weld.clear();
     }
@@ -233,7 +227,7 @@ impl LevelMesh {
     /// the same bits, without re-reading indices and positions.
     #[inline]
     pub fn accumulated_area(&self) -> f64 {
-        self.norms.iter().map(|&n2| 0.5 * n2.sqrt()).sum()
+        self.area
     }
     /// [`LevelMesh::triangle_count`], accumulated while emitting.
     #[inline]
@@ -287,12 +281,6 @@ impl LevelMesh {
         }
         self.indices.push(vi);
     }
-    /// Hints the CPU to fetch the weld-map slot of grid edge `ga`–`gb`
-    /// (`ga < gb`) ahead of [`LevelMesh::corner`].
-    #[inline(always)]
-    pub(crate) fn prefetch_corner(&self, ga: u32, gb: u32) {
-        self.weld.prefetch((ga as u64) << 32 | gb as u64);
-    }
     /// Makes room in the weld map for `n` more corners of the current
     /// polygon ([`LevelMesh::begin_polygon`] reserves 32): for structures
     /// whose polygons can be longer (CIEL).
@@ -308,8 +296,27 @@ impl LevelMesh {
         self.offsets.push(end as u32);
         self.cells.push(slot);
         self.triangle_sum += end - start - 2;
-        self.norms
-            .push(polygon_norm2(&self.indices[start..end], &self.positions));
+        self.area += 0.5 * polygon_norm2(&self.indices[start..end], &self.positions).sqrt();
+    }
+    /// Appends a vertex welded by the caller (grid edge `key`), returning
+    /// its index.
+    #[inline(always)]
+    pub(crate) fn push_welded_vertex(&mut self, key: u64, p: [f32; 3], value: f32) -> u32 {
+        let vi = self.positions.len() as u32;
+        self.positions.push(p);
+        self.values.push(value);
+        self.edge_keys.push(key);
+        vi
+    }
+    /// Appends a polygon of welded vertices `ids` with source cell `slot`
+    /// and the squared norm `norm2` of its fan cross products.
+    #[inline(always)]
+    pub(crate) fn push_polygon(&mut self, ids: &[u32], norm2: f64, slot: u32) {
+        self.indices.extend_from_slice(ids);
+        self.offsets.push(self.indices.len() as u32);
+        self.cells.push(slot);
+        self.triangle_sum += ids.len() - 2;
+        self.area += 0.5 * norm2.sqrt();
     }
     /// Appends the vertex where the level `t` crosses grid edge `ga`–`gb`
     /// (`ga < gb`, with φ values `fa`, `fb`).
@@ -345,7 +352,6 @@ impl LevelMesh {
             + self.values.capacity() * 4
             + self.edge_keys.capacity() * 8
             + (self.offsets.capacity() + self.indices.capacity() + self.cells.capacity()) * 4
-            + self.norms.capacity() * 8
             + self.weld.capacity_bytes()
     }
 }
@@ -360,7 +366,12 @@ pub fn polygon_area(ids: &[u32], pos: &[[f32; 3]]) -> f64 {
 /// equal cross product of their diagonals (one product instead of two).
 #[inline(always)]
 pub fn polygon_norm2(ids: &[u32], pos: &[[f32; 3]]) -> f64 {
-    let p = |i: usize| pos[ids[i] as usize].map(f64::from);
+    norm2_of(ids.len(), |i| pos[ids[i] as usize].map(f64::from))
+}
+
+/// [`polygon_norm2`] of the `n`-corner polygon whose corner i is at `p(i)`.
+#[inline(always)]
+pub(crate) fn norm2_of(n: usize, p: impl Fn(usize) -> [f64; 3]) -> f64 {
     let cross = |u: [f64; 3], v: [f64; 3]| {
         [
             u[1] * v[2] - u[2] * v[1],
@@ -369,19 +380,19 @@ pub fn polygon_norm2(ids: &[u32], pos: &[[f32; 3]]) -> f64 {
         ]
     };
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let n = if ids.len() == 4 {
+    let n = if n == 4 {
         cross(sub(p(2), p(0)), sub(p(3), p(1)))
     } else {
         let p0 = p(0);
-        let mut n = [0.0f64; 3];
+        let mut acc = [0.0f64; 3];
         let mut a = sub(p(1), p0);
-        for i in 2..ids.len() {
+        for i in 2..n {
             let b = sub(p(i), p0);
             let c = cross(a, b);
-            n = [n[0] + c[0], n[1] + c[1], n[2] + c[2]];
+            acc = [acc[0] + c[0], acc[1] + c[1], acc[2] + c[2]];
             a = b;
         }
-        n
+        acc
     };
     n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
 }
@@ -487,7 +498,7 @@ pub fn emit_cell(
 /// Decider bits of the ambiguous faces of `code` (one bit per ambiguous
 /// face, in increasing face order).
 #[inline(never)]
-fn decide_faces(meta: &MetaCell, gids: &[u32], phi: &[f32], t: f32, code: usize) -> u32 {
+pub(crate) fn decide_faces(meta: &MetaCell, gids: &[u32], phi: &[f32], t: f32, code: usize) -> u32 {
     let mut outcome = 0u32;
     let mut mask = meta.ambiguous_faces[code];
     let mut bit = 0;
@@ -508,144 +519,4 @@ fn decide_faces(meta: &MetaCell, gids: &[u32], phi: &[f32], t: f32, code: usize)
         bit += 1;
     }
     outcome
-}
-
-/// The hexahedron's tables flattened for a lattice (S-CGraph) where every
-/// cell's vertex ids are `v0 + offsets[local]`. The tables are indexed in
-/// *geometric* vertex order: vertex `g = i + 2j + 4k` of the cell is the one
-/// with the g-th smallest offset, so φ loads as four (i, i+1) pairs and
-/// the code needs no permutation. Which end of each edge has the smaller
-/// global id is the same for every cell (the smaller g), so a corner is
-/// one table byte. Codes with an ambiguous face fall back to [`emit_cell`].
-#[derive(Clone, Debug)]
-pub struct LatticeHexTable {
-    /// Per geometric code: start of its polygons in `polys`, or `u16::MAX`
-    /// when ambiguous.
-    start: Vec<u16>,
-    /// Per code: polygon count, then per polygon its corner count and
-    /// corners (`a | b << 4`, geometric vertices, `a < b`).
-    polys: Vec<u8>,
-    /// Offset of each geometric vertex (ascending).
-    goff: [u32; 8],
-    /// Local vertex offsets (the meta-cell's order).
-    offsets: [u32; 8],
-    /// Geometric vertex of each local vertex.
-    geo: [u8; 8],
-}
-
-impl LatticeHexTable {
-    /// Flattens the tables of hexahedron `meta` for vertex offsets `offsets`
-    /// (eight distinct values of the form `i + j·npi + k·slab`).
-    pub fn new(meta: &MetaCell, offsets: &[u32; 8]) -> Self {
-        let mut goff = *offsets;
-        goff.sort_unstable();
-        let geo = offsets.map(|o| goff.iter().position(|&g| g == o).unwrap_or(0) as u8);
-        let mut start = vec![u16::MAX; 256];
-        let mut polys = Vec::new();
-        for (code, st) in start.iter_mut().enumerate() {
-            let local = (0..8).fold(0, |l, q| l | (code >> geo[q] & 1) << q);
-            if local >= meta.code_count() || meta.config_is_ambiguous(local) {
-                continue;
-            }
-            *st = polys.len() as u16;
-            let loops: Vec<&[u8]> = meta.loops(local, 0).collect();
-            polys.push(loops.len() as u8);
-            for lp in loops {
-                polys.push(lp.len() as u8);
-                for &e in lp {
-                    let [la, lb] = meta.edges[e as usize];
-                    let (a, b) = (geo[la as usize], geo[lb as usize]);
-                    polys.push(a.min(b) | a.max(b) << 4);
-                }
-            }
-        }
-        LatticeHexTable {
-            start,
-            polys,
-            goff,
-            offsets: *offsets,
-            geo,
-        }
-    }
-
-    /// Offsets of the geometric vertices `g = i + 2j + 4k` (ascending).
-    pub fn geometric_offsets(&self) -> [u32; 8] {
-        self.goff
-    }
-
-    /// Prefetches the weld-map slots of the corners that [`Self::emit`]
-    /// will look up for the cell with first vertex `v0` and geometric code
-    /// `code` (nothing for ambiguous codes).
-    #[inline(always)]
-    pub fn prefetch_corners(&self, v0: u32, code: usize, mesh: &LevelMesh) {
-        let s = self.start[code & 255];
-        if s == u16::MAX {
-            return;
-        }
-        let polys = &self.polys[s as usize..];
-        let mut p = 1;
-        for _ in 0..polys[0] {
-            let n = polys[p] as usize;
-            for &ab in &polys[p + 1..p + 1 + n] {
-                let (a, b) = ((ab & 15) as usize, (ab >> 4) as usize);
-                mesh.prefetch_corner(v0 + self.goff[a], v0 + self.goff[b]);
-            }
-            p += 1 + n;
-        }
-    }
-
-    /// [`emit_cell`] for the lattice hexahedron with first vertex `v0`, φ
-    /// `f` and code `code` in geometric order (same polygons, same order).
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    pub fn emit(
-        &self,
-        meta: &MetaCell,
-        v0: u32,
-        f: &[f32; 8],
-        t: f32,
-        code: usize,
-        slot: u32,
-        ctx: &EmitContext,
-        mesh: &mut LevelMesh,
-    ) {
-        let s = self.start[code & 255];
-        if s == u16::MAX || ctx.cells_only {
-            self.emit_local(meta, v0, f, t, slot, ctx, mesh);
-            return;
-        }
-        mesh.cut_cells += 1;
-        let polys = &self.polys[s as usize..];
-        let mut p = 1;
-        for _ in 0..polys[0] {
-            let n = polys[p] as usize;
-            let first = mesh.begin_polygon();
-            for &ab in &polys[p + 1..p + 1 + n] {
-                let (a, b) = ((ab & 15) as usize, (ab >> 4) as usize);
-                mesh.corner(v0 + self.goff[a], v0 + self.goff[b], f[a], f[b], t, ctx);
-            }
-            mesh.end_polygon(first, slot);
-            p += 1 + n;
-        }
-    }
-
-    /// The general path ([`emit_cell`] in the meta-cell's local order),
-    /// for ambiguous codes.
-    #[inline(never)]
-    #[allow(clippy::too_many_arguments)]
-    fn emit_local(
-        &self,
-        meta: &MetaCell,
-        v0: u32,
-        f: &[f32; 8],
-        t: f32,
-        slot: u32,
-        ctx: &EmitContext,
-        mesh: &mut LevelMesh,
-    ) {
-        let ids = self.offsets.map(|o| v0 + o);
-        let phi = self.geo.map(|g| f[g as usize]);
-        let code = code_of(&phi, t);
-        emit_cell(meta, &ids, &phi, t, code, slot, ctx, mesh);
-    }
 }

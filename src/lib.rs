@@ -20,6 +20,7 @@ pub mod generate;
 pub mod gpu;
 pub mod grid;
 pub mod io;
+pub mod lattice;
 pub mod mesh;
 pub mod metacell;
 pub mod pipeline;

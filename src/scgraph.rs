@@ -10,8 +10,9 @@ use crate::grid::{Grid, Topology, hex_corner_offsets};
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use rayon::prelude::*;
 
-use crate::extract::{EmitContext, LatticeHexTable, prefetch};
+use crate::extract::{EmitContext, prefetch};
 use crate::field::ScalarField;
+use crate::lattice::LatticeHexTable;
 use crate::structure::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
 use crate::sweep::{CellGraph, Lattice};
 

@@ -4,10 +4,9 @@
 
 use rayon::prelude::*;
 
-use crate::extract::{
-    EmitContext, LatticeHexTable, LevelMesh, code_of, emit_cell, intersects, prefetch,
-};
+use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects, prefetch};
 use crate::field::ScalarField;
+use crate::lattice::{EdgeWindow, LatticeHexTable, lower_neighbour_steps};
 use crate::metacell::{Catalog, MAX_META_VERTICES, MetaCell};
 
 /// Per-cell step stamp. 16 bits keep the S-CGraph within 20 bytes per
@@ -218,6 +217,10 @@ pub struct Block {
     start: u32,
     stamps: Vec<Stamp>,
     step: Stamp,
+    /// Stamp of the cells swept out in the current sweep (`hi` below the
+    /// level of the step that popped them): never cut again, skipped by
+    /// the neighbour scans. Every step of the sweep is below it.
+    done: Stamp,
     work: Vec<u32>,
     active: Vec<u32>,
     /// Scratch for [`radix_sort_slots`].
@@ -225,15 +228,37 @@ pub struct Block {
     minima_cache: [Option<Vec<Minimum>>; 6],
     /// The block's reusable output buffer.
     pub mesh: LevelMesh,
+    /// Weld table of the lattice loop.
+    window: EdgeWindow,
 }
 
 impl Block {
+    /// Starts a sweep of `levels` levels: picks the stamp that marks cells
+    /// swept out for good (above every step of this sweep, below every
+    /// step of the next), restarting the stamps when they run out.
+    fn begin_sweep(&mut self, levels: usize) {
+        if self.step as usize + levels + 2 >= NEVER as usize {
+            for s in self.stamps.iter_mut().filter(|s| **s != NEVER) {
+                *s = 0;
+            }
+            self.step = 0;
+        }
+        self.done = (self.step as usize + levels + 1).min(NEVER as usize - 1) as Stamp;
+    }
+
     /// Starts the step of level `t`: the work queue becomes `A_{k-1}` plus
     /// the minima with `lo < t` (advancing `next_min`), all stamped with the
     /// returned step; the active queue and the output buffer are emptied.
     fn begin_level(&mut self, minima: &[Minimum], next_min: &mut usize, t: f32) -> Stamp {
-        if self.step >= NEVER - 1 {
-            for s in self.stamps.iter_mut().filter(|s| **s != NEVER) {
+        if self.step + 1 >= self.done {
+            // Out of stamps within one sweep (more than 65 532 levels):
+            // restart the steps, keeping the swept-out marks.
+            let done = self.done;
+            for s in self
+                .stamps
+                .iter_mut()
+                .filter(|s| **s != NEVER && **s != done)
+            {
                 *s = 0;
             }
             self.step = 0;
@@ -272,6 +297,7 @@ impl Block {
                 .map(|m| m.capacity() * 8)
                 .sum::<usize>()
             + self.mesh.capacity_bytes()
+            + self.window.bytes()
     }
 }
 
@@ -293,11 +319,13 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
                 start: a,
                 stamps: init[a as usize..b as usize].to_vec(),
                 step: 0,
+                done: NEVER - 1,
                 work: Vec::new(),
                 active: Vec::new(),
                 sort_scratch: Vec::new(),
                 minima_cache: Default::default(),
                 mesh: LevelMesh::default(),
+                window: EdgeWindow::default(),
             })
             .collect();
         Sweeper { graph, blocks }
@@ -514,6 +542,8 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     let len = b.stamps.len() as u32;
     b.work.clear();
     b.active.clear();
+    b.begin_sweep(levels.len());
+    let done = b.done;
     let mut next_min = 0;
     let mut t_prev = f32::NEG_INFINITY;
     let mut ids = [0u32; MAX_META_VERTICES];
@@ -528,7 +558,11 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
             }
             i += 1;
             let (m, n, lo, hi) = load_phi(g, f, c, &mut ids, &mut phi);
-            if intersects(lo, hi, t) {
+            debug_assert!(lo < t, "queued cells have lo below the level");
+            if !intersects(lo, hi, t) {
+                // hi < t: swept out for good.
+                b.stamps[(c - start) as usize] = done;
+            } else {
                 b.active.push(c);
                 let code = code_of(&phi[..n], t);
                 emit_cell(
@@ -629,6 +663,10 @@ fn sweep_block_lattice(
     let cell = |c: u32| unsafe { load8(phi, c - lat.base, dj, dk) };
     b.work.clear();
     b.active.clear();
+    b.begin_sweep(levels.len());
+    let done = b.done;
+    b.window.fit(lat.deltas);
+    let lower = lower_neighbour_steps(lat.deltas);
     let mut next_min = 0;
     let mut t_prev = f32::NEG_INFINITY;
     for (k, &t) in levels.iter().enumerate() {
@@ -638,6 +676,7 @@ fn sweep_block_lattice(
             work,
             active,
             mesh,
+            window,
             ..
         } = b;
         let stamps = &mut stamps[..];
@@ -684,8 +723,12 @@ fn sweep_block_lattice(
             ];
             let lo = fmin(face[4], face[5]);
             let hi = max8(&f);
+            debug_assert!(lo < t, "queued cells have lo below the level");
             if intersects(lo, hi, t) {
                 active.push(c);
+            } else {
+                // hi < t: swept out for good.
+                stamps[(c - start) as usize] = done;
             }
             // The six neighbours, unrolled: stamp every one examined (see
             // `sweep_block`); its lo is the min of the shared face's φ and
@@ -703,12 +746,18 @@ fn sweep_block_lattice(
                     let j = nb.wrapping_sub(start);
                     if shared >= t_prev && j < len && stamps[j as usize] < step {
                         stamps[j as usize] = step;
+                        // Not dead, not in A_{k-1}, not swept out: so its lo
+                        // is at least t_prev (every cell with a lower lo
+                        // was queued at an earlier step), and it enters
+                        // iff lo < t: at once when the shared face dips
+                        // below t, else by its far face.
                         let far: u32 = $far;
-                        let lo_n = fmin(
-                            fmin(shared, fmin(at(far), at(far + $e1))),
-                            fmin(at(far + $e2), at(far + $e1 + $e2)),
-                        );
-                        if lo_n >= t_prev && lo_n < t {
+                        if shared < t
+                            || fmin(
+                                fmin(at(far), at(far + $e1)),
+                                fmin(at(far + $e2), at(far + $e1 + $e2)),
+                            ) < t
+                        {
                             work.push(nb);
                         }
                     }
@@ -741,15 +790,27 @@ fn sweep_block_lattice(
                         }
                     }
                 }
-                if let Some(&ahead) = active.get(n + 2 * PREFETCH_AHEAD) {
-                    // Four entries ahead, the weld-map slots of its corners.
-                    let fa = cell(ahead);
-                    lat.table
-                        .prefetch_corners(ahead - lat.base, code8(&fa, t), mesh);
+                // Which earlier edge neighbours are live cells of this block
+                // (they own the edges they share with this cell).
+                let mut live = 0u32;
+                for (bit, &step) in lower.iter().enumerate() {
+                    let j = c.wrapping_add(step).wrapping_sub(start);
+                    let alive = j < len && stamps[j as usize] != NEVER;
+                    live |= (alive as u32) << bit;
                 }
                 let f = cell(c);
-                lat.table
-                    .emit(lat.meta, c - lat.base, &f, t, code8(&f, t), c, ctx, mesh);
+                lat.table.emit(
+                    lat.meta,
+                    c - lat.base,
+                    &f,
+                    t,
+                    code8(&f, t),
+                    live,
+                    c,
+                    ctx,
+                    mesh,
+                    window,
+                );
             }
         }
         let stats = LevelStats::of(mesh, work.len() as u64);
