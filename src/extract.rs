@@ -308,14 +308,14 @@ impl LevelMesh {
         self.edge_keys.push(key);
         vi
     }
-    /// Appends a polygon of welded vertices `ids` with source cell `slot`
-    /// and the squared norm `norm2` of its fan cross products.
+    /// Closes the polygon made of the last `n` entries pushed onto
+    /// `indices` (welded by the caller), with source cell `slot` and the
+    /// squared norm `norm2` of its fan cross products.
     #[inline(always)]
-    pub(crate) fn push_polygon(&mut self, ids: &[u32], norm2: f64, slot: u32) {
-        self.indices.extend_from_slice(ids);
+    pub(crate) fn close_polygon(&mut self, n: usize, norm2: f64, slot: u32) {
         self.offsets.push(self.indices.len() as u32);
         self.cells.push(slot);
-        self.triangle_sum += ids.len() - 2;
+        self.triangle_sum += n - 2;
         self.area += 0.5 * norm2.sqrt();
     }
     /// Appends the vertex where the level `t` crosses grid edge `ga`–`gb`

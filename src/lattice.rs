@@ -16,28 +16,242 @@
 use crate::extract::{EmitContext, LevelMesh, code_of, decide_faces, norm2_of};
 use crate::metacell::MetaCell;
 
-/// The nine neighbours `(di, dj, dk)` multiples of a lattice cell that share
-/// at least an edge with it and come before it in slot order (slot steps
-/// `1 < dj < dk`, so "before" is lexicographic on (k, j, i)).
-pub const LOWER_NEIGHBOURS: [[i32; 3]; 9] = [
-    [-1, 0, 0],
-    [0, -1, 0],
-    [0, 0, -1],
-    [-1, -1, 0],
-    [1, -1, 0],
-    [-1, 0, -1],
-    [1, 0, -1],
-    [0, -1, -1],
-    [0, 1, -1],
-];
+/// Exact `u32` division by a divisor fixed at run time: one 64×64→128-bit
+/// multiply and one correction step.
+#[derive(Clone, Copy, Debug)]
+pub struct FastDiv {
+    d: u32,
+    m: u64,
+}
 
-/// Slot offsets (wrapping) of the [`LOWER_NEIGHBOURS`] for slot steps `deltas`.
-pub fn lower_neighbour_steps(deltas: [u32; 3]) -> [u32; 9] {
-    LOWER_NEIGHBOURS.map(|o| {
-        (0..3).fold(0u32, |s, a| {
-            s.wrapping_add((o[a] as u32).wrapping_mul(deltas[a]))
+impl FastDiv {
+    /// A divider by `d` (≥ 1).
+    pub fn new(d: u32) -> Self {
+        let d = d.max(1);
+        FastDiv {
+            d,
+            m: u64::MAX / d as u64,
+        }
+    }
+
+    /// `n / d`, exactly.
+    #[inline(always)]
+    pub fn quotient(self, n: u32) -> u32 {
+        // m = ⌊(2⁶⁴−1)/d⌋ makes the estimate ⌊n/d⌋ or one less (n < 2³²).
+        let q = ((n as u128 * self.m as u128) >> 64) as u32;
+        q + ((q as u64 + 1) * self.d as u64 <= n as u64) as u32
+    }
+}
+
+/// The order in which the lattice loop emits a level's cut cells: by a
+/// *key* that runs fastest along one lattice axis. Slot order runs fastest
+/// along i; for a field that varies mostly along k (depth slices of a
+/// layered grid) the cut cells of a level form a sheet one or two cells
+/// thick in k but many layers tall, and slot order then visits cells that
+/// share an edge a whole layer apart. Keying k fastest visits each column's
+/// few cut cells together, so the cells around an edge come within about
+/// one row of each other and the weld window and the positions they read
+/// stay in cache.
+#[derive(Clone, Debug)]
+pub struct LatticeOrder {
+    /// The axis that varies fastest in the key (0 = i: the key is the slot).
+    pub fastest: usize,
+    /// Slot extents along i, j, k (k counts the two ghost layers' slots).
+    extents: [u32; 3],
+    /// Key step per axis.
+    weight: [u32; 3],
+    /// The nine cells that share a face or an edge with a cell and come
+    /// before it in key order, as (i, j, k) offsets.
+    pub lower: [[i32; 3]; 9],
+    /// Per set of live lower neighbours (bit n = `lower[n]` live): the
+    /// edges the cell owns.
+    own: Vec<u16>,
+    /// Per geometric edge: key of its lower vertex minus the cell's key.
+    key_offset: [u32; 12],
+    /// Window length: a power of two above the key span of any edge's cells.
+    window: u32,
+    /// Per geometric edge: `axis·window`.
+    axis_base: [u32; 12],
+    by_npi: FastDiv,
+    by_npj: FastDiv,
+    by_slab: FastDiv,
+    by_layers: FastDiv,
+}
+
+impl LatticeOrder {
+    /// The order with `fastest` (0, 1 or 2) varying fastest, for slot
+    /// extents `extents` (`[npi, npj, layers]`, slot = i + j·npi + k·npi·npj).
+    pub fn new(fastest: usize, extents: [u32; 3]) -> Self {
+        let [npi, npj, layers] = extents;
+        let weight = match fastest {
+            1 => [npj, 1, npi * npj],
+            2 => [layers, npi * layers, 1],
+            _ => [1, npi, npi * npj],
+        };
+        let key_of = |o: [i32; 3]| (0..3).map(|a| o[a] as i64 * weight[a] as i64).sum::<i64>();
+        let mut lower = [[0i32; 3]; 9];
+        let mut n = 0;
+        for z in -1..=1 {
+            for y in -1..=1 {
+                for x in -1..=1 {
+                    let o = [x, y, z];
+                    let nonzero = o.iter().filter(|&&c| c != 0).count();
+                    if (1..=2).contains(&nonzero) && key_of(o) < 0 && n < 9 {
+                        lower[n] = o;
+                        n += 1;
+                    }
+                }
+            }
+        }
+        let own = (0..512u32)
+            .map(|live| {
+                (0..12).fold(0u16, |m, e| {
+                    let d = e / 4;
+                    let (lo, _) = edge_ends(e);
+                    let bit = |a: usize| (lo >> a & 1) as i32;
+                    // The cells around edge e: along its axis this cell's
+                    // position, along each other axis the cell at the
+                    // edge's position bit or the one before.
+                    let shared = |o: &[i32; 3]| {
+                        o[d] == 0
+                            && (0..3)
+                                .filter(|&a| a != d)
+                                .all(|a| o[a] == bit(a) || o[a] == bit(a) - 1)
+                    };
+                    let owned = !lower
+                        .iter()
+                        .enumerate()
+                        .any(|(n, o)| shared(o) && live >> n & 1 == 1);
+                    m | (owned as u16) << e
+                })
+            })
+            .collect();
+        let key_offset = std::array::from_fn(|e| {
+            let lo = edge_ends(e).0;
+            (0..3).map(|a| (lo >> a & 1) as u32 * weight[a]).sum()
+        });
+        let span = (0..3)
+            .map(|d| {
+                (0..3)
+                    .filter(|&a| a != d)
+                    .map(|a| weight[a] as u64)
+                    .sum::<u64>()
+            })
+            .max()
+            .unwrap_or(0);
+        let window = (span + 1).next_power_of_two().min(1 << 29) as u32;
+        LatticeOrder {
+            fastest,
+            extents,
+            weight,
+            lower,
+            own,
+            key_offset,
+            window,
+            axis_base: std::array::from_fn(|e| (e / 4) as u32 * window),
+            by_npi: FastDiv::new(npi),
+            by_npj: FastDiv::new(npj),
+            by_slab: FastDiv::new(npi * npj),
+            by_layers: FastDiv::new(layers),
+        }
+    }
+
+    /// Window slot of geometric edge `e` of the cell with key `key`:
+    /// `axis·W + (key of the edge's lower vertex mod W)`.
+    #[inline(always)]
+    pub fn slot_of(&self, e: usize, key: u32) -> usize {
+        ((key.wrapping_add(self.key_offset[e]) & (self.window - 1)) + self.axis_base[e]) as usize
+    }
+
+    /// Slot steps (wrapping) of the [`LatticeOrder::lower`] neighbours.
+    pub fn lower_steps(&self) -> [u32; 9] {
+        let [npi, npj, _] = self.extents;
+        let step = [1u32, npi, npi * npj];
+        self.lower.map(|o| {
+            (0..3).fold(0u32, |s, a| {
+                s.wrapping_add((o[a] as u32).wrapping_mul(step[a]))
+            })
         })
-    })
+    }
+
+    /// The key of slot `c`.
+    #[inline(always)]
+    pub fn key(&self, c: u32) -> u32 {
+        let [npi, npj, layers] = self.extents;
+        match self.fastest {
+            0 => c,
+            2 => {
+                let k = self.by_slab.quotient(c);
+                (c - k * npi * npj) * layers + k
+            }
+            _ => {
+                let k = self.by_slab.quotient(c);
+                let r = c - k * npi * npj;
+                let j = self.by_npi.quotient(r);
+                k * npi * npj + (r - j * npi) * npj + j
+            }
+        }
+    }
+
+    /// The slot of key `key` (inverse of [`LatticeOrder::key`]).
+    #[inline(always)]
+    pub fn slot(&self, key: u32) -> u32 {
+        let [npi, npj, layers] = self.extents;
+        match self.fastest {
+            0 => key,
+            2 => {
+                let r = self.by_layers.quotient(key);
+                (key - r * layers) * npi * npj + r
+            }
+            _ => {
+                let k = self.by_slab.quotient(key);
+                let r = key - k * npi * npj;
+                let i = self.by_npj.quotient(r);
+                k * npi * npj + (r - i * npj) * npi + i
+            }
+        }
+    }
+
+    /// Total key range (= slot count).
+    pub fn key_count(&self) -> u32 {
+        self.extents.iter().product()
+    }
+
+    /// Key steps per axis.
+    pub fn weights(&self) -> [u32; 3] {
+        self.weight
+    }
+}
+
+/// The lattice axis along which φ changes most between neighbouring
+/// vertices (mean absolute difference over up to 4096 sampled vertices;
+/// ties go to the lower axis). `dims` are the vertex counts along i, j, k.
+pub fn steepest_axis(phi: &[f32], dims: [u32; 3]) -> usize {
+    let [ni, nj, nk] = dims.map(|d| d as u64);
+    let n = ni * nj * nk;
+    if n == 0 || phi.len() < n as usize {
+        return 0;
+    }
+    let mut sum = [0f64; 3];
+    let samples = 4096u64;
+    for s in 0..samples {
+        let v = s * n / samples;
+        let (i, j, k) = (v % ni, v / ni % nj, v / (ni * nj));
+        if i + 1 >= ni || j + 1 >= nj || k + 1 >= nk {
+            continue;
+        }
+        let at = |w: u64| phi[w as usize] as f64;
+        sum[0] += (at(v + 1) - at(v)).abs();
+        sum[1] += (at(v + ni) - at(v)).abs();
+        sum[2] += (at(v + ni * nj) - at(v)).abs();
+    }
+    let mut best = 0;
+    for a in 1..3 {
+        if sum[a] > sum[best] {
+            best = a;
+        }
+    }
+    best
 }
 
 /// Geometric vertices (`g = i + 2j + 4k`) at the ends of geometric edge
@@ -56,30 +270,45 @@ pub const fn edge_ends(e: usize) -> (usize, usize) {
 }
 
 /// Per-level weld table of the lattice emitter: the output vertex of each
-/// cut edge, at `axis·W + (lower vertex mod W)`. Never cleared: ownership
+/// cut edge, at `axis·W + (key of its lower vertex mod W)`
+/// ([`LatticeOrder::slot_of`]). Never cleared: ownership
 /// guarantees every read was written earlier in the same level (see the
 /// module docs).
 #[derive(Clone, Debug, Default)]
 pub struct EdgeWindow {
     ids: Vec<u32>,
-    mask: u32,
+    /// `ids.len() − 1` when that is a power of two minus one, so indexing
+    /// needs no bounds check; slots are always in range (see
+    /// [`LatticeOrder::slot_of`]), the mask only proves it to the compiler.
+    last: usize,
 }
 
 impl EdgeWindow {
-    /// Sizes the window for slot steps `deltas` (W = the smallest power of
-    /// two above `deltas[1] + deltas[2]`). Keeps the table when it fits.
-    pub fn fit(&mut self, deltas: [u32; 3]) {
-        let w = (deltas[1] as u64 + deltas[2] as u64 + 1).next_power_of_two();
-        let w = w.min(1 << 31) as usize;
-        if self.ids.len() != 3 * w {
-            self.ids = vec![0; 3 * w];
-            self.mask = (w - 1) as u32;
+    /// Sizes the window for `order`. Keeps the table when it fits.
+    pub fn fit(&mut self, order: &LatticeOrder) {
+        // Three axis sections of W entries, padded to 4W (a power of two).
+        let w = order.window as usize;
+        if self.ids.len() != 4 * w {
+            self.ids = vec![0; 4 * w];
+            self.last = 4 * w - 1;
         }
     }
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
         self.ids.capacity() * 4
+    }
+
+    /// The vertex recorded at window slot `i` (from [`LatticeOrder::slot_of`]).
+    #[inline(always)]
+    fn get(&self, i: usize) -> u32 {
+        self.ids[i & self.last]
+    }
+
+    /// Records vertex `v` at window slot `i`.
+    #[inline(always)]
+    fn set(&mut self, i: usize, v: u32) {
+        self.ids[i & self.last] = v;
     }
 }
 
@@ -93,17 +322,10 @@ impl EdgeWindow {
 /// (with the face decider), mapped onto the same geometric edges.
 #[derive(Clone, Debug)]
 pub struct LatticeHexTable {
-    /// Per geometric code: start of its polygons in `polys`, or `u16::MAX`
-    /// when ambiguous.
-    start: Vec<u16>,
-    /// Per code: polygon count, then per polygon its corner count and
-    /// corners (geometric edge ids).
-    polys: Vec<u8>,
+    /// Per geometric code: its polygons (`polys == 0`: ambiguous).
+    codes: Vec<CodePolygons>,
     /// Per geometric code: the cut geometric edges (bit mask).
     cut: Vec<u16>,
-    /// Per set of live lower neighbours (bit n = [`LOWER_NEIGHBOURS`]`[n]`
-    /// live): the edges the cell owns.
-    own: Vec<u16>,
     /// Per geometric edge: offset of its lower vertex from `v0`.
     edge_low: [u32; 12],
     /// Per geometric edge: offset of its upper vertex from `v0`.
@@ -117,6 +339,33 @@ pub struct LatticeHexTable {
     /// Geometric vertex of each local vertex.
     geo: [u8; 8],
 }
+
+/// The polygons of one non-ambiguous code, fixed size: every cut edge is
+/// one corner of exactly one polygon (at most 12 corners, 4 polygons).
+#[derive(Clone, Copy, Debug, Default)]
+struct CodePolygons {
+    /// The corners of all polygons, one after the other (geometric edges).
+    corners: [u8; 12],
+    /// Corner count of each polygon.
+    sizes: [u8; 4],
+    /// Per geometric edge: its corner (for the cut edges).
+    corner_of: [u8; 12],
+    /// Total corner count.
+    count: u8,
+    /// Polygon count; 0 for ambiguous codes (and the two uncut codes).
+    polys: u8,
+}
+
+/// [`edge_ends`] of every geometric edge, as a table.
+const EDGE_ENDS: [(usize, usize); 12] = {
+    let mut t = [(0, 0); 12];
+    let mut e = 0;
+    while e < 12 {
+        t[e] = edge_ends(e);
+        e += 1;
+    }
+    t
+};
 
 impl LatticeHexTable {
     /// Flattens the tables of hexahedron `meta` for vertex offsets `offsets`
@@ -134,21 +383,32 @@ impl LatticeHexTable {
             .iter()
             .map(|&[la, lb]| geo_edge(geo[la as usize] as usize, geo[lb as usize] as usize))
             .collect();
-        let mut start = vec![u16::MAX; 256];
-        let mut polys = Vec::new();
-        for (code, st) in start.iter_mut().enumerate() {
-            let local = (0..8).fold(0, |l, q| l | (code >> geo[q] & 1) << q);
-            if local >= meta.code_count() || meta.config_is_ambiguous(local) {
-                continue;
-            }
-            *st = polys.len() as u16;
-            let loops: Vec<&[u8]> = meta.loops(local, 0).collect();
-            polys.push(loops.len() as u8);
-            for lp in loops {
-                polys.push(lp.len() as u8);
-                polys.extend(lp.iter().map(|&e| local_edge[e as usize]));
-            }
-        }
+        let codes = (0..256usize)
+            .map(|code| {
+                let local = (0..8).fold(0, |l, q| l | (code >> geo[q] & 1) << q);
+                let mut cp = CodePolygons::default();
+                if local >= meta.code_count() || meta.config_is_ambiguous(local) {
+                    return cp;
+                }
+                let loops: Vec<&[u8]> = meta.loops(local, 0).collect();
+                let corners: usize = loops.iter().map(|l| l.len()).sum();
+                if loops.len() > 4 || corners > 12 {
+                    // Not a hexahedron's table: take the general path.
+                    return cp;
+                }
+                for (n, lp) in loops.iter().enumerate() {
+                    cp.sizes[n] = lp.len() as u8;
+                    for &e in lp.iter() {
+                        let g = local_edge[e as usize];
+                        cp.corners[cp.count as usize] = g;
+                        cp.corner_of[g as usize] = cp.count;
+                        cp.count += 1;
+                    }
+                }
+                cp.polys = loops.len() as u8;
+                cp
+            })
+            .collect();
         let cut = (0..256)
             .map(|code| {
                 (0..12).fold(0u16, |m, e| {
@@ -157,35 +417,11 @@ impl LatticeHexTable {
                 })
             })
             .collect();
-        // The cells around edge e: along its axis the same cell, along each
-        // other axis the cell at its position bit or the one before.
-        let own = (0..512u32)
-            .map(|live| {
-                (0..12).fold(0u16, |m, e| {
-                    let d = e / 4;
-                    let (lo, _) = edge_ends(e);
-                    let bit = |a: usize| (lo >> a & 1) as i32;
-                    let mut owned = true;
-                    for (n, o) in LOWER_NEIGHBOURS.iter().enumerate() {
-                        let around = o[d] == 0
-                            && (0..3)
-                                .filter(|&a| a != d)
-                                .all(|a| o[a] == bit(a) || o[a] == bit(a) - 1);
-                        if around && live >> n & 1 == 1 {
-                            owned = false;
-                        }
-                    }
-                    m | (owned as u16) << e
-                })
-            })
-            .collect();
         let edge_low = std::array::from_fn(|e| goff[edge_ends(e).0]);
         let edge_high = std::array::from_fn(|e| goff[edge_ends(e).1]);
         LatticeHexTable {
-            start,
-            polys,
+            codes,
             cut,
-            own,
             edge_low,
             edge_high,
             local_edge,
@@ -200,12 +436,81 @@ impl LatticeHexTable {
         self.goff
     }
 
+    /// Where level `t` crosses geometric edge `e` of the cell with φ `f`,
+    /// whose vertex positions start at `cell[0]` (`cell` = the positions
+    /// from its first vertex to its last): the position and the fraction
+    /// from the lower end (the arithmetic of [`LevelMesh`]'s hash-welded
+    /// corners, so the same bits).
+    #[inline(always)]
+    fn crossing(&self, e: usize, f: &[f32; 8], t: f32, cell: &[[f32; 3]]) -> ([f32; 3], f32) {
+        let (a, b) = EDGE_ENDS[e];
+        let s = (t - f[a]) / (f[b] - f[a]);
+        debug_assert!(cell.len() > self.goff[7] as usize);
+        // SAFETY: `cell` spans offsets 0..=goff[7] (checked by `cell_positions`)
+        // and every edge end is one of the eight offsets goff[0..8].
+        let (pa, pb) = unsafe {
+            (
+                *cell.get_unchecked(self.edge_low[e] as usize),
+                *cell.get_unchecked(self.edge_high[e] as usize),
+            )
+        };
+        (
+            [
+                pa[0] + s * (pb[0] - pa[0]),
+                pa[1] + s * (pb[1] - pa[1]),
+                pa[2] + s * (pb[2] - pa[2]),
+            ],
+            s,
+        )
+    }
+
+    /// The positions from the cell's first vertex `v0` to its last.
+    #[inline(always)]
+    fn cell_positions<'p>(&self, v0: u32, pos: &'p [[f32; 3]]) -> &'p [[f32; 3]] {
+        &pos[v0 as usize..=(v0 + self.goff[7]) as usize]
+    }
+
+    /// Creates the vertices of the cut edges in `own` (`at(e)`: where the
+    /// level crosses edge e) and records them in the window.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn create_owned(
+        &self,
+        mut own: u32,
+        v0: u32,
+        f: &[f32; 8],
+        t: f32,
+        at: impl Fn(usize) -> [f32; 3],
+        order: &LatticeOrder,
+        key: u32,
+        ctx: &EmitContext,
+        mesh: &mut LevelMesh,
+        win: &mut EdgeWindow,
+    ) {
+        while own != 0 {
+            let e = own.trailing_zeros() as usize;
+            own &= own - 1;
+            let (ga, gb) = (v0 + self.edge_low[e], v0 + self.edge_high[e]);
+            let value = match ctx.attribute {
+                Some(a) => {
+                    let (fa, fb) = (f[EDGE_ENDS[e].0], f[EDGE_ENDS[e].1]);
+                    let s = (t - fa) / (fb - fa);
+                    a[ga as usize] + s * (a[gb as usize] - a[ga as usize])
+                }
+                None => t,
+            };
+            let vi = mesh.push_welded_vertex((ga as u64) << 32 | gb as u64, at(e), value);
+            win.set(order.slot_of(e, key), vi);
+        }
+    }
+
     /// Emits the polygons of the cut cell `slot` with first vertex `v0`, φ
     /// `f` and code `code` in geometric order, the same polygons in the
-    /// same order as [`crate::extract::emit_cell`]. `live` has bit n set
-    /// when [`LOWER_NEIGHBOURS`]`[n]` is a live cell of the same sweep
-    /// block; the cell creates the vertices of the cut edges it owns and
-    /// reads the others from `win`.
+    /// same order as [`crate::extract::emit_cell`]. Cells are emitted in
+    /// the key order of `order`; `key` is this cell's. `live` has bit n set
+    /// when `order.lower[n]` is a live cell of the same sweep block; the
+    /// cell creates the vertices of the cut edges it owns and reads the
+    /// others from `win` (sized by [`EdgeWindow::fit`] for `order`).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn emit(
@@ -215,6 +520,8 @@ impl LatticeHexTable {
         f: &[f32; 8],
         t: f32,
         code: usize,
+        order: &LatticeOrder,
+        key: u32,
         live: u32,
         slot: u32,
         ctx: &EmitContext,
@@ -222,63 +529,39 @@ impl LatticeHexTable {
         win: &mut EdgeWindow,
     ) {
         let code = code & 255;
-        let cut = self.cut[code] as u32;
-        // Where t crosses each cut edge, indexed by geometric edge.
-        let mut pts = [[0f32; 3]; 12];
-        let mut frac = [0f32; 12];
-        let mut m = cut;
-        while m != 0 {
-            let e = m.trailing_zeros() as usize;
-            m &= m - 1;
-            let (a, b) = edge_ends(e);
-            let s = (t - f[a]) / (f[b] - f[a]);
-            let pa = ctx.positions[(v0 + self.edge_low[e]) as usize];
-            let pb = ctx.positions[(v0 + self.edge_high[e]) as usize];
-            pts[e] = [
-                pa[0] + s * (pb[0] - pa[0]),
-                pa[1] + s * (pb[1] - pa[1]),
-                pa[2] + s * (pb[2] - pa[2]),
-            ];
-            frac[e] = s;
-        }
-        let wmask = win.mask;
-        let wi =
-            |e: usize| ((v0 + self.edge_low[e]) & wmask) as usize + (e / 4) * (wmask as usize + 1);
-        let mut own = cut & self.own[live as usize & 511] as u32;
-        while own != 0 {
-            let e = own.trailing_zeros() as usize;
-            own &= own - 1;
-            let (ga, gb) = (v0 + self.edge_low[e], v0 + self.edge_high[e]);
-            let value = match ctx.attribute {
-                Some(a) => a[ga as usize] + frac[e] * (a[gb as usize] - a[ga as usize]),
-                None => t,
-            };
-            let vi = mesh.push_welded_vertex((ga as u64) << 32 | gb as u64, pts[e], value);
-            win.ids[wi(e)] = vi;
-        }
-        mesh.cut_cells += 1;
-        let s = self.start[code];
-        if s == u16::MAX {
-            self.emit_ambiguous(meta, v0, f, t, slot, &pts, mesh, win);
+        let own = self.cut[code] as u32 & order.own[live as usize & 511] as u32;
+        let cp = &self.codes[code];
+        if cp.polys == 0 {
+            self.emit_ambiguous(meta, v0, f, t, own, order, key, slot, ctx, mesh, win);
             return;
         }
-        let polys = &self.polys[s as usize..];
-        let mut p = 1;
-        let mut ids = [0u32; 12];
-        for _ in 0..polys[0] {
-            let n = polys[p] as usize;
-            let corners = &polys[p + 1..p + 1 + n];
-            for (id, &e) in ids.iter_mut().zip(corners) {
-                *id = win.ids[wi(e as usize)];
-            }
-            let norm2 = norm2_of(n, |i| pts[corners[i] as usize].map(f64::from));
-            mesh.push_polygon(&ids[..n], norm2, slot);
-            p += 1 + n;
+        let n = cp.count as usize;
+        let cell = self.cell_positions(v0, ctx.positions);
+        let mut by_corner = [[0f32; 3]; 12];
+        for (i, p) in by_corner.iter_mut().enumerate().take(n) {
+            *p = self.crossing(cp.corners[i] as usize, f, t, cell).0;
+        }
+        let at = |e: usize| by_corner[cp.corner_of[e] as usize];
+        self.create_owned(own, v0, f, t, at, order, key, ctx, mesh, win);
+        mesh.cut_cells += 1;
+        let mut first = 0;
+        for &m in &cp.sizes[..cp.polys as usize] {
+            let m = m as usize;
+            let corners = &cp.corners[first..first + m];
+            mesh.indices.extend(
+                corners
+                    .iter()
+                    .map(|&e| win.get(order.slot_of(e as usize, key))),
+            );
+            let norm2 = norm2_of(m, |i| by_corner[first + i].map(f64::from));
+            mesh.close_polygon(m, norm2, slot);
+            first += m;
         }
     }
 
-    /// The loops of an ambiguous code: the meta-cell's (in its local
-    /// order, with the face decider), corners mapped to geometric edges.
+    /// [`LatticeHexTable::emit`] for an ambiguous code: the meta-cell's
+    /// loops (in its local order, with the face decider), corners mapped
+    /// to geometric edges.
     #[inline(never)]
     #[allow(clippy::too_many_arguments)]
     fn emit_ambiguous(
@@ -287,11 +570,24 @@ impl LatticeHexTable {
         v0: u32,
         f: &[f32; 8],
         t: f32,
+        own: u32,
+        order: &LatticeOrder,
+        key: u32,
         slot: u32,
-        pts: &[[f32; 3]; 12],
+        ctx: &EmitContext,
         mesh: &mut LevelMesh,
-        win: &EdgeWindow,
+        win: &mut EdgeWindow,
     ) {
+        let cell = self.cell_positions(v0, ctx.positions);
+        let mut by_edge = [[0f32; 3]; 12];
+        let mut m = self.cut[code_index(f, t)] as u32;
+        while m != 0 {
+            let e = m.trailing_zeros() as usize;
+            m &= m - 1;
+            by_edge[e] = self.crossing(e, f, t, cell).0;
+        }
+        self.create_owned(own, v0, f, t, |e| by_edge[e], order, key, ctx, mesh, win);
+        mesh.cut_cells += 1;
         let gids = self.offsets.map(|o| v0 + o);
         let phi = self.geo.map(|g| f[g as usize]);
         let code = code_of(&phi, t);
@@ -300,24 +596,24 @@ impl LatticeHexTable {
         } else {
             0
         };
-        let mut ids = [0u32; 12];
         for lp in meta.loops(code, outcome) {
-            let n = lp.len().min(12);
             let corner = |i: usize| self.local_edge[lp[i] as usize] as usize;
-            for (i, id) in ids.iter_mut().enumerate().take(n) {
-                let e = corner(i);
-                *id = win.ids[((v0 + self.edge_low[e]) & win.mask) as usize
-                    + (e / 4) * (win.mask as usize + 1)];
-            }
-            let norm2 = norm2_of(n, |i| pts[corner(i)].map(f64::from));
-            mesh.push_polygon(&ids[..n], norm2, slot);
+            mesh.indices
+                .extend((0..lp.len()).map(|i| win.get(order.slot_of(corner(i), key))));
+            let norm2 = norm2_of(lp.len(), |i| by_edge[corner(i)].map(f64::from));
+            mesh.close_polygon(lp.len(), norm2, slot);
         }
     }
 }
 
+/// The geometric code of φ `f` at `t` (bit g set iff `f[g] >= t`).
+fn code_index(f: &[f32; 8], t: f32) -> usize {
+    (0..8).fold(0, |c, g| c | ((f[g] >= t) as usize) << g)
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{LOWER_NEIGHBOURS, edge_ends};
+    use super::{FastDiv, LatticeOrder, edge_ends};
 
     /// Every geometric edge joins two vertices one bit apart, each edge once.
     #[test]
@@ -331,24 +627,70 @@ mod tests {
         }
     }
 
-    /// The lower neighbours are exactly the cells that share an edge or a
-    /// face with the cell and come first in (k, j, i) order.
+    /// The fast divider equals `/` on edge cases and a spread of values.
     #[test]
-    fn lower_neighbours_are_the_earlier_edge_neighbours() {
-        let mut want = Vec::new();
-        for z in -1i32..=1 {
-            for y in -1i32..=1 {
-                for x in -1i32..=1 {
-                    let nonzero = [x, y, z].iter().filter(|&&c| c != 0).count();
-                    if (1..=2).contains(&nonzero) && (z, y, x) < (0, 0, 0) {
-                        want.push([x, y, z]);
+    fn fast_division_is_exact() {
+        let mut x = 0x2545_f491_u32;
+        for d in [1u32, 2, 3, 7, 258, 66_564, 1 << 20, u32::MAX - 1, u32::MAX] {
+            let f = FastDiv::new(d);
+            for n in [0, 1, d - 1, d, d.wrapping_add(1), u32::MAX - 1, u32::MAX] {
+                assert_eq!(f.quotient(n), n / d, "{n} / {d}");
+            }
+            for _ in 0..20_000 {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                assert_eq!(f.quotient(x), x / d, "{x} / {d}");
+                let small = x % (d.saturating_mul(1000).max(1));
+                assert_eq!(f.quotient(small), small / d, "{small} / {d}");
+            }
+        }
+    }
+
+    /// Per order: the lower neighbours are exactly the cells that share an
+    /// edge or a face with the cell and have a smaller key; keys and slots
+    /// are inverse bijections, and the key order runs fastest along the
+    /// chosen axis.
+    #[test]
+    fn orders_are_bijections_with_the_right_lower_neighbours() {
+        let extents = [5u32, 4, 6];
+        let count: u32 = extents.iter().product();
+        for fastest in 0..3 {
+            let o = LatticeOrder::new(fastest, extents);
+            let mut seen = vec![false; count as usize];
+            for c in 0..count {
+                let k = o.key(c);
+                assert!(k < count);
+                assert!(!seen[k as usize], "order {fastest}: key {k} twice");
+                seen[k as usize] = true;
+                assert_eq!(o.slot(k), c, "order {fastest}");
+            }
+            let w = o.weights();
+            assert_eq!(w[fastest], 1);
+            let mut want = Vec::new();
+            for z in -1i32..=1 {
+                for y in -1i32..=1 {
+                    for x in -1i32..=1 {
+                        let nonzero = [x, y, z].iter().filter(|&&c| c != 0).count();
+                        // A neighbour well inside the lattice: its key is
+                        // before the cell's iff its offset is.
+                        let c = [2 + x, 2 + y, 2 + z];
+                        let slot = |p: [i32; 3]| {
+                            (p[0]
+                                + p[1] * extents[0] as i32
+                                + p[2] * (extents[0] * extents[1]) as i32)
+                                as u32
+                        };
+                        if (1..=2).contains(&nonzero) && o.key(slot(c)) < o.key(slot([2, 2, 2])) {
+                            want.push([x, y, z]);
+                        }
                     }
                 }
             }
+            let mut got = o.lower.to_vec();
+            got.sort();
+            want.sort();
+            assert_eq!(got, want, "order {fastest}");
         }
-        let mut got = LOWER_NEIGHBOURS.to_vec();
-        got.sort();
-        want.sort();
-        assert_eq!(got, want);
     }
 }

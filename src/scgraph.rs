@@ -28,6 +28,9 @@ pub struct SCGraph {
     /// Per slot: set for live cells; clear for ghosts and hidden or
     /// degenerate cells.
     live: BitSet,
+    /// Per slot: live, and so are its 18 face and edge neighbours (the
+    /// lattice emitter then needs no per-neighbour check to weld).
+    surrounded: BitSet,
     /// Counts of cell classes (see [`crate::structure::CELL_CLASS_NAMES`]).
     pub class_counts: [usize; 5],
     /// The IJK frame is left-handed; cells are read with K reversed.
@@ -107,8 +110,22 @@ impl SCGraph {
             }
         }
         let table = LatticeHexTable::new(catalog.get(builtin::HEXAHEDRON), &offsets);
+        let (si, sj, sk) = (1i64, npi as i64, slab as i64);
+        let mut steps = Vec::with_capacity(18);
+        for z in -1..=1i64 {
+            for y in -1..=1i64 {
+                for x in -1..=1i64 {
+                    let nonzero = (x != 0) as u8 + (y != 0) as u8 + (z != 0) as u8;
+                    if (1..=2).contains(&nonzero) {
+                        steps.push(x * si + y * sj + z * sk);
+                    }
+                }
+            }
+        }
+        let surrounded = live.with_all_set_at(&steps);
         Ok(SCGraph {
             table,
+            surrounded,
             faces,
             dims,
             origin,
@@ -126,6 +143,7 @@ impl SCGraph {
         vec![
             ("positions", self.positions.len() * 12),
             ("live_bits", self.live.bytes()),
+            ("surrounded_bits", self.surrounded.bytes()),
         ]
     }
 
@@ -236,6 +254,8 @@ impl CellGraph for SCGraph {
             vertices: self.positions.len(),
             base: slab,
             deltas: [1, self.dims[0] as u32, slab],
+            extents: [self.dims[0], self.dims[1], self.dims[2] + 1].map(|e| e as u32),
+            surrounded: &self.surrounded,
             meta: self.catalog.get(builtin::HEXAHEDRON),
             table: &self.table,
         })

@@ -6,8 +6,9 @@ use rayon::prelude::*;
 
 use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects, prefetch};
 use crate::field::ScalarField;
-use crate::lattice::{EdgeWindow, LatticeHexTable, lower_neighbour_steps};
+use crate::lattice::{EdgeWindow, LatticeHexTable, LatticeOrder, steepest_axis};
 use crate::metacell::{Catalog, MAX_META_VERTICES, MetaCell};
+use crate::structure::BitSet;
 
 /// Per-cell step stamp. 16 bits keep the S-CGraph within 20 bytes per
 /// vertex; the stamps are reset once every 65 534 levels.
@@ -156,6 +157,11 @@ pub struct Lattice<'a> {
     pub base: u32,
     /// Slot (and vertex id) steps along i, j, k.
     pub deltas: [u32; 3],
+    /// Slot extents along i, j, k (`deltas = [1, e0, e0·e1]`; the vertex
+    /// counts are `[e0, e1, e2 − 1]`).
+    pub extents: [u32; 3],
+    /// Per slot: live, and so are its 18 face and edge neighbours.
+    pub surrounded: &'a BitSet,
     /// The hexahedron's meta-cell.
     pub meta: &'a MetaCell,
     /// Its tables flattened for the lattice's offsets.
@@ -665,8 +671,12 @@ fn sweep_block_lattice(
     b.active.clear();
     b.begin_sweep(levels.len());
     let done = b.done;
-    b.window.fit(lat.deltas);
-    let lower = lower_neighbour_steps(lat.deltas);
+    let [npi, npj, layers] = lat.extents;
+    let order = LatticeOrder::new(steepest_axis(phi, [npi, npj, layers - 1]), lat.extents);
+    b.window.fit(&order);
+    let lower = order.lower_steps();
+    // Every lower neighbour is within this many slots.
+    let reach = dk + dj + di;
     let mut next_min = 0;
     let mut t_prev = f32::NEG_INFINITY;
     for (k, &t) in levels.iter().enumerate() {
@@ -770,16 +780,29 @@ fn sweep_block_lattice(
             visit!(c - dk, 4, v0.wrapping_sub(dk), di, dj);
             visit!(c + dk, 5, v0 + 2 * dk, di, dj);
         }
-        // A_k in slot order: this level's polygons are emitted in that
-        // order (consecutive cells share cache lines of φ, positions and
-        // weld slots), and the next step visits A_k first, in that order.
-        radix_sort_slots(active, &mut b.sort_scratch, start, len);
-        if ctx.cells_only {
-            mesh.cells.extend_from_slice(active);
-            mesh.cut_cells = active.len() as u32;
+        // A_k in key order (see `LatticeOrder`): this level's polygons are
+        // emitted in that order (cells around an edge come close together,
+        // so φ, positions and the weld window stay in cache), and the next
+        // step visits A_k first, in that order.
+        let slots: &[u32] = if order.fastest == 0 {
+            radix_sort_slots(active, &mut b.sort_scratch, start, len);
+            active
         } else {
-            for (n, &c) in active.iter().enumerate() {
-                if let Some(&ahead) = active.get(n + 4 * PREFETCH_AHEAD) {
+            for c in active.iter_mut() {
+                *c = order.key(*c);
+            }
+            radix_sort_slots(active, &mut b.sort_scratch, 0, order.key_count());
+            let slots = &mut b.sort_scratch;
+            slots.clear();
+            slots.extend(active.iter().map(|&key| order.slot(key)));
+            slots
+        };
+        if ctx.cells_only {
+            mesh.cells.extend_from_slice(slots);
+            mesh.cut_cells = slots.len() as u32;
+        } else {
+            for (n, &c) in slots.iter().enumerate() {
+                if let Some(&ahead) = slots.get(n + 4 * PREFETCH_AHEAD) {
                     // The cell's vertex rows: φ, positions and attribute.
                     let v = ahead - lat.base;
                     for r in [v, v + dj, v + dk, v + dj + dk] {
@@ -791,20 +814,31 @@ fn sweep_block_lattice(
                     }
                 }
                 // Which earlier edge neighbours are live cells of this block
-                // (they own the edges they share with this cell).
-                let mut live = 0u32;
-                for (bit, &step) in lower.iter().enumerate() {
-                    let j = c.wrapping_add(step).wrapping_sub(start);
-                    let alive = j < len && stamps[j as usize] != NEVER;
-                    live |= (alive as u32) << bit;
-                }
+                // (they own the edges they share with this cell): all of
+                // them for a surrounded cell away from the block's ends.
+                let inner =
+                    c.wrapping_sub(start).wrapping_sub(reach) < len.saturating_sub(2 * reach);
+                let live = if inner && lat.surrounded.get(c as usize) {
+                    511
+                } else {
+                    let mut live = 0u32;
+                    for (bit, &step) in lower.iter().enumerate() {
+                        let j = c.wrapping_add(step).wrapping_sub(start);
+                        let alive = j < len && stamps[j as usize] != NEVER;
+                        live |= (alive as u32) << bit;
+                    }
+                    live
+                };
                 let f = cell(c);
+                let key = if order.fastest == 0 { c } else { active[n] };
                 lat.table.emit(
                     lat.meta,
                     c - lat.base,
                     &f,
                     t,
                     code8(&f, t),
+                    &order,
+                    key,
                     live,
                     c,
                     ctx,
@@ -813,6 +847,9 @@ fn sweep_block_lattice(
                 );
             }
         }
+        if order.fastest != 0 {
+            std::mem::swap(active, &mut b.sort_scratch);
+        }
         let stats = LevelStats::of(mesh, work.len() as u64);
         on_level(k, mesh, &stats);
         t_prev = t;
@@ -820,21 +857,30 @@ fn sweep_block_lattice(
 }
 
 /// Sorts `slots` (all in `start..start + len`) ascending with an LSD radix
-/// sort of 11-bit digits over `slot - start`; `scratch` is reused.
+/// sort over `slot - start`, in as few passes of at most 13-bit digits as
+/// the key range needs (two for up to 2²⁶ slots); `scratch` is reused.
+/// Short lists take a comparison sort.
 fn radix_sort_slots(slots: &mut Vec<u32>, scratch: &mut Vec<u32>, start: u32, len: u32) {
-    const BITS: u32 = 11;
-    const RADIX: usize = 1 << BITS;
+    const MAX_BITS: u32 = 13;
     if slots.len() < 2 {
         return;
     }
+    if slots.len() < 1024 {
+        slots.sort_unstable();
+        return;
+    }
     let key_bits = 32 - len.saturating_sub(1).leading_zeros();
+    let passes = key_bits.div_ceil(MAX_BITS).max(1);
+    let bits = key_bits.div_ceil(passes);
+    let mask = (1usize << bits) - 1;
     scratch.clear();
     scratch.resize(slots.len(), 0);
+    let mut count = vec![0u32; 1 << bits];
     let mut shift = 0;
     while shift < key_bits {
-        let mut count = [0u32; RADIX];
+        count.fill(0);
         for &c in slots.iter() {
-            count[((c - start) >> shift) as usize & (RADIX - 1)] += 1;
+            count[((c - start) >> shift) as usize & mask] += 1;
         }
         let mut sum = 0;
         for n in count.iter_mut() {
@@ -843,12 +889,12 @@ fn radix_sort_slots(slots: &mut Vec<u32>, scratch: &mut Vec<u32>, start: u32, le
             sum += here;
         }
         for &c in slots.iter() {
-            let d = ((c - start) >> shift) as usize & (RADIX - 1);
+            let d = ((c - start) >> shift) as usize & mask;
             scratch[count[d] as usize] = c;
             count[d] += 1;
         }
         std::mem::swap(slots, scratch);
-        shift += BITS;
+        shift += bits;
     }
 }
 
