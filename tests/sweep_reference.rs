@@ -388,12 +388,13 @@ impl ScalarField for Opaque<'_> {
 fn welded<G: CellGraph, F: ScalarField>(
     g: &G,
     f: &F,
+    attribute: &[f32],
     levels: &[f32],
     threads: usize,
-) -> Vec<Vec<(u32, Vec<u64>)>> {
+) -> Vec<Vec<(u32, Vec<(u64, u32)>)>> {
     let ctx = EmitContext {
         positions: g.positions(),
-        attribute: None,
+        attribute: Some(attribute),
         cells_only: false,
     };
     let mut sw = Sweeper::new(g, threads);
@@ -404,7 +405,7 @@ fn welded<G: CellGraph, F: ScalarField>(
         levels,
         &ctx,
         || vec![Vec::new(); levels.len()],
-        |acc: &mut Vec<Vec<(u32, Vec<u64>)>>, k, mesh, _| {
+        |acc: &mut Vec<Vec<(u32, Vec<(u64, u32)>)>>, k, mesh, _| {
             let mut keys = mesh.edge_keys.clone();
             keys.sort_unstable();
             keys.dedup();
@@ -418,7 +419,14 @@ fn welded<G: CellGraph, F: ScalarField>(
                 let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
                 acc[k].push((
                     mesh.cells[p],
-                    ids.iter().map(|&i| mesh.edge_keys[i as usize]).collect(),
+                    ids.iter()
+                        .map(|&i| {
+                            (
+                                mesh.edge_keys[i as usize],
+                                mesh.values[i as usize].to_bits(),
+                            )
+                        })
+                        .collect(),
                 ));
             }
         },
@@ -437,7 +445,8 @@ fn welded<G: CellGraph, F: ScalarField>(
 
 /// The lattice loop's ownership weld gives the same indexed meshes as the
 /// generic loop's hash weld: the same polygons as lists of grid edges and
-/// one vertex per cut edge, on random IJK grids with holes, in one block
+/// one vertex per cut edge with the same interpolated attribute bits, on
+/// random IJK grids with holes, in one block
 /// and in several (block borders cut ownership chains).
 #[test]
 fn lattice_weld_matches_the_hash_weld() {
@@ -450,8 +459,11 @@ fn lattice_weld_matches_the_hash_weld() {
         let s = SCGraph::build(&g, hidden.as_deref()).unwrap();
         let levels: Vec<f32> = (0..9).map(|x| x as f32 * 0.5).collect();
         for threads in [1, 2, 3] {
-            let lattice = welded(&s, &VertexField { values: &vals }, &levels, threads);
-            let generic = welded(&s, &Opaque(&vals), &levels, threads);
+            // The attribute (a second field, here φ's square) is
+            // interpolated onto the vertices the same way on both paths.
+            let attr: Vec<f32> = vals.iter().map(|v| v * v).collect();
+            let lattice = welded(&s, &VertexField { values: &vals }, &attr, &levels, threads);
+            let generic = welded(&s, &Opaque(&vals), &attr, &levels, threads);
             assert!(
                 lattice.iter().map(Vec::len).sum::<usize>() > 0,
                 "case {case}: nothing cut"
