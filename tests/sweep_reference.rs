@@ -383,6 +383,9 @@ impl ScalarField for Opaque<'_> {
     }
 }
 
+/// Per level: (cell, its corners as (grid edge key, attribute bits)).
+type WeldedLevels = Vec<Vec<(u32, Vec<(u64, u32)>)>>;
+
 /// Per level: sorted (cell, corner edge keys) of every block's polygons,
 /// after checking that each block's mesh has one vertex per edge key.
 fn welded<G: CellGraph, F: ScalarField>(
@@ -391,7 +394,7 @@ fn welded<G: CellGraph, F: ScalarField>(
     attribute: &[f32],
     levels: &[f32],
     threads: usize,
-) -> Vec<Vec<(u32, Vec<(u64, u32)>)>> {
+) -> WeldedLevels {
     let ctx = EmitContext {
         positions: g.positions(),
         attribute: Some(attribute),
@@ -405,7 +408,7 @@ fn welded<G: CellGraph, F: ScalarField>(
         levels,
         &ctx,
         || vec![Vec::new(); levels.len()],
-        |acc: &mut Vec<Vec<(u32, Vec<(u64, u32)>)>>, k, mesh, _| {
+        |acc: &mut WeldedLevels, k, mesh, _| {
             let mut keys = mesh.edge_keys.clone();
             keys.sort_unstable();
             keys.dedup();
