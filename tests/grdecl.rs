@@ -411,6 +411,55 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    /// Random decimal tokens of every length around the word-at-a-time
+    /// path's limits (0–10 digits before the point, 0–18 after, signs,
+    /// leading zeros, exponents, `N*v`, values glued to `/`), read from a
+    /// file, equal `str::parse::<f64>` bit for bit: the fast path gives the
+    /// correctly rounded value or hands over to the scalar path.
+    #[test]
+    fn decimal_tokens_parse_bit_identical_to_std(
+        toks in proptest::collection::vec((0u8..3, "[0-9]{0,10}", any::<bool>(), "[0-9]{0,18}",
+            prop_oneof![Just(String::new()), Just(String::new()), "[eEdD][+-]?[0-9]{1,2}"], 1usize..4, 0u8..3), 1..80),
+    ) {
+        let mut body = String::new();
+        let mut want: Vec<f64> = Vec::new();
+        for (sign, int, point, frac, exp, rep, sep) in &toks {
+            let (int, frac) = if int.is_empty() && frac.is_empty() { ("0", frac.as_str()) } else { (int.as_str(), frac.as_str()) };
+            let mut t = String::from(["", "-", "+"][*sign as usize]);
+            t.push_str(int);
+            if *point || int.is_empty() {
+                t.push('.');
+                t.push_str(frac);
+            }
+            t.push_str(exp);
+            let v: f64 = t.replace(['d', 'D'], "e").parse().unwrap();
+            if *rep > 1 {
+                body.push_str(&format!("{rep}*"));
+            }
+            body.push_str(&t);
+            body.push_str(["  ", "\n", " -- c\n"][*sep as usize]);
+            want.extend(std::iter::repeat_n(v, *rep));
+        }
+        let n = want.len();
+        let text = format!(
+            "SPECGRID\n 1 1 {n} 1 F /\nCOORD\n 0 0 0 0 0 1 1 0 0 1 0 1 0 1 0 0 1 1 1 1 0 1 1 1 /\n\
+             ZCORN\n {}*1 /\nPORO\n{}/\n",
+            8 * n,
+            // Glued to `/` unless a comment ends the list.
+            body.trim_end_matches(' ')
+        );
+        let d = parse(&text).unwrap();
+        let got = &d.grid.properties[0].values;
+        prop_assert_eq!(got.len(), n);
+        for (g, w) in got.iter().zip(&want) {
+            prop_assert_eq!(g.to_bits(), w.to_bits(), "{} vs {}", g, w);
+        }
+    }
+}
+
 /// Inputs found by the fuzzers above (or written as their likely cousins), kept as regressions.
 #[test]
 fn fuzz_regressions() {

@@ -543,6 +543,115 @@ pub fn parse_number(t: &[u8]) -> Option<f64> {
 /// the bytes it used. `None` when the fast path does not apply.
 #[inline(always)]
 fn parse_prefix(t: &[u8]) -> Option<(f64, usize)> {
+    if t.len() >= SWAR_MIN_LEN
+        && let Some(r) = parse_short_decimal(t)
+    {
+        return Some(r);
+    }
+    parse_prefix_scalar(t)
+}
+
+/// Bytes `parse_short_decimal` may read: a sign, 8 bytes of integer part,
+/// the point and 16 bytes of fraction.
+const SWAR_MIN_LEN: usize = 26;
+
+/// Eight ASCII bytes at `t[i..]` as a little-endian word (`t` has them).
+#[inline(always)]
+fn word8(t: &[u8], i: usize) -> u64 {
+    u64::from_le_bytes(t[i..i + 8].try_into().expect("eight bytes"))
+}
+
+/// The number of leading ASCII digits of a word (0..=8) and the word with
+/// every byte's `'0'` removed (digit bytes become their values).
+#[inline(always)]
+fn digit_run(w: u64) -> (u32, u64) {
+    const LO7: u64 = 0x7f7f_7f7f_7f7f_7f7f;
+    const HI: u64 = 0x8080_8080_8080_8080;
+    let x = w ^ 0x3030_3030_3030_3030;
+    // A byte is a digit iff x < 10: (x & 0x7f) + 0x76 sets its high bit
+    // iff x & 0x7f >= 10 (no carry leaves the byte), and x's own high bit
+    // marks bytes of 0x80 and more.
+    let non_digit = (((x & LO7) + 0x7676_7676_7676_7676) | x) & HI;
+    (non_digit.trailing_zeros() / 8, x)
+}
+
+/// The value of the first `k` (0..=8) digit values of `x` (byte 0 first).
+#[inline(always)]
+fn digits_value(x: u64, k: u32) -> u64 {
+    if k == 0 {
+        return 0;
+    }
+    // Keep the k digits as the low end of an eight-digit number whose
+    // leading digits are zero, then convert all eight at once.
+    let v = x << (8 * (8 - k));
+    let v = v.wrapping_mul(10).wrapping_add(v >> 8);
+    let lo = v & 0x0000_00ff_0000_00ff;
+    let hi = (v >> 16) & 0x0000_00ff_0000_00ff;
+    (lo.wrapping_mul(0x000f_4240_0000_0064)
+        .wrapping_add(hi.wrapping_mul(0x0000_2710_0000_0001)))
+        >> 32
+}
+
+/// Word-at-a-time path for the common `[±]ddd.ddd` forms (at most 7 digits
+/// before and 15 after the point, 19 in all, a mantissa below 2^53, no
+/// exponent), reading [`SWAR_MIN_LEN`] bytes; `None` sends the token to
+/// the scalar path. The mantissa and the exponent are exactly those the
+/// scalar path computes (it keeps every digit of at most 19), so the value
+/// is bit-identical.
+#[inline(always)]
+fn parse_short_decimal(t: &[u8]) -> Option<(f64, usize)> {
+    let neg = t[0] == b'-';
+    let mut i = usize::from(neg | (t[0] == b'+'));
+    let (k1, x1) = digit_run(word8(t, i));
+    if k1 == 8 {
+        return None;
+    }
+    let int = digits_value(x1, k1);
+    i += k1 as usize;
+    let (mant, k2) = if t[i] == b'.' {
+        let (k2, x2) = digit_run(word8(t, i + 1));
+        i += 1 + k2 as usize;
+        let frac = digits_value(x2, k2);
+        if k2 < 8 {
+            (int * POW10_INT[k2 as usize] + frac, k2)
+        } else {
+            // A long fraction: eight more bytes (up to 7 more digits).
+            let (k3, x3) = digit_run(word8(t, i));
+            if k3 == 8 || k1 + 8 + k3 > 19 {
+                return None;
+            }
+            i += k3 as usize;
+            let p = POW10_INT[k3 as usize];
+            let m = (int * POW10_INT[8] + frac) * p + digits_value(x3, k3);
+            (m, 8 + k3)
+        }
+    } else {
+        (int, 0)
+    };
+    if k1 + k2 == 0 || mant >= 1 << 53 || matches!(t[i], b'e' | b'E' | b'd' | b'D') {
+        return None;
+    }
+    let m = mant as f64;
+    let v = if k2 == 0 { m } else { m / POW10[k2 as usize] };
+    Some((if neg { -v } else { v }, i))
+}
+
+/// 10^k as integers, k <= 8.
+const POW10_INT: [u64; 9] = [
+    1,
+    10,
+    100,
+    1_000,
+    10_000,
+    100_000,
+    1_000_000,
+    10_000_000,
+    100_000_000,
+];
+
+/// The digit-by-digit form of [`parse_prefix`] (any length, exponents).
+#[inline(always)]
+fn parse_prefix_scalar(t: &[u8]) -> Option<(f64, usize)> {
     let n = t.len();
     let mut i = 0;
     let neg = match t.first() {
