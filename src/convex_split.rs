@@ -146,6 +146,23 @@ impl SplitMap {
     }
 }
 
+/// The `k`-tuples `values[s]` for `s` in `source` (which is non-decreasing:
+/// runs of consecutive cells), copied a run at a time.
+fn gather_tuples(source: &[u32], values: &[f64], k: usize) -> Vec<f64> {
+    let mut out = Vec::with_capacity(source.len() * k);
+    let mut i = 0;
+    while i < source.len() {
+        let s0 = source[i] as usize;
+        let mut j = i + 1;
+        while j < source.len() && source[j] as usize == s0 + (j - i) {
+            j += 1;
+        }
+        out.extend_from_slice(&values[s0 * k..(s0 + j - i) * k]);
+        i = j;
+    }
+    out
+}
+
 /// A grid whose non-convex polyhedra were split, with its map to the input.
 #[derive(Clone, Debug)]
 pub struct SplitGrid {
@@ -923,11 +940,7 @@ pub fn split_non_convex(
         .cell_data
         .iter()
         .map(|p| {
-            let k = p.components.max(1);
-            let mut values = Vec::with_capacity(map.source.len() * k);
-            for &s in &map.source {
-                values.extend_from_slice(&p.values[s as usize * k..(s as usize + 1) * k]);
-            }
+            let values = gather_tuples(&map.source, &p.values, p.components.max(1));
             Property {
                 name: p.name.clone(),
                 components: p.components,
