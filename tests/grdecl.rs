@@ -414,11 +414,11 @@ proptest! {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(300))]
 
-    /// Random decimal tokens of every length around the word-at-a-time
-    /// path's limits (0–10 digits before the point, 0–18 after, signs,
-    /// leading zeros, exponents, `N*v`, values glued to `/`), read from a
-    /// file, equal `str::parse::<f64>` bit for bit: the fast path gives the
-    /// correctly rounded value or hands over to the scalar path.
+    /// Random decimal tokens (0–10 digits before the point, 0–18 after,
+    /// signs, leading zeros, exponents, `N*v`, values glued to `/`), read
+    /// through the streaming window, equal `str::parse::<f64>` bit for bit:
+    /// the fast path gives the correctly rounded value or hands over to the
+    /// standard library.
     #[test]
     fn decimal_tokens_parse_bit_identical_to_std(
         toks in proptest::collection::vec((0u8..3, "[0-9]{0,10}", any::<bool>(), "[0-9]{0,18}",
