@@ -114,7 +114,8 @@ fn deck_reads_only_the_grid_section_and_reports_skips_once() {
 
 #[test]
 fn window_boundaries_do_not_split_tokens() {
-    // Comments and values across the 1 MiB window edge.
+    // Comments and values across window edges (1 MiB of text: many
+    // windows).
     let mut t = String::from("SPECGRID\n 1 1 1 /\n");
     while t.len() < (1 << 20) - 7 {
         t.push_str("-- padding padding padding padding padding\n");
@@ -126,6 +127,44 @@ fn window_boundaries_do_not_split_tokens() {
     assert_eq!(d.grid.zcorn[7], 1.000000001);
     let long = format!("{}\n{}", "-".repeat(3 << 20), t);
     assert!(parse(&long).is_ok());
+}
+
+#[test]
+fn values_across_many_window_edges_read_exactly() {
+    // 120 000 values of 3 to 18 characters (~600 kB: several read windows,
+    // so many values and repeats straddle a refill) read back exactly.
+    let n = 120_000;
+    let mut body = String::new();
+    let mut want = Vec::with_capacity(n);
+    let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+    while want.len() < n {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let digits = (x % 13) as usize;
+        let v = format!(
+            "{}.{:0width$}",
+            x % 100_000,
+            (x >> 20) % 10u64.pow(digits as u32),
+            width = digits
+        );
+        let r = 1 + (x >> 40) as usize % 3;
+        let r = r.min(n - want.len());
+        if r > 1 {
+            body.push_str(&format!("{r}*"));
+        }
+        body.push_str(&v);
+        body.push(if x & 16 == 0 { ' ' } else { '\n' });
+        want.extend(std::iter::repeat_n(v.parse::<f64>().unwrap(), r));
+    }
+    let text = format!(
+        "SPECGRID\n 1 1 {n} 1 F /\nCOORD\n 0 0 0 0 0 1 1 0 0 1 0 1 0 1 0 0 1 1 1 1 0 1 1 1 /\n\
+         ZCORN\n {}*1 /\nPORO\n{body}/\n",
+        8 * n
+    );
+    assert!(text.len() > 400_000);
+    let d = parse(&text).unwrap();
+    assert_eq!(d.grid.properties[0].values, want);
 }
 
 fn err(text: &str) -> String {
