@@ -146,6 +146,31 @@ impl SplitMap {
     }
 }
 
+/// Where a split cell's pieces meet.
+enum Star {
+    /// A new interior point.
+    Apex(P3),
+    /// One of the cell's vertices (its faces through it get no piece).
+    Vertex(u32),
+}
+
+/// The `k`-tuples `values[s]` for `s` in `source` (which is non-decreasing:
+/// runs of consecutive cells), copied a run at a time.
+fn gather_tuples(source: &[u32], values: &[f64], k: usize) -> Vec<f64> {
+    let mut out = Vec::with_capacity(source.len() * k);
+    let mut i = 0;
+    while i < source.len() {
+        let s0 = source[i] as usize;
+        let mut j = i + 1;
+        while j < source.len() && source[j] as usize == s0 + (j - i) {
+            j += 1;
+        }
+        out.extend_from_slice(&values[s0 * k..(s0 + j - i) * k]);
+        i = j;
+    }
+    out
+}
+
 /// A grid whose non-convex polyhedra were split, with its map to the input.
 #[derive(Clone, Debug)]
 pub struct SplitGrid {
@@ -684,115 +709,135 @@ pub fn split_non_convex(
             table.plan[i] = Some(plan);
         }
     }
-    // Cells: boundary elements, star point, pieces.
-    let mut pieces_of: Vec<(usize, Vec<(u8, Vec<u32>)>)> = Vec::with_capacity(found.len());
-    for ((c, faces), ids) in found.iter().zip(&face_ids) {
-        let cpos = |v: u32| -> P3 {
-            if (v as usize) < np0 {
-                points[v as usize]
-            } else {
-                new_points[v as usize - np0]
-            }
-        };
-        let mut elems: Vec<(usize, Element)> = Vec::new();
-        for (fi, (f, &i)) in faces.iter().zip(ids).enumerate() {
-            let (can, same) = canonical(f);
-            let orient = |t: [u32; 3]| if same { t } else { [t[0], t[2], t[1]] };
-            match table.plan[i].as_ref().expect("planned") {
-                FacePlan::Whole => elems.push((fi, Element::Base(f.clone()))),
-                FacePlan::Fan(q) => {
-                    let k = can.len();
-                    for j in 0..k {
-                        elems.push((fi, Element::Tri(orient([*q, can[j], can[(j + 1) % k]]))));
-                    }
+    // Cells: boundary elements and star point, per cell in parallel (they
+    // read only the cell, its faces' plans and the face points made above);
+    // then, in cell order, apex ids and pieces (ids as before).
+    let fan_points = &new_points;
+    let stars: Vec<Result<(Vec<(usize, Element)>, Vec<u32>, Star), SplitError>> = found
+        .par_iter()
+        .zip(face_ids.par_iter())
+        .map(|((c, faces), ids)| {
+            let cpos = |v: u32| -> P3 {
+                if (v as usize) < np0 {
+                    points[v as usize]
+                } else {
+                    fan_points[v as usize - np0]
                 }
-                FacePlan::Ears(tris) => {
-                    for &t in tris {
-                        elems.push((fi, Element::Tri(orient(t))));
-                    }
-                }
-            }
-        }
-        let mut verts: Vec<u32> = faces.iter().flatten().copied().collect();
-        verts.sort_unstable();
-        verts.dedup();
-        let vm = mean(verts.iter().map(|&v| points[v as usize]));
-        let ext = verts
-            .iter()
-            .map(|&v| norm(sub(points[v as usize], vm)))
-            .fold(0.0, f64::max);
-        let tol = CONVEXITY_TOLERANCE * ext;
-        let planes: Vec<(usize, Option<(P3, P3)>)> = elems
-            .iter()
-            .map(|(fi, e)| (*fi, element_plane(e, &cpos)))
-            .collect();
-        // Volume centroid (cones from the vertex mean).
-        let mut vol = 0.0;
-        let mut acc = [0.0; 3];
-        for (_, e) in &elems {
-            let pts: Vec<P3> = match e {
-                Element::Base(ids) => ids.iter().map(|&v| cpos(v)).collect(),
-                Element::Tri(t) => t.iter().map(|&v| cpos(v)).collect(),
             };
-            for j in 1..pts.len() - 1 {
-                let w = dot(sub(pts[0], vm), cross(sub(pts[j], vm), sub(pts[j + 1], vm))) / 6.0;
-                vol += w;
-                acc = add(
-                    acc,
-                    scale(add(add(add(pts[0], pts[j]), pts[j + 1]), vm), w / 4.0),
-                );
-            }
-        }
-        let centroid = scale(acc, 1.0 / vol);
-        // The first element a point does not see, if any.
-        let hidden_from = |p: P3| {
-            planes.iter().find_map(|(fi, pl)| match pl {
-                Some((o, nh)) if dot(sub(p, *o), *nh) < -tol => None,
-                _ => Some(*fi),
-            })
-        };
-        let mut best_face = hidden_from(centroid);
-        let mut apex = best_face.is_none().then_some(centroid);
-        if apex.is_none() && hidden_from(vm).is_none() {
-            apex = Some(vm);
-        }
-        if apex.is_none() && planes.iter().all(|(_, p)| p.is_some()) {
-            let pl: Vec<(P3, P3)> = planes.iter().map(|(_, p)| p.expect("plane")).collect();
-            if let Some(k) = kernel_point(&pl, 2.0 * tol, 1e-9 * ext) {
-                match hidden_from(k) {
-                    None => apex = Some(k),
-                    Some(f) => best_face = Some(f),
+            let mut elems: Vec<(usize, Element)> = Vec::new();
+            for (fi, (f, &i)) in faces.iter().zip(ids).enumerate() {
+                let (can, same) = canonical(f);
+                let orient = |t: [u32; 3]| if same { t } else { [t[0], t[2], t[1]] };
+                match table.plan[i].as_ref().expect("planned") {
+                    FacePlan::Whole => elems.push((fi, Element::Base(f.clone()))),
+                    FacePlan::Fan(q) => {
+                        let k = can.len();
+                        for j in 0..k {
+                            elems.push((fi, Element::Tri(orient([*q, can[j], can[(j + 1) % k]]))));
+                        }
+                    }
+                    FacePlan::Ears(tris) => {
+                        for &t in tris {
+                            elems.push((fi, Element::Tri(orient(t))));
+                        }
+                    }
                 }
             }
-        }
-        let p = match apex {
-            Some(apex) => {
-                debug_assert!(elems.iter().all(|(_, e)| cone_volume(e, apex, &cpos) > 0.0));
+            let mut verts: Vec<u32> = faces.iter().flatten().copied().collect();
+            verts.sort_unstable();
+            verts.dedup();
+            let vm = mean(verts.iter().map(|&v| points[v as usize]));
+            let ext = verts
+                .iter()
+                .map(|&v| norm(sub(points[v as usize], vm)))
+                .fold(0.0, f64::max);
+            let tol = CONVEXITY_TOLERANCE * ext;
+            let planes: Vec<(usize, Option<(P3, P3)>)> = elems
+                .iter()
+                .map(|(fi, e)| (*fi, element_plane(e, &cpos)))
+                .collect();
+            // Volume centroid (cones from the vertex mean).
+            let mut vol = 0.0;
+            let mut acc = [0.0; 3];
+            for (_, e) in &elems {
+                let pts: Vec<P3> = match e {
+                    Element::Base(ids) => ids.iter().map(|&v| cpos(v)).collect(),
+                    Element::Tri(t) => t.iter().map(|&v| cpos(v)).collect(),
+                };
+                for j in 1..pts.len() - 1 {
+                    let w = dot(sub(pts[0], vm), cross(sub(pts[j], vm), sub(pts[j + 1], vm))) / 6.0;
+                    vol += w;
+                    acc = add(
+                        acc,
+                        scale(add(add(add(pts[0], pts[j]), pts[j + 1]), vm), w / 4.0),
+                    );
+                }
+            }
+            let centroid = scale(acc, 1.0 / vol);
+            // The first element a point does not see, if any.
+            let hidden_from = |p: P3| {
+                planes.iter().find_map(|(fi, pl)| match pl {
+                    Some((o, nh)) if dot(sub(p, *o), *nh) < -tol => None,
+                    _ => Some(*fi),
+                })
+            };
+            let mut best_face = hidden_from(centroid);
+            let mut apex = best_face.is_none().then_some(centroid);
+            if apex.is_none() && hidden_from(vm).is_none() {
+                apex = Some(vm);
+            }
+            if apex.is_none() && planes.iter().all(|(_, p)| p.is_some()) {
+                let pl: Vec<(P3, P3)> = planes.iter().map(|(_, p)| p.expect("plane")).collect();
+                if let Some(k) = kernel_point(&pl, 2.0 * tol, 1e-9 * ext) {
+                    match hidden_from(k) {
+                        None => apex = Some(k),
+                        Some(f) => best_face = Some(f),
+                    }
+                }
+            }
+            let star = match apex {
+                Some(apex) => {
+                    debug_assert!(elems.iter().all(|(_, e)| cone_volume(e, apex, &cpos) > 0.0));
+                    Star::Apex(apex)
+                }
+                // No interior point: pull from a vertex that sees every face
+                // it is not on (thin slivers between warped faces).
+                None => match verts.iter().copied().find(|&v| {
+                    planes.iter().all(|(fi, pl)| {
+                        faces[*fi].contains(&v)
+                            || matches!(pl, Some((o, nh)) if dot(sub(points[v as usize], *o), *nh) < -tol)
+                    })
+                }) {
+                    Some(v) => {
+                        elems.retain(|(fi, _)| !faces[*fi].contains(&v));
+                        Star::Vertex(v)
+                    }
+                    None => {
+                        return Err(SplitError::NotStarShaped {
+                            cell: *c,
+                            face: best_face.unwrap_or(0),
+                        });
+                    }
+                },
+            };
+            Ok((elems, verts, star))
+        })
+        .collect();
+    let mut pieces_of: Vec<(usize, Vec<(u8, Vec<u32>)>)> = Vec::with_capacity(found.len());
+    for ((c, _), star) in found.iter().zip(stars) {
+        // The first failing cell in cell order, as a sequential loop would.
+        let (elems, verts, star) = star?;
+        let p = match star {
+            Star::Apex(apex) => {
                 new_points.push(apex);
                 mean_ids.extend_from_slice(&verts);
                 mean_offsets.push(mean_ids.len() as u32);
                 (np0 + new_points.len() - 1) as u32
             }
-            // No interior point: pull from a vertex that sees every face
-            // it is not on (thin slivers between warped faces).
-            None => match verts.iter().copied().find(|&v| {
-                planes.iter().all(|(fi, pl)| {
-                    faces[*fi].contains(&v)
-                        || matches!(pl, Some((o, nh)) if dot(sub(points[v as usize], *o), *nh) < -tol)
-                })
-            }) {
-                Some(v) => {
-                    report.vertex_pulled += 1;
-                    elems.retain(|(fi, _)| !faces[*fi].contains(&v));
-                    v
-                }
-                None => {
-                    return Err(SplitError::NotStarShaped {
-                        cell: *c,
-                        face: best_face.unwrap_or(0),
-                    });
-                }
-            },
+            Star::Vertex(v) => {
+                report.vertex_pulled += 1;
+                v
+            }
         };
         let mut out = Vec::with_capacity(elems.len());
         for (_, e) in elems {
@@ -923,11 +968,7 @@ pub fn split_non_convex(
         .cell_data
         .iter()
         .map(|p| {
-            let k = p.components.max(1);
-            let mut values = Vec::with_capacity(map.source.len() * k);
-            for &s in &map.source {
-                values.extend_from_slice(&p.values[s as usize * k..(s as usize + 1) * k]);
-            }
+            let values = gather_tuples(&map.source, &p.values, p.components.max(1));
             Property {
                 name: p.name.clone(),
                 components: p.components,

@@ -489,6 +489,42 @@ fn mixed_grid_ciel_brute_force_and_cgraph_agree_with_the_reference() {
 }
 
 #[test]
+fn split_cells_carry_their_source_cell_values() {
+    // Runs of unsplit cells and pieces of split ones, one- and
+    // three-component cell properties: every output cell holds its source
+    // cell's tuple.
+    let mut g = dented_box(6, false, &mut Rng(11));
+    let n = g.cell_count();
+    let vec3: Vec<f64> = (0..3 * n).map(|i| i as f64 * 0.5 - 7.0).collect();
+    g.cell_data.push(Property {
+        name: "v".into(),
+        components: 3,
+        values: vec3.clone(),
+    });
+    let s = split_non_convex(&g, None)
+        .unwrap()
+        .expect("dented cells split");
+    let src = &s.map.source;
+    assert!(src.len() > n, "some cells split into pieces");
+    assert!(src.windows(2).any(|w| w[0] == w[1]) && src.windows(2).any(|w| w[1] == w[0] + 1));
+    let id = &s.grid.cell_data[0];
+    let v = &s.grid.cell_data[1];
+    assert_eq!(
+        (id.values.len(), v.values.len(), v.components),
+        (src.len(), 3 * src.len(), 3)
+    );
+    for (o, &c) in src.iter().enumerate() {
+        let c = c as usize;
+        assert_eq!(id.values[o], c as f64 * 10.0, "output cell {o}");
+        assert_eq!(
+            v.values[3 * o..3 * o + 3],
+            vec3[3 * c..3 * c + 3],
+            "output cell {o}"
+        );
+    }
+}
+
+#[test]
 fn split_output_does_not_depend_on_threads() {
     let g = dented_box(5, true, &mut Rng(7));
     let levels: Vec<f64> = (0..7).map(|k| 0.31 + 0.7 * k as f64).collect();

@@ -114,7 +114,8 @@ fn deck_reads_only_the_grid_section_and_reports_skips_once() {
 
 #[test]
 fn window_boundaries_do_not_split_tokens() {
-    // Comments and values across the 1 MiB window edge.
+    // Comments and values across window edges (1 MiB of text: many
+    // windows).
     let mut t = String::from("SPECGRID\n 1 1 1 /\n");
     while t.len() < (1 << 20) - 7 {
         t.push_str("-- padding padding padding padding padding\n");
@@ -126,6 +127,44 @@ fn window_boundaries_do_not_split_tokens() {
     assert_eq!(d.grid.zcorn[7], 1.000000001);
     let long = format!("{}\n{}", "-".repeat(3 << 20), t);
     assert!(parse(&long).is_ok());
+}
+
+#[test]
+fn values_across_many_window_edges_read_exactly() {
+    // 120 000 values of 3 to 18 characters (~600 kB: several read windows,
+    // so many values and repeats straddle a refill) read back exactly.
+    let n = 120_000;
+    let mut body = String::new();
+    let mut want = Vec::with_capacity(n);
+    let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+    while want.len() < n {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let digits = (x % 13) as usize;
+        let v = format!(
+            "{}.{:0width$}",
+            x % 100_000,
+            (x >> 20) % 10u64.pow(digits as u32),
+            width = digits
+        );
+        let r = 1 + (x >> 40) as usize % 3;
+        let r = r.min(n - want.len());
+        if r > 1 {
+            body.push_str(&format!("{r}*"));
+        }
+        body.push_str(&v);
+        body.push(if x & 16 == 0 { ' ' } else { '\n' });
+        want.extend(std::iter::repeat_n(v.parse::<f64>().unwrap(), r));
+    }
+    let text = format!(
+        "SPECGRID\n 1 1 {n} 1 F /\nCOORD\n 0 0 0 0 0 1 1 0 0 1 0 1 0 1 0 0 1 1 1 1 0 1 1 1 /\n\
+         ZCORN\n {}*1 /\nPORO\n{body}/\n",
+        8 * n
+    );
+    assert!(text.len() > 400_000);
+    let d = parse(&text).unwrap();
+    assert_eq!(d.grid.properties[0].values, want);
 }
 
 fn err(text: &str) -> String {
@@ -408,6 +447,55 @@ proptest! {
         );
         let d = parse(&text).unwrap();
         prop_assert_eq!(&d.grid.properties[0].values, &want);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    /// Random decimal tokens (0–10 digits before the point, 0–18 after,
+    /// signs, leading zeros, exponents, `N*v`, values glued to `/`), read
+    /// through the streaming window, equal `str::parse::<f64>` bit for bit:
+    /// the fast path gives the correctly rounded value or hands over to the
+    /// standard library.
+    #[test]
+    fn decimal_tokens_parse_bit_identical_to_std(
+        toks in proptest::collection::vec((0u8..3, "[0-9]{0,10}", any::<bool>(), "[0-9]{0,18}",
+            prop_oneof![Just(String::new()), Just(String::new()), "[eEdD][+-]?[0-9]{1,2}"], 1usize..4, 0u8..3), 1..80),
+    ) {
+        let mut body = String::new();
+        let mut want: Vec<f64> = Vec::new();
+        for (sign, int, point, frac, exp, rep, sep) in &toks {
+            let (int, frac) = if int.is_empty() && frac.is_empty() { ("0", frac.as_str()) } else { (int.as_str(), frac.as_str()) };
+            let mut t = String::from(["", "-", "+"][*sign as usize]);
+            t.push_str(int);
+            if *point || int.is_empty() {
+                t.push('.');
+                t.push_str(frac);
+            }
+            t.push_str(exp);
+            let v: f64 = t.replace(['d', 'D'], "e").parse().unwrap();
+            if *rep > 1 {
+                body.push_str(&format!("{rep}*"));
+            }
+            body.push_str(&t);
+            body.push_str(["  ", "\n", " -- c\n"][*sep as usize]);
+            want.extend(std::iter::repeat_n(v, *rep));
+        }
+        let n = want.len();
+        let text = format!(
+            "SPECGRID\n 1 1 {n} 1 F /\nCOORD\n 0 0 0 0 0 1 1 0 0 1 0 1 0 1 0 0 1 1 1 1 0 1 1 1 /\n\
+             ZCORN\n {}*1 /\nPORO\n{}/\n",
+            8 * n,
+            // Glued to `/` unless a comment ends the list.
+            body.trim_end_matches(' ')
+        );
+        let d = parse(&text).unwrap();
+        let got = &d.grid.properties[0].values;
+        prop_assert_eq!(got.len(), n);
+        for (g, w) in got.iter().zip(&want) {
+            prop_assert_eq!(g.to_bits(), w.to_bits(), "{} vs {}", g, w);
+        }
     }
 }
 

