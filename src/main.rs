@@ -298,10 +298,23 @@ struct BenchArgs {
 }
 
 fn main() {
+    restore_default_sigpipe();
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
         eprintln!("error: {}", error_chain(&e));
         std::process::exit(1);
+    }
+}
+
+/// Lets a closed stdout end the process quietly, as it does for other
+/// command-line tools (`stratasweep info G --json | head -1`): Rust ignores
+/// SIGPIPE, which turns the write into a panic in `println!`.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in main, before any thread exists;
+    // SIG_DFL is a valid disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
 

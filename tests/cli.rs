@@ -274,3 +274,30 @@ fn missing_file_error_names_it_once() {
         assert_eq!(e.matches("os error 2").count(), 1, "{name}: {e}");
     }
 }
+
+/// A reader that stops early (`stratasweep info … | head -1`) ends the
+/// command quietly: no panic message about a broken pipe.
+#[test]
+fn closed_stdout_is_not_a_panic() {
+    let grid = tmp("pipe.vts");
+    run_ok(&[
+        "generate",
+        "warped",
+        "--dims",
+        "24,24,24",
+        "-o",
+        grid.to_str().unwrap(),
+    ]);
+    let mut child = bin()
+        .args(["info", grid.to_str().unwrap(), "--json"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Close the pipe's read end while the command is still loading the
+    // grid, so that its first write meets a closed pipe.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "stderr: {err}");
+}
