@@ -254,7 +254,6 @@ impl CellGraph for SCGraph {
             vertices: self.positions.len(),
             base: slab,
             deltas: [1, self.dims[0] as u32, slab],
-            extents: [self.dims[0], self.dims[1], self.dims[2] + 1].map(|e| e as u32),
             surrounded: &self.surrounded,
             meta: self.catalog.get(builtin::HEXAHEDRON),
             table: &self.table,

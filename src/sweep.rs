@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects, prefetch};
 use crate::field::ScalarField;
-use crate::lattice::{EdgeWindow, LatticeHexTable, LatticeOrder, steepest_axis};
+use crate::lattice::{EdgeOwnership, EdgeWindow, LatticeHexTable};
 use crate::metacell::{Catalog, MAX_META_VERTICES, MetaCell};
 use crate::structure::BitSet;
 
@@ -157,9 +157,6 @@ pub struct Lattice<'a> {
     pub base: u32,
     /// Slot (and vertex id) steps along i, j, k.
     pub deltas: [u32; 3],
-    /// Slot extents along i, j, k (`deltas = [1, e0, e0·e1]`; the vertex
-    /// counts are `[e0, e1, e2 − 1]`).
-    pub extents: [u32; 3],
     /// Per slot: live, and so are its 18 face and edge neighbours.
     pub surrounded: &'a BitSet,
     /// The hexahedron's meta-cell.
@@ -671,10 +668,9 @@ fn sweep_block_lattice(
     b.active.clear();
     b.begin_sweep(levels.len());
     let done = b.done;
-    let [npi, npj, layers] = lat.extents;
-    let order = LatticeOrder::new(steepest_axis(phi, [npi, npj, layers - 1]), lat.extents);
-    b.window.fit(&order);
-    let lower = order.lower_steps();
+    let owner = EdgeOwnership::new(dj, dk / dj);
+    b.window.fit(&owner);
+    let lower = owner.lower_steps;
     // Every lower neighbour is within this many slots.
     let reach = dk + dj + di;
     let mut next_min = 0;
@@ -780,23 +776,12 @@ fn sweep_block_lattice(
             visit!(c - dk, 4, v0.wrapping_sub(dk), di, dj);
             visit!(c + dk, 5, v0 + 2 * dk, di, dj);
         }
-        // A_k in key order (see `LatticeOrder`): this level's polygons are
-        // emitted in that order (cells around an edge come close together,
-        // so φ, positions and the weld window stay in cache), and the next
-        // step visits A_k first, in that order.
-        let slots: &[u32] = if order.fastest == 0 {
-            radix_sort_slots(active, &mut b.sort_scratch, start, len);
-            active
-        } else {
-            for c in active.iter_mut() {
-                *c = order.key(*c);
-            }
-            radix_sort_slots(active, &mut b.sort_scratch, 0, order.key_count());
-            let slots = &mut b.sort_scratch;
-            slots.clear();
-            slots.extend(active.iter().map(|&key| order.slot(key)));
-            slots
-        };
+        // A_k in slot order: this level's polygons are emitted in that
+        // order (the weld by ownership needs it, and consecutive cells
+        // share cache lines of φ, positions and the weld window), and the
+        // next step visits A_k first, in that order.
+        radix_sort_slots(active, &mut b.sort_scratch, start, len);
+        let slots: &[u32] = active;
         if ctx.cells_only {
             mesh.cells.extend_from_slice(slots);
             mesh.cut_cells = slots.len() as u32;
@@ -830,15 +815,13 @@ fn sweep_block_lattice(
                     live
                 };
                 let f = cell(c);
-                let key = if order.fastest == 0 { c } else { active[n] };
                 lat.table.emit(
                     lat.meta,
                     c - lat.base,
                     &f,
                     t,
                     code8(&f, t),
-                    &order,
-                    key,
+                    &owner,
                     live,
                     c,
                     ctx,
@@ -846,9 +829,6 @@ fn sweep_block_lattice(
                     window,
                 );
             }
-        }
-        if order.fastest != 0 {
-            std::mem::swap(active, &mut b.sort_scratch);
         }
         let stats = LevelStats::of(mesh, work.len() as u64);
         on_level(k, mesh, &stats);
