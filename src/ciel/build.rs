@@ -75,7 +75,12 @@ struct Scratch {
     /// Sort buffers.
     tmp: Vec<u32>,
     tmp2: Vec<u32>,
-    bits: Vec<(u64, u32)>,
+    /// [`face_keys_clash`]' table: (face, generation).
+    face_table: Vec<(u32, u32)>,
+    face_generation: u32,
+    /// [`repeated_position`]'s table: (coordinate hash, local vertex, generation).
+    point_table: Vec<(u64, u32, u32)>,
+    point_generation: u32,
     pts: Vec<[f64; 3]>,
     /// `pts` by coordinate (the convexity test vectorises over these).
     xyz: [Vec<f64>; 3],
@@ -86,19 +91,29 @@ struct Scratch {
     stack: Vec<u32>,
 }
 
-/// What one chunk of cells produced.
+/// What one chunk of cells produced besides the half-edges, faces and
+/// cell starts it wrote into its parts of the final arrays.
 #[derive(Default)]
 struct ChunkOut {
-    origins: Vec<u32>,
-    mate_face: Vec<i16>,
-    /// Half-edges per cell.
-    lens: Vec<u32>,
-    faces: Vec<FaceRec>,
+    /// Half-edges and faces written.
+    half_edges: usize,
+    faces: usize,
     class_counts: [usize; 5],
     hidden: usize,
     flipped: usize,
     /// Live cells found non-convex.
     non_convex: Vec<u32>,
+}
+
+/// One chunk's parts of the final arrays, sized by [`cell_bounds`].
+struct ChunkParts<'a> {
+    /// Global id of the first half-edge of `origins`.
+    base: u32,
+    origins: &'a mut [u32],
+    mate_face: &'a mut [i16],
+    faces: &'a mut [FaceRec],
+    /// The chunk's cells' first half-edges (global ids).
+    cell_start: &'a mut [u32],
 }
 
 /// Parses a VTK polyhedron face stream (`nf, n0, ids.., n1, ids..`) into
@@ -143,6 +158,45 @@ pub(super) fn parse_faces_into(
     Ok(())
 }
 
+/// The catalog meta-cell of a typed volumetric cell.
+fn typed_meta(t: u8, prisms: &[(u8, u16)]) -> Option<u16> {
+    Some(match t {
+        vtk_type::TETRA => builtin::TETRA,
+        vtk_type::PYRAMID => builtin::PYRAMID,
+        vtk_type::WEDGE => builtin::WEDGE,
+        vtk_type::HEXAHEDRON | vtk_type::VOXEL => builtin::HEXAHEDRON,
+        _ => prisms.iter().find(|p| p.0 == t)?.1,
+    })
+}
+
+/// (half-edges, faces) that cell `c` writes if it is live and valid: exact
+/// for every cell whose faces parse, so that chunks can write straight into
+/// the final arrays (cells found dead leave a gap, closed afterwards).
+fn cell_bounds(
+    cells: &Cells,
+    c: usize,
+    catalog: &Catalog,
+    prisms: &[(u8, u16)],
+    hidden: Option<&[bool]>,
+) -> (usize, usize) {
+    let t = cells.types[c];
+    if is_lower_dimensional(t) || hidden.is_some_and(|h| h.get(c).copied().unwrap_or(false)) {
+        return (0, 0);
+    }
+    if t == vtk_type::POLYHEDRON {
+        let stream = cells.faces_of(c);
+        let nf = (stream.first().copied().unwrap_or(0) as usize).min(stream.len());
+        return (stream.len().saturating_sub(1 + nf), nf);
+    }
+    match typed_meta(t, prisms) {
+        Some(meta) => {
+            let m = catalog.get(meta);
+            (m.faces.iter().map(|f| f.len()).sum(), m.faces.len())
+        }
+        None => (0, 0),
+    }
+}
+
 /// Writes the face loops (global ids) of cell `c` into `s.ids`/`s.starts`;
 /// returns the cell's class when it is not volumetric (nothing written).
 fn cell_faces(
@@ -162,20 +216,11 @@ fn cell_faces(
         return Ok(None);
     }
     let ids = cells.cell(c);
-    let meta = match t {
-        vtk_type::TETRA => builtin::TETRA,
-        vtk_type::PYRAMID => builtin::PYRAMID,
-        vtk_type::WEDGE => builtin::WEDGE,
-        vtk_type::HEXAHEDRON | vtk_type::VOXEL => builtin::HEXAHEDRON,
-        _ => match prisms.iter().find(|p| p.0 == t) {
-            Some(p) => p.1,
-            None => {
-                return Err(CielError::FaceStream {
-                    cell: c,
-                    why: format!("unsupported VTK cell type {t}"),
-                });
-            }
-        },
+    let Some(meta) = typed_meta(t, prisms) else {
+        return Err(CielError::FaceStream {
+            cell: c,
+            why: format!("unsupported VTK cell type {t}"),
+        });
     };
     let m = catalog.get(meta);
     let local = &mut s.tmp;
@@ -555,6 +600,111 @@ pub(crate) fn polyhedron_faces(
     })
 }
 
+/// Whether two faces of the loops in `s` have the same [`face_key`]
+/// (through a small open-addressing table, no sort).
+fn face_keys_clash(s: &mut Scratch) -> bool {
+    let nf = s.starts.len() - 1;
+    let cap = (2 * nf).next_power_of_two().max(32);
+    if s.face_table.len() < cap {
+        s.face_table.clear();
+        s.face_table.resize(cap, (0, 0));
+        s.face_generation = 0;
+    }
+    s.face_generation = s.face_generation.wrapping_add(1);
+    if s.face_generation == 0 {
+        s.face_table.fill((0, 0));
+        s.face_generation = 1;
+    }
+    let generation = s.face_generation;
+    let mask = s.face_table.len() - 1;
+    s.fkeys.clear();
+    for f in 0..nf {
+        let (_, m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
+        s.fkeys.push((m, lo, hi, f as u32));
+        let h = (m ^ lo.rotate_left(11) ^ hi.rotate_left(22)).wrapping_mul(0x9E37_79B9);
+        let mut k = (h >> 7) as usize & mask;
+        loop {
+            let e = s.face_table[k];
+            if e.1 != generation {
+                s.face_table[k] = (f as u32, generation);
+                break;
+            }
+            let o = s.fkeys[e.0 as usize];
+            if (o.0, o.1, o.2) == (m, lo, hi) {
+                return true;
+            }
+            k = (k + 1) & mask;
+        }
+    }
+    false
+}
+
+/// Duplicate faces: keys sorted, then equal keys compared by vertex set;
+/// the first duplicate pair in key order is the error.
+fn duplicate_faces_sorted(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
+    let nf = s.starts.len() - 1;
+    s.fkeys.clear();
+    for f in 0..nf {
+        let (_, m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
+        s.fkeys.push((m, lo, hi, f as u32));
+    }
+    s.fkeys.sort_unstable();
+    for i in 1..s.fkeys.len() {
+        let (a, b) = (s.fkeys[i - 1], s.fkeys[i]);
+        if (a.0, a.1, a.2) == (b.0, b.1, b.2) {
+            let fa = &s.ids[s.starts[a.3 as usize] as usize..s.starts[a.3 as usize + 1] as usize];
+            let fb = &s.ids[s.starts[b.3 as usize] as usize..s.starts[b.3 as usize + 1] as usize];
+            sorted_into(fa, &mut s.tmp);
+            sorted_into(fb, &mut s.tmp2);
+            if s.tmp == s.tmp2 {
+                return Err(CielError::DuplicateFace {
+                    cell,
+                    face: a.3.min(b.3) as usize,
+                    other: a.3.max(b.3) as usize,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Whether two distinct local vertices of `s.verts` sit at the same
+/// position (bitwise-hashed coordinates, then compared with `==`).
+fn repeated_position(points: &[[f64; 3]], s: &mut Scratch) -> bool {
+    let nv = s.verts.len();
+    let cap = (2 * nv).next_power_of_two().max(64);
+    if s.point_table.len() < cap {
+        s.point_table.clear();
+        s.point_table.resize(cap, (0, 0, 0));
+        s.point_generation = 0;
+    }
+    s.point_generation = s.point_generation.wrapping_add(1);
+    if s.point_generation == 0 {
+        s.point_table.fill((0, 0, 0));
+        s.point_generation = 1;
+    }
+    let generation = s.point_generation;
+    let mask = s.point_table.len() - 1;
+    for (l, &v) in s.verts.iter().enumerate() {
+        let p = points[v as usize];
+        let b = p.map(f64::to_bits);
+        let h = b[0] ^ b[1].rotate_left(21) ^ b[2].rotate_left(42);
+        let mut k = (h.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as usize & mask;
+        loop {
+            let e = s.point_table[k];
+            if e.2 != generation {
+                s.point_table[k] = (h, l as u32, generation);
+                break;
+            }
+            if e.0 == h && points[s.verts[e.1 as usize] as usize] == p {
+                return true;
+            }
+            k = (k + 1) & mask;
+        }
+    }
+    false
+}
+
 /// Checks and orients the loops of one cell held in `s` (see the module
 /// docs of [`super`]); on success `s.ids`/`s.starts` hold the outward loops
 /// and `s.mate` the local `mate_face`. Returns (class, flipped, non-convex).
@@ -588,28 +738,11 @@ fn check_cell(
             });
         }
     }
-    // Duplicate faces: equal keys, then equal vertex sets.
-    s.fkeys.clear();
-    for f in 0..nf {
-        let (_, m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
-        s.fkeys.push((m, lo, hi, f as u32));
-    }
-    s.fkeys.sort_unstable();
-    for i in 1..s.fkeys.len() {
-        let (a, b) = (s.fkeys[i - 1], s.fkeys[i]);
-        if (a.0, a.1, a.2) == (b.0, b.1, b.2) {
-            let fa = &s.ids[s.starts[a.3 as usize] as usize..s.starts[a.3 as usize + 1] as usize];
-            let fb = &s.ids[s.starts[b.3 as usize] as usize..s.starts[b.3 as usize + 1] as usize];
-            sorted_into(fa, &mut s.tmp);
-            sorted_into(fb, &mut s.tmp2);
-            if s.tmp == s.tmp2 {
-                return Err(CielError::DuplicateFace {
-                    cell,
-                    face: a.3.min(b.3) as usize,
-                    other: a.3.max(b.3) as usize,
-                });
-            }
-        }
+    // Duplicate faces: a face key seen twice (rare: two faces sharing their
+    // smallest vertex and its two neighbours) sends the cell to the sorted
+    // check, which compares vertex sets and names the pair.
+    if face_keys_clash(s) {
+        duplicate_faces_sorted(cell, s)?;
     }
     local_ids(s);
     pair_edges(cell, s)?;
@@ -641,19 +774,7 @@ fn check_cell(
         e.max(p[0].abs()).max(p[1].abs()).max(p[2].abs())
     });
     // Repeated positions (distinct ids at the same point): dead, as in the CGraph.
-    s.bits.clear();
-    s.bits.extend(s.verts.iter().enumerate().map(|(l, &v)| {
-        let b = points[v as usize].map(f64::to_bits);
-        (b[0] ^ b[1].rotate_left(21) ^ b[2].rotate_left(42), l as u32)
-    }));
-    s.bits.sort_unstable();
-    let same_point = |a: u32, b: u32| {
-        points[s.verts[a as usize] as usize] == points[s.verts[b as usize] as usize]
-    };
-    if s.bits
-        .windows(2)
-        .any(|w| w[0].0 == w[1].0 && same_point(w[0].1, w[1].1))
-    {
+    if repeated_position(points, s) {
         return Ok((CellClass::RepeatedVertex, 0, false));
     }
     if vol.is_nan() || vol.abs() <= 1e-12 * ext * ext * ext {
@@ -723,7 +844,7 @@ fn check_cell(
     Ok((CellClass::Valid, flipped, non_convex))
 }
 
-/// The per-cell phase over cells `range`.
+/// The per-cell phase over cells `range`, written into `parts`.
 #[allow(clippy::too_many_arguments)]
 fn build_chunk(
     range: std::ops::Range<usize>,
@@ -732,10 +853,13 @@ fn build_chunk(
     prisms: &[(u8, u16)],
     points: &[[f64; 3]],
     hidden: Option<&[bool]>,
+    parts: ChunkParts,
 ) -> Result<ChunkOut, CielError> {
     let mut s = Scratch::default();
     let mut out = ChunkOut::default();
+    let first = range.start;
     for c in range {
+        parts.cell_start[c - first] = parts.base + out.half_edges as u32;
         let class = match cell_faces(cells, c, catalog, prisms, points, &mut s)? {
             Some(class) => class,
             None => {
@@ -751,39 +875,42 @@ fn build_chunk(
                             "cell {c} has {n} half-edges (at most {MAX_CELL_HALF_EDGES} per cell)"
                         )));
                     }
+                    let nf = s.starts.len() - 1;
+                    let he = out.half_edges;
+                    let (Some(origins), Some(mate_face), Some(faces)) = (
+                        parts.origins.get_mut(he..he + n),
+                        parts.mate_face.get_mut(he..he + n),
+                        parts.faces.get_mut(out.faces..out.faces + nf),
+                    ) else {
+                        return Err(CielError::FaceStream {
+                            cell: c,
+                            why: "more half-edges than its face stream announces".into(),
+                        });
+                    };
                     out.flipped += flipped;
                     if non_convex {
                         out.non_convex.push(c as u32);
                     }
-                    let base = out.origins.len() as u32;
-                    for w in s.starts.windows(2) {
+                    let base = parts.base + he as u32;
+                    for (w, rec) in s.starts.windows(2).zip(faces.iter_mut()) {
                         let (a, b) = (w[0] as usize, w[1] as usize);
                         let face = &s.ids[a..b];
                         let (_, m, lo, hi) = face_key(face);
-                        out.faces.push(FaceRec {
+                        *rec = FaceRec {
                             start: base + a as u32,
                             m,
                             lo,
                             hi,
-                        });
-                        for (i, &v) in face.iter().enumerate() {
-                            let mut o = v;
-                            if i == 0 {
-                                o |= FIRST_IN_FACE;
-                            }
-                            if a + i + 1 == b {
-                                o |= LAST_IN_FACE;
-                            }
-                            out.origins.push(o);
-                        }
+                        };
+                        origins[a..b].copy_from_slice(face);
+                        origins[a] |= FIRST_IN_FACE;
+                        origins[b - 1] |= LAST_IN_FACE;
                     }
-                    out.mate_face.extend(
-                        s.mate
-                            .iter()
-                            .enumerate()
-                            .map(|(i, &m)| (m as i64 - i as i64) as i16),
-                    );
-                    out.lens.push(n as u32);
+                    for (i, (d, &m)) in mate_face.iter_mut().zip(&s.mate).enumerate() {
+                        *d = (m as i64 - i as i64) as i16;
+                    }
+                    out.half_edges += n;
+                    out.faces += nf;
                     out.class_counts[class as usize] += 1;
                     continue;
                 }
@@ -791,7 +918,6 @@ fn build_chunk(
             }
         };
         out.class_counts[class as usize] += 1;
-        out.lens.push(0);
     }
     Ok(out)
 }
@@ -872,26 +998,95 @@ impl Ciel {
             .filter(|&&t| cells.types.contains(&t))
             .filter_map(|&t| catalog.for_vtk_type(t).map(|m| (t, m)))
             .collect();
-        // 1. Per chunk of cells, in parallel; the first error in cell order wins.
-        let chunks: Vec<Result<ChunkOut, CielError>> = (0..n.div_ceil(CHUNK_CELLS))
+        // 1. Per chunk of cells, in parallel, straight into the final
+        //    arrays at offsets from the exact per-cell bounds; the first
+        //    error in cell order wins.
+        let nchunks = n.div_ceil(CHUNK_CELLS);
+        let chunk_range = |k: usize| k * CHUNK_CELLS..((k + 1) * CHUNK_CELLS).min(n);
+        let bounds: Vec<(usize, usize)> = (0..nchunks)
             .into_par_iter()
             .map(|k| {
-                let r = k * CHUNK_CELLS..((k + 1) * CHUNK_CELLS).min(n);
-                build_chunk(r, cells, &catalog, &prisms, points, hidden)
+                chunk_range(k).fold((0, 0), |(h, f), c| {
+                    let (ch, cf) = cell_bounds(cells, c, &catalog, &prisms, hidden);
+                    (h + ch, f + cf)
+                })
             })
             .collect();
-        let chunks: Vec<ChunkOut> = chunks.into_iter().collect::<Result<_, _>>()?;
-        // 2. Concatenate.
-        let total: usize = chunks.iter().map(|c| c.origins.len()).sum();
-        if total >= (1usize << 31) - 1 {
-            return Err(CielError::TooLarge(format!("{total} half-edges")));
+        let he_bound: usize = bounds.iter().map(|b| b.0).sum();
+        let face_bound: usize = bounds.iter().map(|b| b.1).sum();
+        if he_bound >= (1usize << 31) - 1 {
+            return Err(CielError::TooLarge(format!("{he_bound} half-edges")));
         }
+        let mut origins = vec![0u32; he_bound];
+        let mut mate_face = vec![0i16; he_bound];
+        let mut cell_start = vec![0u32; n + 1];
+        let zero = FaceRec {
+            start: 0,
+            m: 0,
+            lo: 0,
+            hi: 0,
+        };
+        let mut faces: Vec<FaceRec> = vec![zero; face_bound];
+        let he_lens: Vec<usize> = bounds.iter().map(|b| b.0).collect();
+        let face_lens: Vec<usize> = bounds.iter().map(|b| b.1).collect();
+        let cell_lens: Vec<usize> = (0..nchunks).map(|k| chunk_range(k).len()).collect();
+        let mut he_bases = Vec::with_capacity(nchunks);
+        let mut acc = 0usize;
+        for &l in &he_lens {
+            he_bases.push(acc);
+            acc += l;
+        }
+        let parts: Vec<ChunkParts> = split_lengths(&mut origins, &he_lens)
+            .into_iter()
+            .zip(split_lengths(&mut mate_face, &he_lens))
+            .zip(split_lengths(&mut faces, &face_lens))
+            .zip(split_lengths(&mut cell_start[..n], &cell_lens))
+            .zip(&he_bases)
+            .map(|((((o, m), f), c), &base)| ChunkParts {
+                base: base as u32,
+                origins: o,
+                mate_face: m,
+                faces: f,
+                cell_start: c,
+            })
+            .collect();
+        let chunks: Vec<Result<ChunkOut, CielError>> = parts
+            .into_par_iter()
+            .enumerate()
+            .map(|(k, p)| build_chunk(chunk_range(k), cells, &catalog, &prisms, points, hidden, p))
+            .collect();
+        let chunks: Vec<ChunkOut> = chunks.into_iter().collect::<Result<_, _>>()?;
+        // 2. Close the gaps left by cells found dead (rare): chunks slide
+        //    down in order, their face and cell starts shifted with them.
+        let mut total = 0usize;
+        let mut nfaces = 0usize;
+        let mut face_base = 0usize;
+        for (k, ch) in chunks.iter().enumerate() {
+            let (hb, fb) = (he_bases[k], face_base);
+            face_base += face_lens[k];
+            if hb != total || fb != nfaces {
+                let shift = (hb - total) as u32;
+                origins.copy_within(hb..hb + ch.half_edges, total);
+                mate_face.copy_within(hb..hb + ch.half_edges, total);
+                faces.copy_within(fb..fb + ch.faces, nfaces);
+                for f in &mut faces[nfaces..nfaces + ch.faces] {
+                    f.start -= shift;
+                }
+                for s in &mut cell_start[chunk_range(k)] {
+                    *s -= shift;
+                }
+            }
+            total += ch.half_edges;
+            nfaces += ch.faces;
+        }
+        origins.truncate(total);
+        mate_face.truncate(total);
+        faces.truncate(nfaces);
         if total == 0 {
             return Err(CielError::NoCells);
         }
         let mut counts = CielCounts::default();
         let mut non_convex_cells = Vec::new();
-        let nfaces: usize = chunks.iter().map(|c| c.faces.len()).sum();
         for ch in &chunks {
             for k in 0..5 {
                 counts.class_counts[k] += ch.class_counts[k];
@@ -901,54 +1096,6 @@ impl Ciel {
             counts.non_convex += ch.non_convex.len();
             non_convex_cells.extend_from_slice(&ch.non_convex);
         }
-        // Each chunk copied into its own disjoint parts of the final
-        // arrays, in parallel (these are the largest arrays of the build).
-        let mut origins = vec![0u32; total];
-        let mut mate_face = vec![0i16; total];
-        let mut cell_start = vec![0u32; n + 1];
-        let zero = FaceRec {
-            start: 0,
-            m: 0,
-            lo: 0,
-            hi: 0,
-        };
-        let mut faces: Vec<FaceRec> = vec![zero; nfaces];
-        let parts_of = |len: fn(&ChunkOut) -> usize| chunks.iter().map(len).collect::<Vec<_>>();
-        let he_parts = split_lengths(&mut origins, &parts_of(|c| c.origins.len()));
-        let mf_parts = split_lengths(&mut mate_face, &parts_of(|c| c.origins.len()));
-        let face_parts = split_lengths(&mut faces, &parts_of(|c| c.faces.len()));
-        let cs_parts = split_lengths(&mut cell_start[..n], &parts_of(|c| c.lens.len()));
-        let mut base = 0u32;
-        let bases: Vec<u32> = chunks
-            .iter()
-            .map(|c| {
-                let b = base;
-                base += c.origins.len() as u32;
-                b
-            })
-            .collect();
-        chunks
-            .par_iter()
-            .zip(bases)
-            .zip(he_parts)
-            .zip(mf_parts)
-            .zip(face_parts)
-            .zip(cs_parts)
-            .for_each(|(((((ch, base), he), mf), fc), cs)| {
-                he.copy_from_slice(&ch.origins);
-                mf.copy_from_slice(&ch.mate_face);
-                for (d, f) in fc.iter_mut().zip(&ch.faces) {
-                    *d = FaceRec {
-                        start: f.start + base,
-                        ..*f
-                    };
-                }
-                let mut s = base;
-                for (d, &l) in cs.iter_mut().zip(&ch.lens) {
-                    *d = s;
-                    s += l;
-                }
-            });
         drop(chunks);
         cell_start[n] = total as u32;
         counts.faces = nfaces;
