@@ -68,7 +68,8 @@ struct Scratch {
     edge_generation: u32,
     /// Face of each local half-edge.
     he_face: Vec<u32>,
-    /// Face keys `(m, lo, hi, face)`.
+    /// Face keys `(m, lo, hi, face)`: after [`check_cell`], one per face in
+    /// the final face order.
     fkeys: Vec<(u32, u32, u32, u32)>,
     /// Distinct vertices of the cell, in first-appearance order.
     verts: Vec<u32>,
@@ -640,7 +641,8 @@ fn face_keys_clash(s: &mut Scratch) -> bool {
 }
 
 /// Duplicate faces: keys sorted, then equal keys compared by vertex set;
-/// the first duplicate pair in key order is the error.
+/// the first duplicate pair in key order is the error. Leaves `s.fkeys`
+/// complete, in face order.
 fn duplicate_faces_sorted(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
     let nf = s.starts.len() - 1;
     s.fkeys.clear();
@@ -648,9 +650,10 @@ fn duplicate_faces_sorted(cell: usize, s: &mut Scratch) -> Result<(), CielError>
         let (_, m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
         s.fkeys.push((m, lo, hi, f as u32));
     }
-    s.fkeys.sort_unstable();
-    for i in 1..s.fkeys.len() {
-        let (a, b) = (s.fkeys[i - 1], s.fkeys[i]);
+    let mut keys = s.fkeys.clone();
+    keys.sort_unstable();
+    for w in keys.windows(2) {
+        let (a, b) = (w[0], w[1]);
         if (a.0, a.1, a.2) == (b.0, b.1, b.2) {
             let fa = &s.ids[s.starts[a.3 as usize] as usize..s.starts[a.3 as usize + 1] as usize];
             let fb = &s.ids[s.starts[b.3 as usize] as usize..s.starts[b.3 as usize + 1] as usize];
@@ -786,6 +789,7 @@ fn check_cell(
         let total = s.ids.len() as u32;
         let starts: Vec<u32> = s.starts.iter().rev().map(|&x| total - x).collect();
         s.starts = starts;
+        s.fkeys.reverse();
         flipped = nf - flipped;
         local_ids(s);
     }
@@ -892,10 +896,11 @@ fn build_chunk(
                         out.non_convex.push(c as u32);
                     }
                     let base = parts.base + he as u32;
-                    for (w, rec) in s.starts.windows(2).zip(faces.iter_mut()) {
+                    // (`s.fkeys` holds each face's key, in face order.)
+                    let keys = s.starts.windows(2).zip(&s.fkeys);
+                    for ((w, &(m, lo, hi, _)), rec) in keys.zip(faces.iter_mut()) {
                         let (a, b) = (w[0] as usize, w[1] as usize);
                         let face = &s.ids[a..b];
-                        let (_, m, lo, hi) = face_key(face);
                         *rec = FaceRec {
                             start: base + a as u32,
                             m,
@@ -1100,23 +1105,12 @@ impl Ciel {
         cell_start[n] = total as u32;
         counts.faces = nfaces;
         // 3. mate_cell: faces bucketed by smallest vertex (counting sort).
-        let mut bstart = vec![0u32; np + 1];
-        for f in &faces {
-            bstart[f.m as usize + 1] += 1;
-        }
-        for i in 0..np {
-            bstart[i + 1] += bstart[i];
-        }
-        let mut bucket = vec![0u32; nfaces];
-        {
-            let mut fill = bstart.clone();
-            for (i, f) in faces.iter().enumerate() {
-                bucket[fill[f.m as usize] as usize] = i as u32;
-                fill[f.m as usize] += 1;
-            }
-        }
+        let (bstart, bucket) = group_by_key(np, &FacesByVertex(&faces));
         let face_end = |i: usize| faces.get(i + 1).map_or(total as u32, |g| g.start);
-        let mate_cell: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(NONE)).collect();
+        let mate_cell: Vec<AtomicU32> = (0..total)
+            .into_par_iter()
+            .map(|_| AtomicU32::new(NONE))
+            .collect();
         let org = |h: u32| origins[h as usize] & VERTEX_MASK;
         let vchunk = 4096usize;
         let results: Vec<Result<(), CielError>> = (0..np.div_ceil(vchunk))
@@ -1226,34 +1220,12 @@ impl Ciel {
                 bits
             })
             .collect();
-        let mut vertex_start = vec![0u32; np + 1];
-        let mut reps = 0usize;
-        for (w, &bits) in rep_bits.iter().enumerate() {
-            let mut b = bits;
-            while b != 0 {
-                let h = w * 64 + b.trailing_zeros() as usize;
-                b &= b - 1;
-                vertex_start[(origins[h] & VERTEX_MASK) as usize + 1] += 1;
-                reps += 1;
-            }
-        }
-        for i in 0..np {
-            vertex_start[i + 1] += vertex_start[i];
-        }
-        let mut vertex_edges = vec![0u32; reps];
-        {
-            let mut fill: Vec<u32> = vertex_start[..np].to_vec();
-            for (w, &bits) in rep_bits.iter().enumerate() {
-                let mut b = bits;
-                while b != 0 {
-                    let h = w * 64 + b.trailing_zeros() as usize;
-                    b &= b - 1;
-                    let v = (origins[h] & VERTEX_MASK) as usize;
-                    vertex_edges[fill[v] as usize] = h as u32;
-                    fill[v] += 1;
-                }
-            }
-        }
+        let reps_by_origin = RepsByOrigin {
+            bits: &rep_bits,
+            origins: &origins,
+        };
+        let (vertex_start, vertex_edges) = group_by_key(np, &reps_by_origin);
+        let reps = vertex_edges.len();
         counts.edges = reps / 2;
         let mut cell_lookup = Vec::with_capacity((total >> LOOKUP_SHIFT) + 1);
         let mut c = 0usize;
@@ -1278,6 +1250,129 @@ impl Ciel {
             counts,
         })
     }
+}
+
+/// Items with keys, visited by ranges of units (see [`group_by_key`]).
+trait KeyedItems: Sync {
+    /// Units to split among tasks (items, or words of a bit set of items).
+    fn units(&self) -> usize;
+    /// Calls `f(item, key)` for the items of units `r`, in increasing item order.
+    fn each(&self, r: std::ops::Range<usize>, f: impl FnMut(u32, u32));
+}
+
+/// Faces keyed by their smallest vertex.
+struct FacesByVertex<'a>(&'a [FaceRec]);
+
+impl KeyedItems for FacesByVertex<'_> {
+    fn units(&self) -> usize {
+        self.0.len()
+    }
+    fn each(&self, r: std::ops::Range<usize>, mut f: impl FnMut(u32, u32)) {
+        for i in r.clone() {
+            f(i as u32, self.0[i].m);
+        }
+    }
+}
+
+/// Representative half-edges (a bit set, 64 per word) keyed by origin.
+struct RepsByOrigin<'a> {
+    bits: &'a [u64],
+    origins: &'a [u32],
+}
+
+impl KeyedItems for RepsByOrigin<'_> {
+    fn units(&self) -> usize {
+        self.bits.len()
+    }
+    fn each(&self, r: std::ops::Range<usize>, mut f: impl FnMut(u32, u32)) {
+        for w in r {
+            let mut b = self.bits[w];
+            while b != 0 {
+                let h = w * 64 + b.trailing_zeros() as usize;
+                b &= b - 1;
+                f(h as u32, self.origins[h] & VERTEX_MASK);
+            }
+        }
+    }
+}
+
+/// Items grouped by key, as a stable counting sort run in parallel: unit
+/// ranges are counted per key, each range's offsets follow from a prefix
+/// sum over keys (in key blocks), then each range places its items. Returns
+/// `start` (`keys + 1` offsets) and the item ids, increasing within each
+/// key.
+fn group_by_key(keys: usize, items: &impl KeyedItems) -> (Vec<u32>, Vec<u32>) {
+    let units = items.units();
+    let parts = rayon::current_num_threads()
+        .clamp(1, 8)
+        .min(units.div_ceil(1 << 14).max(1));
+    let range = |t: usize| t * units / parts..(t + 1) * units / parts;
+    let mut offsets: Vec<Vec<u32>> = (0..parts)
+        .into_par_iter()
+        .map(|t| {
+            let mut count = vec![0u32; keys];
+            items.each(range(t), |_, k| count[k as usize] += 1);
+            count
+        })
+        .collect();
+    const BLOCK: usize = 1 << 14;
+    let block_totals: Vec<u32> = (0..keys.div_ceil(BLOCK))
+        .into_par_iter()
+        .map(|b| {
+            let r = b * BLOCK..((b + 1) * BLOCK).min(keys);
+            offsets
+                .iter()
+                .map(|c| c[r.clone()].iter().sum::<u32>())
+                .sum()
+        })
+        .collect();
+    let mut acc = 0u32;
+    let block_bases: Vec<u32> = block_totals
+        .iter()
+        .map(|&t| {
+            let b = acc;
+            acc += t;
+            b
+        })
+        .collect();
+    let total = acc;
+    let mut start = vec![0u32; keys + 1];
+    let mut per_block: Vec<Vec<&mut [u32]>> = block_bases.iter().map(|_| Vec::new()).collect();
+    for c in offsets.iter_mut() {
+        for (b, s) in c.chunks_mut(BLOCK).enumerate() {
+            per_block[b].push(s);
+        }
+    }
+    per_block
+        .into_par_iter()
+        .zip(start[..keys].par_chunks_mut(BLOCK))
+        .zip(block_bases)
+        .for_each(|((mut counts, st), mut acc)| {
+            for (i, s) in st.iter_mut().enumerate() {
+                *s = acc;
+                for c in counts.iter_mut() {
+                    let n = c[i];
+                    c[i] = acc;
+                    acc += n;
+                }
+            }
+        });
+    start[keys] = total;
+    let out: Vec<AtomicU32> = (0..total as usize)
+        .into_par_iter()
+        .map(|_| AtomicU32::new(0))
+        .collect();
+    offsets
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(t, mut next)| {
+            items.each(range(t), |i, k| {
+                let slot = &mut next[k as usize];
+                out[*slot as usize].store(i, Ordering::Relaxed);
+                *slot += 1;
+            });
+        });
+    (start, out.into_iter().map(AtomicU32::into_inner).collect())
 }
 
 /// Mates the half-edges of loops `f` and `g` (global half-edge ranges) if
