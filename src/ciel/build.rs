@@ -68,6 +68,8 @@ struct Scratch {
     edge_generation: u32,
     /// Face of each local half-edge.
     he_face: Vec<u32>,
+    /// Per local vertex, the last face seen using it.
+    stamp: Vec<u32>,
     /// Face keys `(m, lo, hi, face)`: after [`check_cell`], one per face in
     /// the final face order.
     fkeys: Vec<(u32, u32, u32, u32)>,
@@ -370,33 +372,39 @@ fn pair_edges(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
     s.mate.clear();
     s.mate.resize(n, NONE);
     let mut ok = true;
-    for h in 0..n {
-        let (la, lb) = (s.lid[h], s.lid[s.nxt[h] as usize]);
-        let key = (la.min(lb) as usize) * nv + la.max(lb) as usize;
-        let e = &mut s.edge_table[key];
-        if e.1 != generation {
-            *e = (h as u32, generation);
-        } else {
-            let g = e.0;
-            if g == NONE || la == lb {
-                ok = false;
-                break;
+    {
+        let (lid, nxt, mate) = (&s.lid[..n], &s.nxt[..n], &mut s.mate[..n]);
+        let table = &mut s.edge_table[..nv * nv];
+        for h in 0..n {
+            let (la, lb) = (lid[h], lid[nxt[h] as usize]);
+            let (lo, hi) = if la < lb { (la, lb) } else { (lb, la) };
+            let e = &mut table[lo as usize * nv + hi as usize];
+            if e.1 != generation {
+                *e = (h as u32, generation);
+            } else {
+                let g = e.0;
+                if g == NONE || la == lb {
+                    ok = false;
+                    break;
+                }
+                mate[h] = g;
+                mate[g as usize] = h as u32;
+                e.0 = NONE; // a third half-edge on this edge is an error
             }
-            s.mate[h] = g;
-            s.mate[g as usize] = h as u32;
-            e.0 = NONE; // a third half-edge on this edge is an error
         }
     }
     if !ok || s.mate.contains(&NONE) {
         return pair_edges_by_lists(cell, s);
     }
     s.pairs.clear();
-    for h in 0..n {
-        let g = s.mate[h];
-        if g as usize > h {
-            s.pairs.push((h as u32, g, s.lid[h] == s.lid[g as usize]));
-        }
-    }
+    s.pairs.reserve(n / 2);
+    let (lid, mate) = (&s.lid[..n], &s.mate[..n]);
+    s.pairs.extend(
+        mate.iter()
+            .enumerate()
+            .filter(|&(h, &g)| g as usize > h)
+            .map(|(h, &g)| (h as u32, g, lid[h] == lid[g as usize])),
+    );
     Ok(())
 }
 
@@ -708,6 +716,30 @@ fn repeated_position(points: &[[f64; 3]], s: &mut Scratch) -> bool {
     false
 }
 
+/// The error for a vertex repeated in loop `face` (face `f` of `cell`):
+/// the first repeat for short loops, the smallest repeated id for long ones.
+fn repeated_in_face(
+    cell: usize,
+    f: usize,
+    face: &[u32],
+    tmp: &mut Vec<u32>,
+) -> Result<(), CielError> {
+    let repeated = if face.len() <= 12 {
+        (1..face.len()).find_map(|i| face[..i].contains(&face[i]).then_some(face[i]))
+    } else {
+        sorted_into(face, tmp);
+        tmp.windows(2).find(|w| w[0] == w[1]).map(|w| w[0])
+    };
+    match repeated {
+        Some(vertex) => Err(CielError::RepeatedFaceVertex {
+            cell,
+            face: f,
+            vertex,
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Checks and orients the loops of one cell held in `s` (see the module
 /// docs of [`super`]); on success `s.ids`/`s.starts` hold the outward loops
 /// and `s.mate` the local `mate_face`. Returns (class, flipped, non-convex).
@@ -717,28 +749,32 @@ fn check_cell(
     s: &mut Scratch,
 ) -> Result<(CellClass, usize, bool), CielError> {
     let nf = s.starts.len() - 1;
-    // Shape checks.
-    for f in 0..nf {
-        let face = &s.ids[s.starts[f] as usize..s.starts[f + 1] as usize];
-        if face.len() < 3 {
-            return Err(CielError::ShortFace {
-                cell,
-                face: f,
-                len: face.len(),
-            });
+    // Shape checks: faces of fewer than 3 vertices (then the per-face scan,
+    // in face order), else repeated vertices found through local ids.
+    if s.starts.windows(2).any(|w| w[1] - w[0] < 3) {
+        for f in 0..nf {
+            let face = &s.ids[s.starts[f] as usize..s.starts[f + 1] as usize];
+            if face.len() < 3 {
+                return Err(CielError::ShortFace {
+                    cell,
+                    face: f,
+                    len: face.len(),
+                });
+            }
+            repeated_in_face(cell, f, face, &mut s.tmp)?;
         }
-        let repeated = if face.len() <= 12 {
-            (1..face.len()).find_map(|i| face[..i].contains(&face[i]).then_some(face[i]))
-        } else {
-            sorted_into(face, &mut s.tmp);
-            s.tmp.windows(2).find(|w| w[0] == w[1]).map(|w| w[0])
-        };
-        if let Some(vertex) = repeated {
-            return Err(CielError::RepeatedFaceVertex {
-                cell,
-                face: f,
-                vertex,
-            });
+    }
+    local_ids(s);
+    s.stamp.clear();
+    s.stamp.resize(s.verts.len(), NONE);
+    for f in 0..nf {
+        let (a, b) = (s.starts[f] as usize, s.starts[f + 1] as usize);
+        for &l in &s.lid[a..b] {
+            if s.stamp[l as usize] == f as u32 {
+                // This face repeats a vertex: named as the per-face scan does.
+                repeated_in_face(cell, f, &s.ids[a..b], &mut s.tmp)?;
+            }
+            s.stamp[l as usize] = f as u32;
         }
     }
     // Duplicate faces: a face key seen twice (rare: two faces sharing their
@@ -747,7 +783,6 @@ fn check_cell(
     if face_keys_clash(s) {
         duplicate_faces_sorted(cell, s)?;
     }
-    local_ids(s);
     pair_edges(cell, s)?;
     let mut flipped = orient(cell, s)?;
     if flipped > 0 {
@@ -1480,5 +1515,137 @@ mod tests {
             kinds[ra.is_ok() as usize] += 1;
         }
         assert!(kinds[0] > 100 && kinds[1] > 100, "{kinds:?}");
+    }
+
+    /// The shape and duplicate checks of [`check_cell`] against a plain
+    /// per-face scan in face order (short face, then repeated vertex: the
+    /// first repeat for loops of up to 12, the smallest repeated id beyond)
+    /// and an all-pairs duplicate search, on cube-like cells with short
+    /// faces, repeated vertices, long faces and duplicate faces.
+    #[test]
+    fn shape_checks_match_a_per_face_scan() {
+        let cube: [[u32; 4]; 6] = [
+            [0, 3, 2, 1],
+            [4, 5, 6, 7],
+            [0, 1, 5, 4],
+            [1, 2, 6, 5],
+            [2, 3, 7, 6],
+            [3, 0, 4, 7],
+        ];
+        let points: Vec<[f64; 3]> = (0..40)
+            .map(|i| {
+                [
+                    (i & 1) as f64,
+                    ((i >> 1) & 1) as f64,
+                    ((i >> 2) & 1) as f64 + (i >> 3) as f64 * 0.01,
+                ]
+            })
+            .collect();
+        let mut state = 5u64;
+        let mut next = |m: u64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) % m
+        };
+        let mut kinds = std::collections::BTreeMap::new();
+        for round in 0..4000 {
+            let mut faces: Vec<Vec<u32>> = cube.iter().map(|f| f.to_vec()).collect();
+            for _ in 0..next(3) {
+                let f = next(faces.len() as u64) as usize;
+                match next(5) {
+                    0 => faces[f].truncate(next(3) as usize),
+                    1 if !faces[f].is_empty() => {
+                        let v = faces[f][next(faces[f].len() as u64) as usize];
+                        let at = next(faces[f].len() as u64 + 1) as usize;
+                        faces[f].insert(at, v);
+                    }
+                    2 => {
+                        let extra = 10 + next(6) as u32;
+                        faces[f].extend((0..extra).map(|i| 8 + (i + next(3) as u32 * 7) % 32));
+                    }
+                    3 => {
+                        let mut d = faces[f].clone();
+                        let r = next(d.len().max(1) as u64) as usize;
+                        d.rotate_left(r);
+                        if next(2) == 0 {
+                            d.reverse();
+                        }
+                        let at = next(faces.len() as u64 + 1) as usize;
+                        faces.insert(at, d);
+                    }
+                    _ => {
+                        let g = next(faces.len() as u64) as usize;
+                        faces.swap(f, g);
+                    }
+                }
+            }
+            let mut stream = vec![faces.len() as u32];
+            for f in &faces {
+                stream.push(f.len() as u32);
+                stream.extend_from_slice(f);
+            }
+            let mut s = Scratch::default();
+            parse_faces_into(0, &stream, &mut s.ids, &mut s.starts).unwrap();
+            let got = check_cell(0, &points, &mut s);
+            // Reference: the per-face scan, then duplicates.
+            let mut want = None;
+            for (f, face) in faces.iter().enumerate() {
+                if face.len() < 3 {
+                    want = Some(CielError::ShortFace {
+                        cell: 0,
+                        face: f,
+                        len: face.len(),
+                    });
+                    break;
+                }
+                let repeated = if face.len() <= 12 {
+                    (1..face.len()).find_map(|i| face[..i].contains(&face[i]).then_some(face[i]))
+                } else {
+                    let mut t = face.clone();
+                    t.sort_unstable();
+                    t.windows(2).find(|w| w[0] == w[1]).map(|w| w[0])
+                };
+                if let Some(vertex) = repeated {
+                    want = Some(CielError::RepeatedFaceVertex {
+                        cell: 0,
+                        face: f,
+                        vertex,
+                    });
+                    break;
+                }
+            }
+            let set = |f: &Vec<u32>| {
+                let mut t = f.clone();
+                t.sort_unstable();
+                t
+            };
+            let dup = (0..faces.len())
+                .any(|i| (i + 1..faces.len()).any(|j| set(&faces[i]) == set(&faces[j])));
+            let kind = match (&want, &got) {
+                (Some(w), Err(e)) => {
+                    assert_eq!(e, w, "round {round}: {faces:?}");
+                    "shape"
+                }
+                (Some(w), Ok(_)) => panic!("round {round}: {w} missed: {faces:?}"),
+                (None, Err(CielError::DuplicateFace { face, other, .. })) => {
+                    assert!(face < other, "round {round}");
+                    assert_eq!(set(&faces[*face]), set(&faces[*other]), "round {round}");
+                    "duplicate"
+                }
+                (None, r) => {
+                    assert!(
+                        !dup || r.is_err(),
+                        "round {round}: duplicate missed: {faces:?}"
+                    );
+                    "other"
+                }
+            };
+            *kinds.entry(kind).or_insert(0usize) += 1;
+        }
+        assert!(
+            kinds.values().all(|&k| k > 100) && kinds.len() == 3,
+            "{kinds:?}"
+        );
     }
 }
