@@ -1,19 +1,22 @@
 //! Construction of a [`Ciel`] from face lists (the paper's §4.2), linear in
 //! the input and free of per-cell allocations.
 //!
-//! 1. Per chunk of cells (in parallel, scratch buffers reused): face loops
-//!    are read straight from the face stream (or the catalog's faces for
-//!    typed cells), checked, oriented and written as half-edges with their
-//!    `mate_face` offsets; each face leaves a record keyed by its smallest
-//!    vertex and that vertex's two loop neighbours.
-//! 2. Chunks are concatenated in cell order (deterministic).
-//! 3. `mate_cell`: face records are bucketed by smallest vertex (a counting
-//!    sort), each bucket is sorted by its keys and equal keys are matched by
-//!    their reversed loops (in parallel over vertex ranges).
+//! 1. Exact per-cell bounds (half-edges, faces) give each chunk of cells its
+//!    part of the final arrays. Per chunk (in parallel, scratch buffers
+//!    reused): face loops are read straight from the face stream (or the
+//!    catalog's faces for typed cells), checked, oriented and written as
+//!    half-edges with their `mate_face` offsets; each face leaves a record
+//!    keyed by its smallest vertex and that vertex's two loop neighbours.
+//! 2. Parts left short by cells found dead slide down in order
+//!    (deterministic; nothing moves when every cell is live).
+//! 3. `mate_cell`: face records are grouped by smallest vertex (a parallel
+//!    stable counting sort), each group is sorted by its keys and equal keys
+//!    are matched by their reversed loops (in parallel over vertex ranges).
 //! 4. Vertex cycles: a half-edge is the representative of its fan (the
 //!    half-edges with the same origin around one edge, linked by
 //!    `mate_face`∘`mate_cell`) when it has the smallest id of the fan; the
-//!    representatives are stored per origin vertex (CSR), in id order.
+//!    representatives are grouped per origin vertex (CSR, the same counting
+//!    sort), in id order.
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
@@ -41,6 +44,33 @@ struct FaceRec {
     hi: u32,
 }
 
+/// A table reused from cell to cell: each slot carries the generation
+/// that wrote it, so that a new generation empties the table without
+/// clearing it.
+#[derive(Default)]
+struct Stamped<T> {
+    slots: Vec<(T, u32)>,
+    generation: u32,
+}
+
+impl<T: Copy + Default> Stamped<T> {
+    /// Starts a new generation over at least `cap` slots (a smaller table
+    /// grows to `cap` exactly) and returns it.
+    fn begin(&mut self, cap: usize) -> u32 {
+        if self.slots.len() < cap {
+            self.slots.clear();
+            self.slots.resize(cap, (T::default(), 0));
+            self.generation = 0;
+        }
+        self.generation = self.generation.wrapping_add(1);
+        if self.generation == 0 {
+            self.slots.fill((T::default(), 0));
+            self.generation = 1;
+        }
+        self.generation
+    }
+}
+
 /// Reused per-task buffers of the per-cell phase.
 #[derive(Default)]
 struct Scratch {
@@ -52,9 +82,8 @@ struct Scratch {
     lid: Vec<u32>,
     /// Next half-edge in its face.
     nxt: Vec<u32>,
-    /// Global → local vertex id table: (global, local, generation).
-    table: Vec<(u32, u32, u32)>,
-    table_generation: u32,
+    /// Global → local vertex id table: (global, local).
+    table: Stamped<(u32, u32)>,
     /// Outgoing half-edges per local vertex (CSR).
     out_start: Vec<u32>,
     out: Vec<u32>,
@@ -62,10 +91,8 @@ struct Scratch {
     pairs: Vec<(u32, u32, bool)>,
     /// Local `mate_face`.
     mate: Vec<u32>,
-    /// [`pair_edges`]' table: per unordered local edge, (first half-edge,
-    /// generation).
-    edge_table: Vec<(u32, u32)>,
-    edge_generation: u32,
+    /// [`pair_edges`]' table: per unordered local edge, its first half-edge.
+    edge_table: Stamped<u32>,
     /// Face of each local half-edge.
     he_face: Vec<u32>,
     /// Per local vertex, the last face seen using it.
@@ -78,12 +105,10 @@ struct Scratch {
     /// Sort buffers.
     tmp: Vec<u32>,
     tmp2: Vec<u32>,
-    /// [`face_keys_clash`]' table: (face, generation).
-    face_table: Vec<(u32, u32)>,
-    face_generation: u32,
-    /// [`repeated_position`]'s table: (coordinate hash, local vertex, generation).
-    point_table: Vec<(u64, u32, u32)>,
-    point_generation: u32,
+    /// [`face_keys_clash`]' table: faces.
+    face_table: Stamped<u32>,
+    /// [`repeated_position`]'s table: (coordinate hash, local vertex).
+    point_table: Stamped<(u64, u32)>,
     pts: Vec<[f64; 3]>,
     /// `pts` by coordinate (the convexity test vectorises over these).
     xyz: [Vec<f64>; 3],
@@ -298,36 +323,25 @@ fn local_ids(s: &mut Scratch) {
     let n = s.ids.len();
     // Open addressing over a table that only grows; slots of earlier
     // cells are told apart by a generation instead of being cleared.
-    let cap = (2 * n).next_power_of_two().max(256);
-    if s.table.len() < cap {
-        s.table.clear();
-        s.table.resize(cap, (0, 0, 0));
-        s.table_generation = 0;
-    }
-    s.table_generation = s.table_generation.wrapping_add(1);
-    if s.table_generation == 0 {
-        s.table.fill((0, 0, 0));
-        s.table_generation = 1;
-    }
-    let generation = s.table_generation;
-    let mask = s.table.len() - 1;
+    let generation = s.table.begin((2 * n).next_power_of_two().max(256));
+    let mask = s.table.slots.len() - 1;
     s.verts.clear();
     s.lid.clear();
     s.lid.resize(n, 0);
-    let (ids, lid, table) = (&s.ids[..n], &mut s.lid[..n], &mut s.table[..]);
+    let (ids, lid, table) = (&s.ids[..n], &mut s.lid[..n], &mut s.table.slots[..]);
     for (i, &v) in ids.iter().enumerate() {
         let mut k = (v.wrapping_mul(0x9E37_79B9) >> 7) as usize & mask;
         loop {
-            let e = table[k];
-            if e.2 != generation {
+            let ((w, l), g) = table[k];
+            if g != generation {
                 let l = s.verts.len() as u32;
-                table[k] = (v, l, generation);
+                table[k] = ((v, l), generation);
                 lid[i] = l;
                 s.verts.push(v);
                 break;
             }
-            if e.0 == v {
-                lid[i] = e.1;
+            if w == v {
+                lid[i] = l;
                 break;
             }
             k = (k + 1) & mask;
@@ -358,23 +372,15 @@ fn pair_edges(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
     }
     // Per unordered local edge (lo, hi): the first half-edge seen + 1
     // (0 = none), under the current generation; a second fills `mate`.
-    if s.edge_table.len() < nv * nv {
-        // Grown to this cell's need only: a fresh scratch (one per
-        // `polyhedron_faces` call) must not clear the whole 128² table.
-        s.edge_table.resize(nv * nv, (0, 0));
-    }
-    s.edge_generation = s.edge_generation.wrapping_add(1);
-    if s.edge_generation == 0 {
-        s.edge_table.fill((0, 0));
-        s.edge_generation = 1;
-    }
-    let generation = s.edge_generation;
+    // Grown to this cell's need only: a fresh scratch (one per
+    // `polyhedron_faces` call) must not clear the whole 128² table.
+    let generation = s.edge_table.begin(nv * nv);
     s.mate.clear();
     s.mate.resize(n, NONE);
     let mut ok = true;
     {
         let (lid, nxt, mate) = (&s.lid[..n], &s.nxt[..n], &mut s.mate[..n]);
-        let table = &mut s.edge_table[..nv * nv];
+        let table = &mut s.edge_table.slots[..nv * nv];
         for h in 0..n {
             let (la, lb) = (lid[h], lid[nxt[h] as usize]);
             let (lo, hi) = if la < lb { (la, lb) } else { (lb, la) };
@@ -613,19 +619,8 @@ pub(crate) fn polyhedron_faces(
 /// (through a small open-addressing table, no sort).
 fn face_keys_clash(s: &mut Scratch) -> bool {
     let nf = s.starts.len() - 1;
-    let cap = (2 * nf).next_power_of_two().max(32);
-    if s.face_table.len() < cap {
-        s.face_table.clear();
-        s.face_table.resize(cap, (0, 0));
-        s.face_generation = 0;
-    }
-    s.face_generation = s.face_generation.wrapping_add(1);
-    if s.face_generation == 0 {
-        s.face_table.fill((0, 0));
-        s.face_generation = 1;
-    }
-    let generation = s.face_generation;
-    let mask = s.face_table.len() - 1;
+    let generation = s.face_table.begin((2 * nf).next_power_of_two().max(32));
+    let mask = s.face_table.slots.len() - 1;
     s.fkeys.clear();
     for f in 0..nf {
         let (_, m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
@@ -633,9 +628,9 @@ fn face_keys_clash(s: &mut Scratch) -> bool {
         let h = (m ^ lo.rotate_left(11) ^ hi.rotate_left(22)).wrapping_mul(0x9E37_79B9);
         let mut k = (h >> 7) as usize & mask;
         loop {
-            let e = s.face_table[k];
+            let e = s.face_table.slots[k];
             if e.1 != generation {
-                s.face_table[k] = (f as u32, generation);
+                s.face_table.slots[k] = (f as u32, generation);
                 break;
             }
             let o = s.fkeys[e.0 as usize];
@@ -682,32 +677,21 @@ fn duplicate_faces_sorted(cell: usize, s: &mut Scratch) -> Result<(), CielError>
 /// Whether two distinct local vertices of `s.verts` sit at the same
 /// position (bitwise-hashed coordinates, then compared with `==`).
 fn repeated_position(points: &[[f64; 3]], s: &mut Scratch) -> bool {
-    let nv = s.verts.len();
-    let cap = (2 * nv).next_power_of_two().max(64);
-    if s.point_table.len() < cap {
-        s.point_table.clear();
-        s.point_table.resize(cap, (0, 0, 0));
-        s.point_generation = 0;
-    }
-    s.point_generation = s.point_generation.wrapping_add(1);
-    if s.point_generation == 0 {
-        s.point_table.fill((0, 0, 0));
-        s.point_generation = 1;
-    }
-    let generation = s.point_generation;
-    let mask = s.point_table.len() - 1;
+    let cap = (2 * s.verts.len()).next_power_of_two().max(64);
+    let generation = s.point_table.begin(cap);
+    let mask = s.point_table.slots.len() - 1;
     for (l, &v) in s.verts.iter().enumerate() {
         let p = points[v as usize];
         let b = p.map(f64::to_bits);
         let h = b[0] ^ b[1].rotate_left(21) ^ b[2].rotate_left(42);
         let mut k = (h.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as usize & mask;
         loop {
-            let e = s.point_table[k];
-            if e.2 != generation {
-                s.point_table[k] = (h, l as u32, generation);
+            let ((eh, el), g) = s.point_table.slots[k];
+            if g != generation {
+                s.point_table.slots[k] = ((h, l as u32), generation);
                 break;
             }
-            if e.0 == h && points[s.verts[e.1 as usize] as usize] == p {
+            if eh == h && points[s.verts[el as usize] as usize] == p {
                 return true;
             }
             k = (k + 1) & mask;
@@ -1450,29 +1434,35 @@ fn try_mate(
 mod tests {
     use super::*;
 
+    /// The unit cube's faces, outward.
+    const CUBE: [[u32; 4]; 6] = [
+        [0, 3, 2, 1],
+        [4, 5, 6, 7],
+        [0, 1, 5, 4],
+        [1, 2, 6, 5],
+        [2, 3, 7, 6],
+        [3, 0, 4, 7],
+    ];
+
+    /// A small deterministic generator: `next(m)` is in `0..m`.
+    fn lcg(mut state: u64) -> impl FnMut(u64) -> u64 {
+        move |m| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) % m
+        }
+    }
+
     /// The edge-table pairing and the per-vertex-list pairing agree on
     /// pairs, mates and errors, over cube-like cells with random face
     /// orders, flipped faces, dropped faces and extra faces.
     #[test]
     fn edge_table_pairing_matches_the_list_pairing() {
-        let cube: [[u32; 4]; 6] = [
-            [0, 3, 2, 1],
-            [4, 5, 6, 7],
-            [0, 1, 5, 4],
-            [1, 2, 6, 5],
-            [2, 3, 7, 6],
-            [3, 0, 4, 7],
-        ];
-        let mut state = 11u64;
-        let mut next = |m: u64| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 33) % m
-        };
+        let mut next = lcg(11);
         let mut kinds = [0usize; 2];
         for round in 0..2000 {
-            let mut faces: Vec<Vec<u32>> = cube.iter().map(|f| f.to_vec()).collect();
+            let mut faces: Vec<Vec<u32>> = CUBE.iter().map(|f| f.to_vec()).collect();
             for f in faces.iter_mut() {
                 if next(4) == 0 {
                     f.reverse();
@@ -1524,14 +1514,6 @@ mod tests {
     /// faces, repeated vertices, long faces and duplicate faces.
     #[test]
     fn shape_checks_match_a_per_face_scan() {
-        let cube: [[u32; 4]; 6] = [
-            [0, 3, 2, 1],
-            [4, 5, 6, 7],
-            [0, 1, 5, 4],
-            [1, 2, 6, 5],
-            [2, 3, 7, 6],
-            [3, 0, 4, 7],
-        ];
         let points: Vec<[f64; 3]> = (0..40)
             .map(|i| {
                 [
@@ -1541,16 +1523,10 @@ mod tests {
                 ]
             })
             .collect();
-        let mut state = 5u64;
-        let mut next = |m: u64| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 33) % m
-        };
+        let mut next = lcg(5);
         let mut kinds = std::collections::BTreeMap::new();
         for round in 0..4000 {
-            let mut faces: Vec<Vec<u32>> = cube.iter().map(|f| f.to_vec()).collect();
+            let mut faces: Vec<Vec<u32>> = CUBE.iter().map(|f| f.to_vec()).collect();
             for _ in 0..next(3) {
                 let f = next(faces.len() as u64) as usize;
                 match next(5) {
