@@ -294,19 +294,20 @@ fn face_of(starts: &[u32], h: u32) -> usize {
     starts.partition_point(|&s| s <= h) - 1
 }
 
-/// Index of the smallest vertex of a loop and its two neighbours, sorted.
+/// The smallest vertex of a loop (of at least one vertex) and its two loop
+/// neighbours, sorted.
 #[inline]
-fn face_key(face: &[u32]) -> (usize, u32, u32, u32) {
-    let mut p = 0;
-    for (i, &v) in face.iter().enumerate() {
-        if v < face[p] {
-            p = i;
+fn face_key(face: &[u32]) -> (u32, u32, u32) {
+    let (mut p, mut low) = (0, face[0]);
+    for (i, &v) in face.iter().enumerate().skip(1) {
+        if v < low {
+            (p, low) = (i, v);
         }
     }
     let n = face.len();
     let a = face[if p == 0 { n - 1 } else { p - 1 }];
     let b = face[if p + 1 == n { 0 } else { p + 1 }];
-    (p, face[p], a.min(b), a.max(b))
+    (low, a.min(b), a.max(b))
 }
 
 /// Sorted copy of a loop into `out`.
@@ -623,7 +624,7 @@ fn face_keys_clash(s: &mut Scratch) -> bool {
     let mask = s.face_table.slots.len() - 1;
     s.fkeys.clear();
     for f in 0..nf {
-        let (_, m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
+        let (m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
         s.fkeys.push((m, lo, hi, f as u32));
         let h = (m ^ lo.rotate_left(11) ^ hi.rotate_left(22)).wrapping_mul(0x9E37_79B9);
         let mut k = (h >> 7) as usize & mask;
@@ -650,7 +651,7 @@ fn duplicate_faces_sorted(cell: usize, s: &mut Scratch) -> Result<(), CielError>
     let nf = s.starts.len() - 1;
     s.fkeys.clear();
     for f in 0..nf {
-        let (_, m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
+        let (m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
         s.fkeys.push((m, lo, hi, f as u32));
     }
     let mut keys = s.fkeys.clone();
