@@ -33,16 +33,19 @@ use crate::structure::{CellClass, classify_cell, is_sweepable, split_lengths};
 /// Cells per parallel task of the per-cell phase.
 const CHUNK_CELLS: usize = 1024;
 
-/// A face as seen by the cross-cell matching: its first half-edge (global
-/// once chunks are concatenated), its smallest vertex `m` and the two loop
-/// neighbours of `m`, sorted.
-#[derive(Clone, Copy, Debug)]
-struct FaceRec {
-    start: u32,
-    m: u32,
-    lo: u32,
-    hi: u32,
-}
+/// A face as seen by the cross-cell matching: its first half-edge (global),
+/// its smallest vertex `m` and the two loop neighbours of `m`, sorted;
+/// indexed by [`START`], [`M`], [`LO`], [`HI`] (a plain array, so that the
+/// array of all faces is allocated zeroed, without a fill).
+type FaceRec = [u32; 4];
+/// [`FaceRec`]'s first half-edge.
+const START: usize = 0;
+/// [`FaceRec`]'s smallest vertex.
+const M: usize = 1;
+/// [`FaceRec`]'s smaller neighbour of [`M`].
+const LO: usize = 2;
+/// [`FaceRec`]'s larger neighbour of [`M`].
+const HI: usize = 3;
 
 /// A table reused from cell to cell: each slot carries the generation
 /// that wrote it, so that a new generation empties the table without
@@ -921,12 +924,7 @@ fn build_chunk(
                     for ((w, &(m, lo, hi, _)), rec) in keys.zip(faces.iter_mut()) {
                         let (a, b) = (w[0] as usize, w[1] as usize);
                         let face = &s.ids[a..b];
-                        *rec = FaceRec {
-                            start: base + a as u32,
-                            m,
-                            lo,
-                            hi,
-                        };
+                        *rec = [base + a as u32, m, lo, hi];
                         origins[a..b].copy_from_slice(face);
                         origins[a] |= FIRST_IN_FACE;
                         origins[b - 1] |= LAST_IN_FACE;
@@ -1045,13 +1043,7 @@ impl Ciel {
         let mut origins = vec![0u32; he_bound];
         let mut mate_face = vec![0i16; he_bound];
         let mut cell_start = vec![0u32; n + 1];
-        let zero = FaceRec {
-            start: 0,
-            m: 0,
-            lo: 0,
-            hi: 0,
-        };
-        let mut faces: Vec<FaceRec> = vec![zero; face_bound];
+        let mut faces: Vec<FaceRec> = vec![[0; 4]; face_bound];
         let he_lens: Vec<usize> = bounds.iter().map(|b| b.0).collect();
         let face_lens: Vec<usize> = bounds.iter().map(|b| b.1).collect();
         let cell_lens: Vec<usize> = (0..nchunks).map(|k| chunk_range(k).len()).collect();
@@ -1095,7 +1087,7 @@ impl Ciel {
                 mate_face.copy_within(hb..hb + ch.half_edges, total);
                 faces.copy_within(fb..fb + ch.faces, nfaces);
                 for f in &mut faces[nfaces..nfaces + ch.faces] {
-                    f.start -= shift;
+                    f[START] -= shift;
                 }
                 for s in &mut cell_start[chunk_range(k)] {
                     *s -= shift;
@@ -1126,7 +1118,7 @@ impl Ciel {
         counts.faces = nfaces;
         // 3. mate_cell: faces bucketed by smallest vertex (counting sort).
         let (bstart, bucket) = group_by_key(np, &FacesByVertex(&faces));
-        let face_end = |i: usize| faces.get(i + 1).map_or(total as u32, |g| g.start);
+        let face_end = |i: usize| faces.get(i + 1).map_or(total as u32, |g| g[START]);
         let mate_cell: Vec<AtomicU32> = (0..total)
             .into_par_iter()
             .map(|_| AtomicU32::new(NONE))
@@ -1145,7 +1137,7 @@ impl Ciel {
                     group.clear();
                     group.extend(b.iter().map(|&i| {
                         let f = &faces[i as usize];
-                        (f.lo, f.hi, i)
+                        (f[LO], f[HI], i)
                     }));
                     group.sort_unstable();
                     let mut i = 0;
@@ -1161,7 +1153,7 @@ impl Ciel {
                             continue;
                         }
                         let loop_of = |i: u32| -> std::ops::Range<u32> {
-                            faces[i as usize].start..face_end(i as usize)
+                            faces[i as usize][START]..face_end(i as usize)
                         };
                         // (Two faces of one cell never match: per-cell
                         // duplicates are rejected before.)
@@ -1188,7 +1180,7 @@ impl Ciel {
                             }
                             let bad = |f: u32, why: String| {
                                 let (cell, face) =
-                                    locate(&cell_start, &origins, faces[f as usize].start);
+                                    locate(&cell_start, &origins, faces[f as usize][START]);
                                 CielError::BadSharedFace { cell, face, why }
                             };
                             match b - a {
@@ -1197,7 +1189,7 @@ impl Ciel {
                                     let (f, h) = (sets[a].1, sets[a + 1].1);
                                     if !try_mate(loop_of(f), loop_of(h), org, &mate_cell) {
                                         let (oc, of) =
-                                            locate(&cell_start, &origins, faces[h as usize].start);
+                                            locate(&cell_start, &origins, faces[h as usize][START]);
                                         return Err(bad(
                                             f,
                                             format!(
@@ -1289,7 +1281,7 @@ impl KeyedItems for FacesByVertex<'_> {
     }
     fn each(&self, r: std::ops::Range<usize>, mut f: impl FnMut(u32, u32)) {
         for i in r.clone() {
-            f(i as u32, self.0[i].m);
+            f(i as u32, self.0[i][M]);
         }
     }
 }
