@@ -1152,3 +1152,296 @@ fn law_voronoi_reports_rows_and_a_fit() {
     assert!((2.5..6.0).contains(&ratio), "cut cells grew by {ratio}");
     assert!(v["fit"]["b_ns_per_cut_cell"].as_f64().unwrap().is_finite());
 }
+
+/// `g` with every polyhedron's faces randomly reversed and rotated (the
+/// build must orient them; face 0 inward reverses the whole cell), and a
+/// dead hexahedron (one vertex eight times) before every `dead_every`-th
+/// cell.
+fn scramble_faces(g: &Grid, rng: &mut Rng, dead_every: usize) -> Grid {
+    let Topology::Unstructured(cells) = &g.topology else {
+        panic!("unstructured grid expected")
+    };
+    let mut out = Cells::default();
+    for c in 0..cells.len() {
+        if c % dead_every == dead_every / 2 {
+            out.push(vtk_type::HEXAHEDRON, &[c as u32; 8]);
+        }
+        if cells.types[c] != vtk_type::POLYHEDRON {
+            out.push(cells.types[c], cells.cell(c));
+            continue;
+        }
+        let mut faces = parse_face_stream(c, cells.faces_of(c)).unwrap();
+        for f in faces.iter_mut() {
+            if rng.f64() < 0.4 {
+                f.reverse();
+            }
+            let r = rng.below(f.len());
+            f.rotate_left(r);
+        }
+        out.push_polyhedron(&faces);
+    }
+    Grid {
+        points: g.points.clone(),
+        topology: Topology::Unstructured(out),
+        point_data: g.point_data.clone(),
+        cell_data: g.cell_data.clone(),
+    }
+}
+
+/// Newell normal of loop `f` dotted with (face centroid − `centre`):
+/// positive for an outward face of a star-shaped cell.
+fn outwardness(points: &[[f64; 3]], f: &[u32], centre: [f64; 3]) -> f64 {
+    let mut nrm = [0.0; 3];
+    let mut fc = [0.0; 3];
+    for (i, &v) in f.iter().enumerate() {
+        let a = points[v as usize];
+        let b = points[f[(i + 1) % f.len()] as usize];
+        nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
+        for k in 0..3 {
+            fc[k] += a[k] / f.len() as f64;
+        }
+    }
+    (0..3).map(|k| nrm[k] * (fc[k] - centre[k])).sum()
+}
+
+/// The CIEL of `g` field by field against a straightforward rebuild from
+/// the input faces alone (hash maps, no sorting tricks): cell ranges,
+/// origins with their face flags (outward loops; the cell's face order
+/// reversed when its first input face points inward), `mate_face`,
+/// `mate_cell` (faces with equal vertex sets in two cells), the vertex
+/// cycles (smallest half-edge of each fan, per origin in id order), the
+/// cell lookup and the counts. Typed cells keep the catalog's loops, which
+/// are checked to be the cell's faces, outward.
+fn check_against_reference_build(g: &Grid, c: &Ciel, label: &str) {
+    use std::collections::HashMap;
+    use stratasweep::ciel::{FIRST_IN_FACE, LAST_IN_FACE, NONE};
+    let Topology::Unstructured(cells) = &g.topology else {
+        panic!("unstructured grid expected")
+    };
+    let hidden = g.hidden_cells();
+    let p = &g.points;
+    let mut words: Vec<u32> = Vec::new();
+    let mut cell_start = vec![0u32];
+    let mut faces: Vec<(u32, std::ops::Range<u32>)> = Vec::new();
+    let (mut flipped, mut n_hidden) = (0usize, 0usize);
+    for ci in 0..cells.len() {
+        if hidden.as_ref().is_some_and(|h| h[ci]) {
+            n_hidden += 1;
+            cell_start.push(words.len() as u32);
+            continue;
+        }
+        let loops: Vec<Vec<u32>> = if cells.types[ci] == vtk_type::POLYHEDRON {
+            let input = parse_face_stream(ci, cells.faces_of(ci)).unwrap();
+            let mut verts: Vec<u32> = input.concat();
+            verts.sort_unstable();
+            verts.dedup();
+            let mut centre = [0.0; 3];
+            for &v in &verts {
+                for k in 0..3 {
+                    centre[k] += p[v as usize][k] / verts.len() as f64;
+                }
+            }
+            let inward: Vec<bool> = input
+                .iter()
+                .map(|f| outwardness(p, f, centre) < 0.0)
+                .collect();
+            flipped += inward.iter().filter(|&&x| x).count();
+            let mut out: Vec<Vec<u32>> = input
+                .iter()
+                .zip(&inward)
+                .map(|(f, &i)| {
+                    let mut f = f.clone();
+                    if i {
+                        f.reverse();
+                    }
+                    f
+                })
+                .collect();
+            if inward[0] {
+                out.reverse();
+            }
+            out
+        } else if cells.cell(ci).iter().all(|&v| v == cells.cell(ci)[0]) {
+            // A dead cell (one vertex eight times): no half-edges.
+            Vec::new()
+        } else {
+            assert_eq!(cells.types[ci], vtk_type::HEXAHEDRON, "{label}");
+            let ids = cells.cell(ci);
+            let built = c.faces_of(ci as u32);
+            let set = |f: &[u32]| {
+                let mut s = f.to_vec();
+                s.sort_unstable();
+                s
+            };
+            let mut want: Vec<Vec<u32>> = [
+                [0, 1, 2, 3],
+                [4, 5, 6, 7],
+                [0, 1, 5, 4],
+                [1, 2, 6, 5],
+                [2, 3, 7, 6],
+                [3, 0, 4, 7],
+            ]
+            .iter()
+            .map(|f| set(&f.map(|l| ids[l])))
+            .collect();
+            let mut got: Vec<Vec<u32>> = built.iter().map(|f| set(f)).collect();
+            want.sort();
+            got.sort();
+            assert_eq!(got, want, "{label}: cell {ci}'s faces");
+            let mut centre = [0.0; 3];
+            for &v in ids {
+                for k in 0..3 {
+                    centre[k] += p[v as usize][k] / 8.0;
+                }
+            }
+            for f in &built {
+                assert!(outwardness(p, f, centre) > 0.0, "{label}: cell {ci} inward");
+            }
+            built
+        };
+        for f in &loops {
+            let s = words.len() as u32;
+            for (i, &v) in f.iter().enumerate() {
+                let mut w = v;
+                if i == 0 {
+                    w |= FIRST_IN_FACE;
+                }
+                if i + 1 == f.len() {
+                    w |= LAST_IN_FACE;
+                }
+                words.push(w);
+            }
+            faces.push((ci as u32, s..words.len() as u32));
+        }
+        cell_start.push(words.len() as u32);
+    }
+    let n = words.len();
+    assert_eq!(c.cell_start, cell_start, "{label}: cell_start");
+    assert_eq!(c.half_edge_count(), n, "{label}: half-edges");
+    let org = |h: usize| words[h] & stratasweep::ciel::VERTEX_MASK;
+    let mut next = vec![0usize; n];
+    let mut cell_of = vec![0u32; n];
+    for (cell, r) in &faces {
+        for h in r.clone() {
+            next[h as usize] = if h + 1 == r.end { r.start } else { h + 1 } as usize;
+            cell_of[h as usize] = *cell;
+        }
+    }
+    // mate_face: the opposite directed edge in the same cell.
+    let mut mate_face = vec![NONE; n];
+    for ci in 0..cells.len() {
+        let r = cell_start[ci] as usize..cell_start[ci + 1] as usize;
+        let by_edge: HashMap<(u32, u32), usize> =
+            r.clone().map(|h| ((org(h), org(next[h])), h)).collect();
+        for h in r {
+            mate_face[h] = by_edge[&(org(next[h]), org(h))] as u32;
+        }
+    }
+    // mate_cell: faces with the same vertex set in two cells, reversed.
+    let mut by_set: HashMap<Vec<u32>, Vec<usize>> = HashMap::new();
+    for (i, (_, r)) in faces.iter().enumerate() {
+        let mut s: Vec<u32> = r.clone().map(|h| org(h as usize)).collect();
+        s.sort_unstable();
+        by_set.entry(s).or_default().push(i);
+    }
+    let mut mate_cell = vec![NONE; n];
+    for group in by_set.values() {
+        assert!(group.len() <= 2, "{label}: a face in {} cells", group.len());
+        if group.len() == 2 {
+            let (f, h) = (&faces[group[0]].1, &faces[group[1]].1);
+            for a in f.clone() {
+                let a = a as usize;
+                let b = h
+                    .clone()
+                    .map(|b| b as usize)
+                    .find(|&b| org(b) == org(next[a]) && org(next[b]) == org(a))
+                    .unwrap_or_else(|| panic!("{label}: shared face not reversed"));
+                mate_cell[a] = b as u32;
+                mate_cell[b] = a as u32;
+            }
+        }
+    }
+    // Representatives: the smallest half-edge of each fan.
+    let mut is_rep = vec![false; n];
+    let mut seen = vec![false; n];
+    for h in 0..n {
+        if seen[h] {
+            continue;
+        }
+        let mut orbit = vec![h];
+        let mut x = h;
+        while let y = mate_cell[mate_face[x] as usize]
+            && y != NONE
+            && y as usize != h
+        {
+            orbit.push(y as usize);
+            x = y as usize;
+        }
+        let mut x = h;
+        while let m = mate_cell[x]
+            && m != NONE
+            && mate_face[m as usize] as usize != h
+        {
+            x = mate_face[m as usize] as usize;
+            orbit.push(x);
+        }
+        for &y in &orbit {
+            seen[y] = true;
+        }
+        is_rep[*orbit.iter().min().unwrap()] = true;
+    }
+    let mut around: Vec<Vec<u32>> = vec![Vec::new(); p.len()];
+    for h in (0..n).filter(|&h| is_rep[h]) {
+        around[org(h) as usize].push(h as u32);
+    }
+    for h in 0..n {
+        let hh = h as u32;
+        assert_eq!(c.origin_word(hh), words[h], "{label}: origin of {h}");
+        assert_eq!(c.mate_face(hh), mate_face[h], "{label}: mate_face of {h}");
+        assert_eq!(c.mate_cell(hh), mate_cell[h], "{label}: mate_cell of {h}");
+        assert_eq!(c.cell_of(hh), cell_of[h], "{label}: cell of {h}");
+    }
+    for (v, want) in around.iter().enumerate() {
+        assert_eq!(c.around_vertex(v as u32), &want[..], "{label}: vertex {v}");
+    }
+    let reps = is_rep.iter().filter(|&&x| x).count();
+    assert_eq!(c.counts.faces, faces.len(), "{label}: faces");
+    assert_eq!(c.counts.flipped_faces, flipped, "{label}: flipped faces");
+    assert_eq!(c.counts.hidden, n_hidden, "{label}: hidden");
+    assert_eq!(c.counts.edges, reps / 2, "{label}: edges");
+    assert_eq!(
+        c.counts.border_half_edges,
+        mate_cell.iter().filter(|&&m| m == NONE).count(),
+        "{label}: border"
+    );
+}
+
+#[test]
+fn build_equals_a_straightforward_reference_field_by_field() {
+    let mut rng = Rng(23);
+    let mut checked = 0;
+    for round in 0..10 {
+        let n = [2 + rng.below(6), 2 + rng.below(6), 1 + rng.below(5)];
+        let jitter = if round % 2 == 0 { 0.0 } else { 0.3 };
+        let holes = [0.0, 0.15, 0.4][round % 3];
+        let g = polyhedral(n, jitter, holes, &mut rng);
+        let c = match Ciel::build(&g, g.hidden_cells().as_deref()) {
+            Err(CielError::NoCells) => continue, // every cell hidden
+            r => r.unwrap(),
+        };
+        check_against_reference_build(&g, &c, &format!("round {round} {n:?}"));
+        checked += 1;
+    }
+    assert!(checked >= 6, "only {checked} grids with live cells");
+    // Dead cells among the live ones leave gaps in the chunks' parts.
+    for (cells, seed, dead_every) in [(50, 3, 1000), (400, 4, 90), (3000, 5, 700)] {
+        let v = stratasweep::voronoi::voronoi(cells, seed);
+        let g = scramble_faces(&v, &mut rng, dead_every);
+        let c = Ciel::build(&g, None).unwrap();
+        assert!(c.counts.flipped_faces > 0);
+        assert_eq!(c.live_cells(), cells);
+        check_against_reference_build(&g, &c, &format!("voronoi {cells}"));
+    }
+}

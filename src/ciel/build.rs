@@ -1,19 +1,22 @@
 //! Construction of a [`Ciel`] from face lists (the paper's §4.2), linear in
 //! the input and free of per-cell allocations.
 //!
-//! 1. Per chunk of cells (in parallel, scratch buffers reused): face loops
-//!    are read straight from the face stream (or the catalog's faces for
-//!    typed cells), checked, oriented and written as half-edges with their
-//!    `mate_face` offsets; each face leaves a record keyed by its smallest
-//!    vertex and that vertex's two loop neighbours.
-//! 2. Chunks are concatenated in cell order (deterministic).
-//! 3. `mate_cell`: face records are bucketed by smallest vertex (a counting
-//!    sort), each bucket is sorted by its keys and equal keys are matched by
-//!    their reversed loops (in parallel over vertex ranges).
+//! 1. Exact per-cell bounds (half-edges, faces) give each chunk of cells its
+//!    part of the final arrays. Per chunk (in parallel, scratch buffers
+//!    reused): face loops are read straight from the face stream (or the
+//!    catalog's faces for typed cells), checked, oriented and written as
+//!    half-edges with their `mate_face` offsets; each face leaves a record
+//!    keyed by its smallest vertex and that vertex's two loop neighbours.
+//! 2. Parts left short by cells found dead slide down in order
+//!    (deterministic; nothing moves when every cell is live).
+//! 3. `mate_cell`: face records are grouped by smallest vertex (a parallel
+//!    stable counting sort), each group is sorted by its keys and equal keys
+//!    are matched by their reversed loops (in parallel over vertex ranges).
 //! 4. Vertex cycles: a half-edge is the representative of its fan (the
 //!    half-edges with the same origin around one edge, linked by
 //!    `mate_face`∘`mate_cell`) when it has the smallest id of the fan; the
-//!    representatives are stored per origin vertex (CSR), in id order.
+//!    representatives are grouped per origin vertex (CSR, the same counting
+//!    sort), in id order.
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
@@ -30,15 +33,45 @@ use crate::structure::{CellClass, classify_cell, is_sweepable, split_lengths};
 /// Cells per parallel task of the per-cell phase.
 const CHUNK_CELLS: usize = 1024;
 
-/// A face as seen by the cross-cell matching: its first half-edge (global
-/// once chunks are concatenated), its smallest vertex `m` and the two loop
-/// neighbours of `m`, sorted.
-#[derive(Clone, Copy, Debug)]
-struct FaceRec {
-    start: u32,
-    m: u32,
-    lo: u32,
-    hi: u32,
+/// A face as seen by the cross-cell matching: its first half-edge (global),
+/// its smallest vertex `m` and the two loop neighbours of `m`, sorted;
+/// indexed by [`START`], [`M`], [`LO`], [`HI`] (a plain array, so that the
+/// array of all faces is allocated zeroed, without a fill).
+type FaceRec = [u32; 4];
+/// [`FaceRec`]'s first half-edge.
+const START: usize = 0;
+/// [`FaceRec`]'s smallest vertex.
+const M: usize = 1;
+/// [`FaceRec`]'s smaller neighbour of [`M`].
+const LO: usize = 2;
+/// [`FaceRec`]'s larger neighbour of [`M`].
+const HI: usize = 3;
+
+/// A table reused from cell to cell: each slot carries the generation
+/// that wrote it, so that a new generation empties the table without
+/// clearing it.
+#[derive(Default)]
+struct Stamped<T> {
+    slots: Vec<(T, u32)>,
+    generation: u32,
+}
+
+impl<T: Copy + Default> Stamped<T> {
+    /// Starts a new generation over at least `cap` slots (a smaller table
+    /// grows to `cap` exactly) and returns it.
+    fn begin(&mut self, cap: usize) -> u32 {
+        if self.slots.len() < cap {
+            self.slots.clear();
+            self.slots.resize(cap, (T::default(), 0));
+            self.generation = 0;
+        }
+        self.generation = self.generation.wrapping_add(1);
+        if self.generation == 0 {
+            self.slots.fill((T::default(), 0));
+            self.generation = 1;
+        }
+        self.generation
+    }
 }
 
 /// Reused per-task buffers of the per-cell phase.
@@ -52,9 +85,8 @@ struct Scratch {
     lid: Vec<u32>,
     /// Next half-edge in its face.
     nxt: Vec<u32>,
-    /// Global → local vertex id table: (global, local, generation).
-    table: Vec<(u32, u32, u32)>,
-    table_generation: u32,
+    /// Global → local vertex id table: (global, local).
+    table: Stamped<(u32, u32)>,
     /// Outgoing half-edges per local vertex (CSR).
     out_start: Vec<u32>,
     out: Vec<u32>,
@@ -62,20 +94,24 @@ struct Scratch {
     pairs: Vec<(u32, u32, bool)>,
     /// Local `mate_face`.
     mate: Vec<u32>,
-    /// [`pair_edges`]' table: per unordered local edge, (first half-edge,
-    /// generation).
-    edge_table: Vec<(u32, u32)>,
-    edge_generation: u32,
+    /// [`pair_edges`]' table: per unordered local edge, its first half-edge.
+    edge_table: Stamped<u32>,
     /// Face of each local half-edge.
     he_face: Vec<u32>,
-    /// Face keys `(m, lo, hi, face)`.
+    /// Per local vertex, the last face seen using it.
+    stamp: Vec<u32>,
+    /// Face keys `(m, lo, hi, face)`: after [`check_cell`], one per face in
+    /// the final face order.
     fkeys: Vec<(u32, u32, u32, u32)>,
     /// Distinct vertices of the cell, in first-appearance order.
     verts: Vec<u32>,
     /// Sort buffers.
     tmp: Vec<u32>,
     tmp2: Vec<u32>,
-    bits: Vec<(u64, u32)>,
+    /// [`face_keys_clash`]' table: faces.
+    face_table: Stamped<u32>,
+    /// [`repeated_position`]'s table: (coordinate hash, local vertex).
+    point_table: Stamped<(u64, u32)>,
     pts: Vec<[f64; 3]>,
     /// `pts` by coordinate (the convexity test vectorises over these).
     xyz: [Vec<f64>; 3],
@@ -86,19 +122,29 @@ struct Scratch {
     stack: Vec<u32>,
 }
 
-/// What one chunk of cells produced.
+/// What one chunk of cells produced besides the half-edges, faces and
+/// cell starts it wrote into its parts of the final arrays.
 #[derive(Default)]
 struct ChunkOut {
-    origins: Vec<u32>,
-    mate_face: Vec<i16>,
-    /// Half-edges per cell.
-    lens: Vec<u32>,
-    faces: Vec<FaceRec>,
+    /// Half-edges and faces written.
+    half_edges: usize,
+    faces: usize,
     class_counts: [usize; 5],
     hidden: usize,
     flipped: usize,
     /// Live cells found non-convex.
     non_convex: Vec<u32>,
+}
+
+/// One chunk's parts of the final arrays, sized by [`cell_bounds`].
+struct ChunkParts<'a> {
+    /// Global id of the first half-edge of `origins`.
+    base: u32,
+    origins: &'a mut [u32],
+    mate_face: &'a mut [i16],
+    faces: &'a mut [FaceRec],
+    /// The chunk's cells' first half-edges (global ids).
+    cell_start: &'a mut [u32],
 }
 
 /// Parses a VTK polyhedron face stream (`nf, n0, ids.., n1, ids..`) into
@@ -143,6 +189,45 @@ pub(super) fn parse_faces_into(
     Ok(())
 }
 
+/// The catalog meta-cell of a typed volumetric cell.
+fn typed_meta(t: u8, prisms: &[(u8, u16)]) -> Option<u16> {
+    Some(match t {
+        vtk_type::TETRA => builtin::TETRA,
+        vtk_type::PYRAMID => builtin::PYRAMID,
+        vtk_type::WEDGE => builtin::WEDGE,
+        vtk_type::HEXAHEDRON | vtk_type::VOXEL => builtin::HEXAHEDRON,
+        _ => prisms.iter().find(|p| p.0 == t)?.1,
+    })
+}
+
+/// (half-edges, faces) that cell `c` writes if it is live and valid: exact
+/// for every cell whose faces parse, so that chunks can write straight into
+/// the final arrays (cells found dead leave a gap, closed afterwards).
+fn cell_bounds(
+    cells: &Cells,
+    c: usize,
+    catalog: &Catalog,
+    prisms: &[(u8, u16)],
+    hidden: Option<&[bool]>,
+) -> (usize, usize) {
+    let t = cells.types[c];
+    if is_lower_dimensional(t) || hidden.is_some_and(|h| h.get(c).copied().unwrap_or(false)) {
+        return (0, 0);
+    }
+    if t == vtk_type::POLYHEDRON {
+        let stream = cells.faces_of(c);
+        let nf = (stream.first().copied().unwrap_or(0) as usize).min(stream.len());
+        return (stream.len().saturating_sub(1 + nf), nf);
+    }
+    match typed_meta(t, prisms) {
+        Some(meta) => {
+            let m = catalog.get(meta);
+            (m.faces.iter().map(|f| f.len()).sum(), m.faces.len())
+        }
+        None => (0, 0),
+    }
+}
+
 /// Writes the face loops (global ids) of cell `c` into `s.ids`/`s.starts`;
 /// returns the cell's class when it is not volumetric (nothing written).
 fn cell_faces(
@@ -162,20 +247,11 @@ fn cell_faces(
         return Ok(None);
     }
     let ids = cells.cell(c);
-    let meta = match t {
-        vtk_type::TETRA => builtin::TETRA,
-        vtk_type::PYRAMID => builtin::PYRAMID,
-        vtk_type::WEDGE => builtin::WEDGE,
-        vtk_type::HEXAHEDRON | vtk_type::VOXEL => builtin::HEXAHEDRON,
-        _ => match prisms.iter().find(|p| p.0 == t) {
-            Some(p) => p.1,
-            None => {
-                return Err(CielError::FaceStream {
-                    cell: c,
-                    why: format!("unsupported VTK cell type {t}"),
-                });
-            }
-        },
+    let Some(meta) = typed_meta(t, prisms) else {
+        return Err(CielError::FaceStream {
+            cell: c,
+            why: format!("unsupported VTK cell type {t}"),
+        });
     };
     let m = catalog.get(meta);
     let local = &mut s.tmp;
@@ -221,19 +297,20 @@ fn face_of(starts: &[u32], h: u32) -> usize {
     starts.partition_point(|&s| s <= h) - 1
 }
 
-/// Index of the smallest vertex of a loop and its two neighbours, sorted.
+/// The smallest vertex of a loop (of at least one vertex) and its two loop
+/// neighbours, sorted.
 #[inline]
-fn face_key(face: &[u32]) -> (usize, u32, u32, u32) {
-    let mut p = 0;
-    for (i, &v) in face.iter().enumerate() {
-        if v < face[p] {
-            p = i;
+fn face_key(face: &[u32]) -> (u32, u32, u32) {
+    let (mut p, mut low) = (0, face[0]);
+    for (i, &v) in face.iter().enumerate().skip(1) {
+        if v < low {
+            (p, low) = (i, v);
         }
     }
     let n = face.len();
     let a = face[if p == 0 { n - 1 } else { p - 1 }];
     let b = face[if p + 1 == n { 0 } else { p + 1 }];
-    (p, face[p], a.min(b), a.max(b))
+    (low, a.min(b), a.max(b))
 }
 
 /// Sorted copy of a loop into `out`.
@@ -250,36 +327,25 @@ fn local_ids(s: &mut Scratch) {
     let n = s.ids.len();
     // Open addressing over a table that only grows; slots of earlier
     // cells are told apart by a generation instead of being cleared.
-    let cap = (2 * n).next_power_of_two().max(256);
-    if s.table.len() < cap {
-        s.table.clear();
-        s.table.resize(cap, (0, 0, 0));
-        s.table_generation = 0;
-    }
-    s.table_generation = s.table_generation.wrapping_add(1);
-    if s.table_generation == 0 {
-        s.table.fill((0, 0, 0));
-        s.table_generation = 1;
-    }
-    let generation = s.table_generation;
-    let mask = s.table.len() - 1;
+    let generation = s.table.begin((2 * n).next_power_of_two().max(256));
+    let mask = s.table.slots.len() - 1;
     s.verts.clear();
     s.lid.clear();
     s.lid.resize(n, 0);
-    let (ids, lid, table) = (&s.ids[..n], &mut s.lid[..n], &mut s.table[..]);
+    let (ids, lid, table) = (&s.ids[..n], &mut s.lid[..n], &mut s.table.slots[..]);
     for (i, &v) in ids.iter().enumerate() {
         let mut k = (v.wrapping_mul(0x9E37_79B9) >> 7) as usize & mask;
         loop {
-            let e = table[k];
-            if e.2 != generation {
+            let ((w, l), g) = table[k];
+            if g != generation {
                 let l = s.verts.len() as u32;
-                table[k] = (v, l, generation);
+                table[k] = ((v, l), generation);
                 lid[i] = l;
                 s.verts.push(v);
                 break;
             }
-            if e.0 == v {
-                lid[i] = e.1;
+            if w == v {
+                lid[i] = l;
                 break;
             }
             k = (k + 1) & mask;
@@ -310,47 +376,45 @@ fn pair_edges(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
     }
     // Per unordered local edge (lo, hi): the first half-edge seen + 1
     // (0 = none), under the current generation; a second fills `mate`.
-    if s.edge_table.len() < nv * nv {
-        // Grown to this cell's need only: a fresh scratch (one per
-        // `polyhedron_faces` call) must not clear the whole 128² table.
-        s.edge_table.resize(nv * nv, (0, 0));
-    }
-    s.edge_generation = s.edge_generation.wrapping_add(1);
-    if s.edge_generation == 0 {
-        s.edge_table.fill((0, 0));
-        s.edge_generation = 1;
-    }
-    let generation = s.edge_generation;
+    // Grown to this cell's need only: a fresh scratch (one per
+    // `polyhedron_faces` call) must not clear the whole 128² table.
+    let generation = s.edge_table.begin(nv * nv);
     s.mate.clear();
     s.mate.resize(n, NONE);
     let mut ok = true;
-    for h in 0..n {
-        let (la, lb) = (s.lid[h], s.lid[s.nxt[h] as usize]);
-        let key = (la.min(lb) as usize) * nv + la.max(lb) as usize;
-        let e = &mut s.edge_table[key];
-        if e.1 != generation {
-            *e = (h as u32, generation);
-        } else {
-            let g = e.0;
-            if g == NONE || la == lb {
-                ok = false;
-                break;
+    {
+        let (lid, nxt, mate) = (&s.lid[..n], &s.nxt[..n], &mut s.mate[..n]);
+        let table = &mut s.edge_table.slots[..nv * nv];
+        for h in 0..n {
+            let (la, lb) = (lid[h], lid[nxt[h] as usize]);
+            let (lo, hi) = if la < lb { (la, lb) } else { (lb, la) };
+            let e = &mut table[lo as usize * nv + hi as usize];
+            if e.1 != generation {
+                *e = (h as u32, generation);
+            } else {
+                let g = e.0;
+                if g == NONE || la == lb {
+                    ok = false;
+                    break;
+                }
+                mate[h] = g;
+                mate[g as usize] = h as u32;
+                e.0 = NONE; // a third half-edge on this edge is an error
             }
-            s.mate[h] = g;
-            s.mate[g as usize] = h as u32;
-            e.0 = NONE; // a third half-edge on this edge is an error
         }
     }
     if !ok || s.mate.contains(&NONE) {
         return pair_edges_by_lists(cell, s);
     }
     s.pairs.clear();
-    for h in 0..n {
-        let g = s.mate[h];
-        if g as usize > h {
-            s.pairs.push((h as u32, g, s.lid[h] == s.lid[g as usize]));
-        }
-    }
+    s.pairs.reserve(n / 2);
+    let (lid, mate) = (&s.lid[..n], &s.mate[..n]);
+    s.pairs.extend(
+        mate.iter()
+            .enumerate()
+            .filter(|&(h, &g)| g as usize > h)
+            .map(|(h, &g)| (h as u32, g, lid[h] == lid[g as usize])),
+    );
     Ok(())
 }
 
@@ -555,48 +619,48 @@ pub(crate) fn polyhedron_faces(
     })
 }
 
-/// Checks and orients the loops of one cell held in `s` (see the module
-/// docs of [`super`]); on success `s.ids`/`s.starts` hold the outward loops
-/// and `s.mate` the local `mate_face`. Returns (class, flipped, non-convex).
-fn check_cell(
-    cell: usize,
-    points: &[[f64; 3]],
-    s: &mut Scratch,
-) -> Result<(CellClass, usize, bool), CielError> {
+/// Whether two faces of the loops in `s` have the same [`face_key`]
+/// (through a small open-addressing table, no sort).
+fn face_keys_clash(s: &mut Scratch) -> bool {
     let nf = s.starts.len() - 1;
-    // Shape checks.
-    for f in 0..nf {
-        let face = &s.ids[s.starts[f] as usize..s.starts[f + 1] as usize];
-        if face.len() < 3 {
-            return Err(CielError::ShortFace {
-                cell,
-                face: f,
-                len: face.len(),
-            });
-        }
-        let repeated = if face.len() <= 12 {
-            (1..face.len()).find_map(|i| face[..i].contains(&face[i]).then_some(face[i]))
-        } else {
-            sorted_into(face, &mut s.tmp);
-            s.tmp.windows(2).find(|w| w[0] == w[1]).map(|w| w[0])
-        };
-        if let Some(vertex) = repeated {
-            return Err(CielError::RepeatedFaceVertex {
-                cell,
-                face: f,
-                vertex,
-            });
-        }
-    }
-    // Duplicate faces: equal keys, then equal vertex sets.
+    let generation = s.face_table.begin((2 * nf).next_power_of_two().max(32));
+    let mask = s.face_table.slots.len() - 1;
     s.fkeys.clear();
     for f in 0..nf {
-        let (_, m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
+        let (m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
+        s.fkeys.push((m, lo, hi, f as u32));
+        let h = (m ^ lo.rotate_left(11) ^ hi.rotate_left(22)).wrapping_mul(0x9E37_79B9);
+        let mut k = (h >> 7) as usize & mask;
+        loop {
+            let e = s.face_table.slots[k];
+            if e.1 != generation {
+                s.face_table.slots[k] = (f as u32, generation);
+                break;
+            }
+            let o = s.fkeys[e.0 as usize];
+            if (o.0, o.1, o.2) == (m, lo, hi) {
+                return true;
+            }
+            k = (k + 1) & mask;
+        }
+    }
+    false
+}
+
+/// Duplicate faces: keys sorted, then equal keys compared by vertex set;
+/// the first duplicate pair in key order is the error. Leaves `s.fkeys`
+/// complete, in face order.
+fn duplicate_faces_sorted(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
+    let nf = s.starts.len() - 1;
+    s.fkeys.clear();
+    for f in 0..nf {
+        let (m, lo, hi) = face_key(&s.ids[s.starts[f] as usize..s.starts[f + 1] as usize]);
         s.fkeys.push((m, lo, hi, f as u32));
     }
-    s.fkeys.sort_unstable();
-    for i in 1..s.fkeys.len() {
-        let (a, b) = (s.fkeys[i - 1], s.fkeys[i]);
+    let mut keys = s.fkeys.clone();
+    keys.sort_unstable();
+    for w in keys.windows(2) {
+        let (a, b) = (w[0], w[1]);
         if (a.0, a.1, a.2) == (b.0, b.1, b.2) {
             let fa = &s.ids[s.starts[a.3 as usize] as usize..s.starts[a.3 as usize + 1] as usize];
             let fb = &s.ids[s.starts[b.3 as usize] as usize..s.starts[b.3 as usize + 1] as usize];
@@ -611,7 +675,102 @@ fn check_cell(
             }
         }
     }
+    Ok(())
+}
+
+/// Whether two distinct local vertices of `s.verts` sit at the same
+/// position (bitwise-hashed coordinates, then compared with `==`).
+fn repeated_position(points: &[[f64; 3]], s: &mut Scratch) -> bool {
+    let cap = (2 * s.verts.len()).next_power_of_two().max(64);
+    let generation = s.point_table.begin(cap);
+    let mask = s.point_table.slots.len() - 1;
+    for (l, &v) in s.verts.iter().enumerate() {
+        let p = points[v as usize];
+        let b = p.map(f64::to_bits);
+        let h = b[0] ^ b[1].rotate_left(21) ^ b[2].rotate_left(42);
+        let mut k = (h.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as usize & mask;
+        loop {
+            let ((eh, el), g) = s.point_table.slots[k];
+            if g != generation {
+                s.point_table.slots[k] = ((h, l as u32), generation);
+                break;
+            }
+            if eh == h && points[s.verts[el as usize] as usize] == p {
+                return true;
+            }
+            k = (k + 1) & mask;
+        }
+    }
+    false
+}
+
+/// The error for a vertex repeated in loop `face` (face `f` of `cell`):
+/// the first repeat for short loops, the smallest repeated id for long ones.
+fn repeated_in_face(
+    cell: usize,
+    f: usize,
+    face: &[u32],
+    tmp: &mut Vec<u32>,
+) -> Result<(), CielError> {
+    let repeated = if face.len() <= 12 {
+        (1..face.len()).find_map(|i| face[..i].contains(&face[i]).then_some(face[i]))
+    } else {
+        sorted_into(face, tmp);
+        tmp.windows(2).find(|w| w[0] == w[1]).map(|w| w[0])
+    };
+    match repeated {
+        Some(vertex) => Err(CielError::RepeatedFaceVertex {
+            cell,
+            face: f,
+            vertex,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Checks and orients the loops of one cell held in `s` (see the module
+/// docs of [`super`]); on success `s.ids`/`s.starts` hold the outward loops
+/// and `s.mate` the local `mate_face`. Returns (class, flipped, non-convex).
+fn check_cell(
+    cell: usize,
+    points: &[[f64; 3]],
+    s: &mut Scratch,
+) -> Result<(CellClass, usize, bool), CielError> {
+    let nf = s.starts.len() - 1;
+    // Shape checks: faces of fewer than 3 vertices (then the per-face scan,
+    // in face order), else repeated vertices found through local ids.
+    if s.starts.windows(2).any(|w| w[1] - w[0] < 3) {
+        for f in 0..nf {
+            let face = &s.ids[s.starts[f] as usize..s.starts[f + 1] as usize];
+            if face.len() < 3 {
+                return Err(CielError::ShortFace {
+                    cell,
+                    face: f,
+                    len: face.len(),
+                });
+            }
+            repeated_in_face(cell, f, face, &mut s.tmp)?;
+        }
+    }
     local_ids(s);
+    s.stamp.clear();
+    s.stamp.resize(s.verts.len(), NONE);
+    for f in 0..nf {
+        let (a, b) = (s.starts[f] as usize, s.starts[f + 1] as usize);
+        for &l in &s.lid[a..b] {
+            if s.stamp[l as usize] == f as u32 {
+                // This face repeats a vertex: named as the per-face scan does.
+                repeated_in_face(cell, f, &s.ids[a..b], &mut s.tmp)?;
+            }
+            s.stamp[l as usize] = f as u32;
+        }
+    }
+    // Duplicate faces: a face key seen twice (rare: two faces sharing their
+    // smallest vertex and its two neighbours) sends the cell to the sorted
+    // check, which compares vertex sets and names the pair.
+    if face_keys_clash(s) {
+        duplicate_faces_sorted(cell, s)?;
+    }
     pair_edges(cell, s)?;
     let mut flipped = orient(cell, s)?;
     if flipped > 0 {
@@ -641,19 +800,7 @@ fn check_cell(
         e.max(p[0].abs()).max(p[1].abs()).max(p[2].abs())
     });
     // Repeated positions (distinct ids at the same point): dead, as in the CGraph.
-    s.bits.clear();
-    s.bits.extend(s.verts.iter().enumerate().map(|(l, &v)| {
-        let b = points[v as usize].map(f64::to_bits);
-        (b[0] ^ b[1].rotate_left(21) ^ b[2].rotate_left(42), l as u32)
-    }));
-    s.bits.sort_unstable();
-    let same_point = |a: u32, b: u32| {
-        points[s.verts[a as usize] as usize] == points[s.verts[b as usize] as usize]
-    };
-    if s.bits
-        .windows(2)
-        .any(|w| w[0].0 == w[1].0 && same_point(w[0].1, w[1].1))
-    {
+    if repeated_position(points, s) {
         return Ok((CellClass::RepeatedVertex, 0, false));
     }
     if vol.is_nan() || vol.abs() <= 1e-12 * ext * ext * ext {
@@ -665,6 +812,7 @@ fn check_cell(
         let total = s.ids.len() as u32;
         let starts: Vec<u32> = s.starts.iter().rev().map(|&x| total - x).collect();
         s.starts = starts;
+        s.fkeys.reverse();
         flipped = nf - flipped;
         local_ids(s);
     }
@@ -723,7 +871,7 @@ fn check_cell(
     Ok((CellClass::Valid, flipped, non_convex))
 }
 
-/// The per-cell phase over cells `range`.
+/// The per-cell phase over cells `range`, written into `parts`.
 #[allow(clippy::too_many_arguments)]
 fn build_chunk(
     range: std::ops::Range<usize>,
@@ -732,10 +880,13 @@ fn build_chunk(
     prisms: &[(u8, u16)],
     points: &[[f64; 3]],
     hidden: Option<&[bool]>,
+    parts: ChunkParts,
 ) -> Result<ChunkOut, CielError> {
     let mut s = Scratch::default();
     let mut out = ChunkOut::default();
+    let first = range.start;
     for c in range {
+        parts.cell_start[c - first] = parts.base + out.half_edges as u32;
         let class = match cell_faces(cells, c, catalog, prisms, points, &mut s)? {
             Some(class) => class,
             None => {
@@ -751,39 +902,38 @@ fn build_chunk(
                             "cell {c} has {n} half-edges (at most {MAX_CELL_HALF_EDGES} per cell)"
                         )));
                     }
+                    let nf = s.starts.len() - 1;
+                    let he = out.half_edges;
+                    let (Some(origins), Some(mate_face), Some(faces)) = (
+                        parts.origins.get_mut(he..he + n),
+                        parts.mate_face.get_mut(he..he + n),
+                        parts.faces.get_mut(out.faces..out.faces + nf),
+                    ) else {
+                        return Err(CielError::FaceStream {
+                            cell: c,
+                            why: "more half-edges than its face stream announces".into(),
+                        });
+                    };
                     out.flipped += flipped;
                     if non_convex {
                         out.non_convex.push(c as u32);
                     }
-                    let base = out.origins.len() as u32;
-                    for w in s.starts.windows(2) {
+                    let base = parts.base + he as u32;
+                    // (`s.fkeys` holds each face's key, in face order.)
+                    let keys = s.starts.windows(2).zip(&s.fkeys);
+                    for ((w, &(m, lo, hi, _)), rec) in keys.zip(faces.iter_mut()) {
                         let (a, b) = (w[0] as usize, w[1] as usize);
                         let face = &s.ids[a..b];
-                        let (_, m, lo, hi) = face_key(face);
-                        out.faces.push(FaceRec {
-                            start: base + a as u32,
-                            m,
-                            lo,
-                            hi,
-                        });
-                        for (i, &v) in face.iter().enumerate() {
-                            let mut o = v;
-                            if i == 0 {
-                                o |= FIRST_IN_FACE;
-                            }
-                            if a + i + 1 == b {
-                                o |= LAST_IN_FACE;
-                            }
-                            out.origins.push(o);
-                        }
+                        *rec = [base + a as u32, m, lo, hi];
+                        origins[a..b].copy_from_slice(face);
+                        origins[a] |= FIRST_IN_FACE;
+                        origins[b - 1] |= LAST_IN_FACE;
                     }
-                    out.mate_face.extend(
-                        s.mate
-                            .iter()
-                            .enumerate()
-                            .map(|(i, &m)| (m as i64 - i as i64) as i16),
-                    );
-                    out.lens.push(n as u32);
+                    for (i, (d, &m)) in mate_face.iter_mut().zip(&s.mate).enumerate() {
+                        *d = (m as i64 - i as i64) as i16;
+                    }
+                    out.half_edges += n;
+                    out.faces += nf;
                     out.class_counts[class as usize] += 1;
                     continue;
                 }
@@ -791,7 +941,6 @@ fn build_chunk(
             }
         };
         out.class_counts[class as usize] += 1;
-        out.lens.push(0);
     }
     Ok(out)
 }
@@ -872,26 +1021,89 @@ impl Ciel {
             .filter(|&&t| cells.types.contains(&t))
             .filter_map(|&t| catalog.for_vtk_type(t).map(|m| (t, m)))
             .collect();
-        // 1. Per chunk of cells, in parallel; the first error in cell order wins.
-        let chunks: Vec<Result<ChunkOut, CielError>> = (0..n.div_ceil(CHUNK_CELLS))
+        // 1. Per chunk of cells, in parallel, straight into the final
+        //    arrays at offsets from the exact per-cell bounds; the first
+        //    error in cell order wins.
+        let nchunks = n.div_ceil(CHUNK_CELLS);
+        let chunk_range = |k: usize| k * CHUNK_CELLS..((k + 1) * CHUNK_CELLS).min(n);
+        let bounds: Vec<(usize, usize)> = (0..nchunks)
             .into_par_iter()
             .map(|k| {
-                let r = k * CHUNK_CELLS..((k + 1) * CHUNK_CELLS).min(n);
-                build_chunk(r, cells, &catalog, &prisms, points, hidden)
+                chunk_range(k).fold((0, 0), |(h, f), c| {
+                    let (ch, cf) = cell_bounds(cells, c, &catalog, &prisms, hidden);
+                    (h + ch, f + cf)
+                })
             })
             .collect();
-        let chunks: Vec<ChunkOut> = chunks.into_iter().collect::<Result<_, _>>()?;
-        // 2. Concatenate.
-        let total: usize = chunks.iter().map(|c| c.origins.len()).sum();
-        if total >= (1usize << 31) - 1 {
-            return Err(CielError::TooLarge(format!("{total} half-edges")));
+        let he_bound: usize = bounds.iter().map(|b| b.0).sum();
+        let face_bound: usize = bounds.iter().map(|b| b.1).sum();
+        if he_bound >= (1usize << 31) - 1 {
+            return Err(CielError::TooLarge(format!("{he_bound} half-edges")));
         }
+        let mut origins = vec![0u32; he_bound];
+        let mut mate_face = vec![0i16; he_bound];
+        let mut cell_start = vec![0u32; n + 1];
+        let mut faces: Vec<FaceRec> = vec![[0; 4]; face_bound];
+        let he_lens: Vec<usize> = bounds.iter().map(|b| b.0).collect();
+        let face_lens: Vec<usize> = bounds.iter().map(|b| b.1).collect();
+        let cell_lens: Vec<usize> = (0..nchunks).map(|k| chunk_range(k).len()).collect();
+        let mut he_bases = Vec::with_capacity(nchunks);
+        let mut acc = 0usize;
+        for &l in &he_lens {
+            he_bases.push(acc);
+            acc += l;
+        }
+        let parts: Vec<ChunkParts> = split_lengths(&mut origins, &he_lens)
+            .into_iter()
+            .zip(split_lengths(&mut mate_face, &he_lens))
+            .zip(split_lengths(&mut faces, &face_lens))
+            .zip(split_lengths(&mut cell_start[..n], &cell_lens))
+            .zip(&he_bases)
+            .map(|((((o, m), f), c), &base)| ChunkParts {
+                base: base as u32,
+                origins: o,
+                mate_face: m,
+                faces: f,
+                cell_start: c,
+            })
+            .collect();
+        let chunks: Vec<Result<ChunkOut, CielError>> = parts
+            .into_par_iter()
+            .enumerate()
+            .map(|(k, p)| build_chunk(chunk_range(k), cells, &catalog, &prisms, points, hidden, p))
+            .collect();
+        let chunks: Vec<ChunkOut> = chunks.into_iter().collect::<Result<_, _>>()?;
+        // 2. Close the gaps left by cells found dead (rare): chunks slide
+        //    down in order, their face and cell starts shifted with them.
+        let mut total = 0usize;
+        let mut nfaces = 0usize;
+        let mut face_base = 0usize;
+        for (k, ch) in chunks.iter().enumerate() {
+            let (hb, fb) = (he_bases[k], face_base);
+            face_base += face_lens[k];
+            if hb != total || fb != nfaces {
+                let shift = (hb - total) as u32;
+                origins.copy_within(hb..hb + ch.half_edges, total);
+                mate_face.copy_within(hb..hb + ch.half_edges, total);
+                faces.copy_within(fb..fb + ch.faces, nfaces);
+                for f in &mut faces[nfaces..nfaces + ch.faces] {
+                    f[START] -= shift;
+                }
+                for s in &mut cell_start[chunk_range(k)] {
+                    *s -= shift;
+                }
+            }
+            total += ch.half_edges;
+            nfaces += ch.faces;
+        }
+        origins.truncate(total);
+        mate_face.truncate(total);
+        faces.truncate(nfaces);
         if total == 0 {
             return Err(CielError::NoCells);
         }
         let mut counts = CielCounts::default();
         let mut non_convex_cells = Vec::new();
-        let nfaces: usize = chunks.iter().map(|c| c.faces.len()).sum();
         for ch in &chunks {
             for k in 0..5 {
                 counts.class_counts[k] += ch.class_counts[k];
@@ -901,75 +1113,16 @@ impl Ciel {
             counts.non_convex += ch.non_convex.len();
             non_convex_cells.extend_from_slice(&ch.non_convex);
         }
-        // Each chunk copied into its own disjoint parts of the final
-        // arrays, in parallel (these are the largest arrays of the build).
-        let mut origins = vec![0u32; total];
-        let mut mate_face = vec![0i16; total];
-        let mut cell_start = vec![0u32; n + 1];
-        let zero = FaceRec {
-            start: 0,
-            m: 0,
-            lo: 0,
-            hi: 0,
-        };
-        let mut faces: Vec<FaceRec> = vec![zero; nfaces];
-        let parts_of = |len: fn(&ChunkOut) -> usize| chunks.iter().map(len).collect::<Vec<_>>();
-        let he_parts = split_lengths(&mut origins, &parts_of(|c| c.origins.len()));
-        let mf_parts = split_lengths(&mut mate_face, &parts_of(|c| c.origins.len()));
-        let face_parts = split_lengths(&mut faces, &parts_of(|c| c.faces.len()));
-        let cs_parts = split_lengths(&mut cell_start[..n], &parts_of(|c| c.lens.len()));
-        let mut base = 0u32;
-        let bases: Vec<u32> = chunks
-            .iter()
-            .map(|c| {
-                let b = base;
-                base += c.origins.len() as u32;
-                b
-            })
-            .collect();
-        chunks
-            .par_iter()
-            .zip(bases)
-            .zip(he_parts)
-            .zip(mf_parts)
-            .zip(face_parts)
-            .zip(cs_parts)
-            .for_each(|(((((ch, base), he), mf), fc), cs)| {
-                he.copy_from_slice(&ch.origins);
-                mf.copy_from_slice(&ch.mate_face);
-                for (d, f) in fc.iter_mut().zip(&ch.faces) {
-                    *d = FaceRec {
-                        start: f.start + base,
-                        ..*f
-                    };
-                }
-                let mut s = base;
-                for (d, &l) in cs.iter_mut().zip(&ch.lens) {
-                    *d = s;
-                    s += l;
-                }
-            });
         drop(chunks);
         cell_start[n] = total as u32;
         counts.faces = nfaces;
         // 3. mate_cell: faces bucketed by smallest vertex (counting sort).
-        let mut bstart = vec![0u32; np + 1];
-        for f in &faces {
-            bstart[f.m as usize + 1] += 1;
-        }
-        for i in 0..np {
-            bstart[i + 1] += bstart[i];
-        }
-        let mut bucket = vec![0u32; nfaces];
-        {
-            let mut fill = bstart.clone();
-            for (i, f) in faces.iter().enumerate() {
-                bucket[fill[f.m as usize] as usize] = i as u32;
-                fill[f.m as usize] += 1;
-            }
-        }
-        let face_end = |i: usize| faces.get(i + 1).map_or(total as u32, |g| g.start);
-        let mate_cell: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(NONE)).collect();
+        let (bstart, bucket) = group_by_key(np, &FacesByVertex(&faces));
+        let face_end = |i: usize| faces.get(i + 1).map_or(total as u32, |g| g[START]);
+        let mate_cell: Vec<AtomicU32> = (0..total)
+            .into_par_iter()
+            .map(|_| AtomicU32::new(NONE))
+            .collect();
         let org = |h: u32| origins[h as usize] & VERTEX_MASK;
         let vchunk = 4096usize;
         let results: Vec<Result<(), CielError>> = (0..np.div_ceil(vchunk))
@@ -984,7 +1137,7 @@ impl Ciel {
                     group.clear();
                     group.extend(b.iter().map(|&i| {
                         let f = &faces[i as usize];
-                        (f.lo, f.hi, i)
+                        (f[LO], f[HI], i)
                     }));
                     group.sort_unstable();
                     let mut i = 0;
@@ -1000,7 +1153,7 @@ impl Ciel {
                             continue;
                         }
                         let loop_of = |i: u32| -> std::ops::Range<u32> {
-                            faces[i as usize].start..face_end(i as usize)
+                            faces[i as usize][START]..face_end(i as usize)
                         };
                         // (Two faces of one cell never match: per-cell
                         // duplicates are rejected before.)
@@ -1027,7 +1180,7 @@ impl Ciel {
                             }
                             let bad = |f: u32, why: String| {
                                 let (cell, face) =
-                                    locate(&cell_start, &origins, faces[f as usize].start);
+                                    locate(&cell_start, &origins, faces[f as usize][START]);
                                 CielError::BadSharedFace { cell, face, why }
                             };
                             match b - a {
@@ -1036,7 +1189,7 @@ impl Ciel {
                                     let (f, h) = (sets[a].1, sets[a + 1].1);
                                     if !try_mate(loop_of(f), loop_of(h), org, &mate_cell) {
                                         let (oc, of) =
-                                            locate(&cell_start, &origins, faces[h as usize].start);
+                                            locate(&cell_start, &origins, faces[h as usize][START]);
                                         return Err(bad(
                                             f,
                                             format!(
@@ -1079,34 +1232,12 @@ impl Ciel {
                 bits
             })
             .collect();
-        let mut vertex_start = vec![0u32; np + 1];
-        let mut reps = 0usize;
-        for (w, &bits) in rep_bits.iter().enumerate() {
-            let mut b = bits;
-            while b != 0 {
-                let h = w * 64 + b.trailing_zeros() as usize;
-                b &= b - 1;
-                vertex_start[(origins[h] & VERTEX_MASK) as usize + 1] += 1;
-                reps += 1;
-            }
-        }
-        for i in 0..np {
-            vertex_start[i + 1] += vertex_start[i];
-        }
-        let mut vertex_edges = vec![0u32; reps];
-        {
-            let mut fill: Vec<u32> = vertex_start[..np].to_vec();
-            for (w, &bits) in rep_bits.iter().enumerate() {
-                let mut b = bits;
-                while b != 0 {
-                    let h = w * 64 + b.trailing_zeros() as usize;
-                    b &= b - 1;
-                    let v = (origins[h] & VERTEX_MASK) as usize;
-                    vertex_edges[fill[v] as usize] = h as u32;
-                    fill[v] += 1;
-                }
-            }
-        }
+        let reps_by_origin = RepsByOrigin {
+            bits: &rep_bits,
+            origins: &origins,
+        };
+        let (vertex_start, vertex_edges) = group_by_key(np, &reps_by_origin);
+        let reps = vertex_edges.len();
         counts.edges = reps / 2;
         let mut cell_lookup = Vec::with_capacity((total >> LOOKUP_SHIFT) + 1);
         let mut c = 0usize;
@@ -1131,6 +1262,129 @@ impl Ciel {
             counts,
         })
     }
+}
+
+/// Items with keys, visited by ranges of units (see [`group_by_key`]).
+trait KeyedItems: Sync {
+    /// Units to split among tasks (items, or words of a bit set of items).
+    fn units(&self) -> usize;
+    /// Calls `f(item, key)` for the items of units `r`, in increasing item order.
+    fn each(&self, r: std::ops::Range<usize>, f: impl FnMut(u32, u32));
+}
+
+/// Faces keyed by their smallest vertex.
+struct FacesByVertex<'a>(&'a [FaceRec]);
+
+impl KeyedItems for FacesByVertex<'_> {
+    fn units(&self) -> usize {
+        self.0.len()
+    }
+    fn each(&self, r: std::ops::Range<usize>, mut f: impl FnMut(u32, u32)) {
+        for i in r.clone() {
+            f(i as u32, self.0[i][M]);
+        }
+    }
+}
+
+/// Representative half-edges (a bit set, 64 per word) keyed by origin.
+struct RepsByOrigin<'a> {
+    bits: &'a [u64],
+    origins: &'a [u32],
+}
+
+impl KeyedItems for RepsByOrigin<'_> {
+    fn units(&self) -> usize {
+        self.bits.len()
+    }
+    fn each(&self, r: std::ops::Range<usize>, mut f: impl FnMut(u32, u32)) {
+        for w in r {
+            let mut b = self.bits[w];
+            while b != 0 {
+                let h = w * 64 + b.trailing_zeros() as usize;
+                b &= b - 1;
+                f(h as u32, self.origins[h] & VERTEX_MASK);
+            }
+        }
+    }
+}
+
+/// Items grouped by key, as a stable counting sort run in parallel: unit
+/// ranges are counted per key, each range's offsets follow from a prefix
+/// sum over keys (in key blocks), then each range places its items. Returns
+/// `start` (`keys + 1` offsets) and the item ids, increasing within each
+/// key.
+fn group_by_key(keys: usize, items: &impl KeyedItems) -> (Vec<u32>, Vec<u32>) {
+    let units = items.units();
+    let parts = rayon::current_num_threads()
+        .clamp(1, 8)
+        .min(units.div_ceil(1 << 14).max(1));
+    let range = |t: usize| t * units / parts..(t + 1) * units / parts;
+    let mut offsets: Vec<Vec<u32>> = (0..parts)
+        .into_par_iter()
+        .map(|t| {
+            let mut count = vec![0u32; keys];
+            items.each(range(t), |_, k| count[k as usize] += 1);
+            count
+        })
+        .collect();
+    const BLOCK: usize = 1 << 14;
+    let block_totals: Vec<u32> = (0..keys.div_ceil(BLOCK))
+        .into_par_iter()
+        .map(|b| {
+            let r = b * BLOCK..((b + 1) * BLOCK).min(keys);
+            offsets
+                .iter()
+                .map(|c| c[r.clone()].iter().sum::<u32>())
+                .sum()
+        })
+        .collect();
+    let mut acc = 0u32;
+    let block_bases: Vec<u32> = block_totals
+        .iter()
+        .map(|&t| {
+            let b = acc;
+            acc += t;
+            b
+        })
+        .collect();
+    let total = acc;
+    let mut start = vec![0u32; keys + 1];
+    let mut per_block: Vec<Vec<&mut [u32]>> = block_bases.iter().map(|_| Vec::new()).collect();
+    for c in offsets.iter_mut() {
+        for (b, s) in c.chunks_mut(BLOCK).enumerate() {
+            per_block[b].push(s);
+        }
+    }
+    per_block
+        .into_par_iter()
+        .zip(start[..keys].par_chunks_mut(BLOCK))
+        .zip(block_bases)
+        .for_each(|((mut counts, st), mut acc)| {
+            for (i, s) in st.iter_mut().enumerate() {
+                *s = acc;
+                for c in counts.iter_mut() {
+                    let n = c[i];
+                    c[i] = acc;
+                    acc += n;
+                }
+            }
+        });
+    start[keys] = total;
+    let out: Vec<AtomicU32> = (0..total as usize)
+        .into_par_iter()
+        .map(|_| AtomicU32::new(0))
+        .collect();
+    offsets
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(t, mut next)| {
+            items.each(range(t), |i, k| {
+                let slot = &mut next[k as usize];
+                out[*slot as usize].store(i, Ordering::Relaxed);
+                *slot += 1;
+            });
+        });
+    (start, out.into_iter().map(AtomicU32::into_inner).collect())
 }
 
 /// Mates the half-edges of loops `f` and `g` (global half-edge ranges) if
@@ -1173,29 +1427,35 @@ fn try_mate(
 mod tests {
     use super::*;
 
+    /// The unit cube's faces, outward.
+    const CUBE: [[u32; 4]; 6] = [
+        [0, 3, 2, 1],
+        [4, 5, 6, 7],
+        [0, 1, 5, 4],
+        [1, 2, 6, 5],
+        [2, 3, 7, 6],
+        [3, 0, 4, 7],
+    ];
+
+    /// A small deterministic generator: `next(m)` is in `0..m`.
+    fn lcg(mut state: u64) -> impl FnMut(u64) -> u64 {
+        move |m| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) % m
+        }
+    }
+
     /// The edge-table pairing and the per-vertex-list pairing agree on
     /// pairs, mates and errors, over cube-like cells with random face
     /// orders, flipped faces, dropped faces and extra faces.
     #[test]
     fn edge_table_pairing_matches_the_list_pairing() {
-        let cube: [[u32; 4]; 6] = [
-            [0, 3, 2, 1],
-            [4, 5, 6, 7],
-            [0, 1, 5, 4],
-            [1, 2, 6, 5],
-            [2, 3, 7, 6],
-            [3, 0, 4, 7],
-        ];
-        let mut state = 11u64;
-        let mut next = |m: u64| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 33) % m
-        };
+        let mut next = lcg(11);
         let mut kinds = [0usize; 2];
         for round in 0..2000 {
-            let mut faces: Vec<Vec<u32>> = cube.iter().map(|f| f.to_vec()).collect();
+            let mut faces: Vec<Vec<u32>> = CUBE.iter().map(|f| f.to_vec()).collect();
             for f in faces.iter_mut() {
                 if next(4) == 0 {
                     f.reverse();
@@ -1238,5 +1498,123 @@ mod tests {
             kinds[ra.is_ok() as usize] += 1;
         }
         assert!(kinds[0] > 100 && kinds[1] > 100, "{kinds:?}");
+    }
+
+    /// The shape and duplicate checks of [`check_cell`] against a plain
+    /// per-face scan in face order (short face, then repeated vertex: the
+    /// first repeat for loops of up to 12, the smallest repeated id beyond)
+    /// and an all-pairs duplicate search, on cube-like cells with short
+    /// faces, repeated vertices, long faces and duplicate faces.
+    #[test]
+    fn shape_checks_match_a_per_face_scan() {
+        let points: Vec<[f64; 3]> = (0..40)
+            .map(|i| {
+                [
+                    (i & 1) as f64,
+                    ((i >> 1) & 1) as f64,
+                    ((i >> 2) & 1) as f64 + (i >> 3) as f64 * 0.01,
+                ]
+            })
+            .collect();
+        let mut next = lcg(5);
+        let mut kinds = std::collections::BTreeMap::new();
+        for round in 0..4000 {
+            let mut faces: Vec<Vec<u32>> = CUBE.iter().map(|f| f.to_vec()).collect();
+            for _ in 0..next(3) {
+                let f = next(faces.len() as u64) as usize;
+                match next(5) {
+                    0 => faces[f].truncate(next(3) as usize),
+                    1 if !faces[f].is_empty() => {
+                        let v = faces[f][next(faces[f].len() as u64) as usize];
+                        let at = next(faces[f].len() as u64 + 1) as usize;
+                        faces[f].insert(at, v);
+                    }
+                    2 => {
+                        let extra = 10 + next(6) as u32;
+                        faces[f].extend((0..extra).map(|i| 8 + (i + next(3) as u32 * 7) % 32));
+                    }
+                    3 => {
+                        let mut d = faces[f].clone();
+                        let r = next(d.len().max(1) as u64) as usize;
+                        d.rotate_left(r);
+                        if next(2) == 0 {
+                            d.reverse();
+                        }
+                        let at = next(faces.len() as u64 + 1) as usize;
+                        faces.insert(at, d);
+                    }
+                    _ => {
+                        let g = next(faces.len() as u64) as usize;
+                        faces.swap(f, g);
+                    }
+                }
+            }
+            let mut stream = vec![faces.len() as u32];
+            for f in &faces {
+                stream.push(f.len() as u32);
+                stream.extend_from_slice(f);
+            }
+            let mut s = Scratch::default();
+            parse_faces_into(0, &stream, &mut s.ids, &mut s.starts).unwrap();
+            let got = check_cell(0, &points, &mut s);
+            // Reference: the per-face scan, then duplicates.
+            let mut want = None;
+            for (f, face) in faces.iter().enumerate() {
+                if face.len() < 3 {
+                    want = Some(CielError::ShortFace {
+                        cell: 0,
+                        face: f,
+                        len: face.len(),
+                    });
+                    break;
+                }
+                let repeated = if face.len() <= 12 {
+                    (1..face.len()).find_map(|i| face[..i].contains(&face[i]).then_some(face[i]))
+                } else {
+                    let mut t = face.clone();
+                    t.sort_unstable();
+                    t.windows(2).find(|w| w[0] == w[1]).map(|w| w[0])
+                };
+                if let Some(vertex) = repeated {
+                    want = Some(CielError::RepeatedFaceVertex {
+                        cell: 0,
+                        face: f,
+                        vertex,
+                    });
+                    break;
+                }
+            }
+            let set = |f: &Vec<u32>| {
+                let mut t = f.clone();
+                t.sort_unstable();
+                t
+            };
+            let dup = (0..faces.len())
+                .any(|i| (i + 1..faces.len()).any(|j| set(&faces[i]) == set(&faces[j])));
+            let kind = match (&want, &got) {
+                (Some(w), Err(e)) => {
+                    assert_eq!(e, w, "round {round}: {faces:?}");
+                    "shape"
+                }
+                (Some(w), Ok(_)) => panic!("round {round}: {w} missed: {faces:?}"),
+                (None, Err(CielError::DuplicateFace { face, other, .. })) => {
+                    assert!(face < other, "round {round}");
+                    assert_eq!(set(&faces[*face]), set(&faces[*other]), "round {round}");
+                    "duplicate"
+                }
+                (None, r) => {
+                    assert!(
+                        !dup || r.is_err(),
+                        "round {round}: duplicate missed: {faces:?}"
+                    );
+                    "other"
+                }
+            };
+            *kinds.entry(kind).or_insert(0usize) += 1;
+        }
+        assert!(
+            kinds.values().all(|&k| k > 100) && kinds.len() == 3,
+            "{kinds:?}"
+        );
     }
 }
