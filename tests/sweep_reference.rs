@@ -24,16 +24,20 @@ fn collect(mesh: &LevelMesh, g: &impl CellGraph, out: &mut Vec<(u32, Vec<[f32; 3
     }
 }
 
-fn run_sweep<G: CellGraph, F: ScalarField>(
+/// Sweeps `levels` over `threads` blocks with `attribute` interpolated, and
+/// gathers per level what `gather` takes from each block's mesh.
+fn sweep_levels<G: CellGraph, F: ScalarField, T: Send + Clone>(
     g: &G,
     f: &F,
     axis: Option<usize>,
     levels: &[f32],
     threads: usize,
-) -> Levels {
+    attribute: Option<&[f32]>,
+    gather: impl Fn(&mut Vec<T>, usize, &LevelMesh) + Sync,
+) -> Vec<Vec<T>> {
     let ctx = EmitContext {
         positions: g.positions(),
-        attribute: None,
+        attribute,
         cells_only: false,
     };
     let mut sw = Sweeper::new(g, threads);
@@ -44,9 +48,9 @@ fn run_sweep<G: CellGraph, F: ScalarField>(
         levels,
         &ctx,
         || vec![Vec::new(); levels.len()],
-        |acc: &mut Levels, k, mesh, st| {
+        |acc: &mut Vec<Vec<T>>, k, mesh, st| {
             assert_eq!(st.polygons as usize, mesh.polygon_count());
-            collect(mesh, g, &mut acc[k]);
+            gather(&mut acc[k], k, mesh);
         },
     );
     let mut all = vec![Vec::new(); levels.len()];
@@ -55,7 +59,25 @@ fn run_sweep<G: CellGraph, F: ScalarField>(
             all[k].extend(v);
         }
     }
-    sorted(all)
+    all
+}
+
+fn run_sweep<G: CellGraph, F: ScalarField>(
+    g: &G,
+    f: &F,
+    axis: Option<usize>,
+    levels: &[f32],
+    threads: usize,
+) -> Levels {
+    sorted(sweep_levels(
+        g,
+        f,
+        axis,
+        levels,
+        threads,
+        None,
+        |out, _, mesh| collect(mesh, g, out),
+    ))
 }
 
 fn run_brute<G: CellGraph, F: ScalarField>(g: &G, f: &F, levels: &[f32]) -> Levels {
@@ -316,20 +338,14 @@ fn isosurfaces_inside_the_domain_are_closed_manifolds() {
             let levels: Vec<f32> = (1..8)
                 .map(|x| x as f32 * 0.5 + 0.013 * (case % 2) as f32)
                 .collect();
-            let ctx = EmitContext {
-                positions: c.positions(),
-                attribute: None,
-                cells_only: false,
-            };
-            let mut sw = Sweeper::new(&c, 1);
-            sw.prepare_minima(&f, None);
-            sw.sweep(
+            sweep_levels(
+                &c,
                 &f,
                 None,
                 &levels,
-                &ctx,
-                || (),
-                |_, k, mesh, _| {
+                1,
+                None,
+                |_: &mut Vec<()>, k, mesh| {
                     assert_closed_manifold(mesh, &format!("{label} case {case} level {k}"));
                 },
             );
@@ -337,19 +353,14 @@ fn isosurfaces_inside_the_domain_are_closed_manifolds() {
                 // The S-CGraph's lattice loop welds by edge ownership instead
                 // of the hash map: its isosurfaces must be closed as well.
                 let s = SCGraph::build(&grid, None).unwrap();
-                let mut sw = Sweeper::new(&s, 1);
-                sw.prepare_minima(&f, None);
-                let ctx = EmitContext {
-                    positions: s.positions(),
-                    ..ctx
-                };
-                sw.sweep(
+                sweep_levels(
+                    &s,
                     &f,
                     None,
                     &levels,
-                    &ctx,
-                    || (),
-                    |_, k, mesh, _| {
+                    1,
+                    None,
+                    |_: &mut Vec<()>, k, mesh| {
                         assert_closed_manifold(mesh, &format!("scgraph case {case} level {k}"));
                     },
                 );
@@ -395,20 +406,14 @@ fn welded<G: CellGraph, F: ScalarField>(
     levels: &[f32],
     threads: usize,
 ) -> WeldedLevels {
-    let ctx = EmitContext {
-        positions: g.positions(),
-        attribute: Some(attribute),
-        cells_only: false,
-    };
-    let mut sw = Sweeper::new(g, threads);
-    sw.prepare_minima(f, None);
-    let parts = sw.sweep(
+    let mut all = sweep_levels(
+        g,
         f,
         None,
         levels,
-        &ctx,
-        || vec![Vec::new(); levels.len()],
-        |acc: &mut WeldedLevels, k, mesh, _| {
+        threads,
+        Some(attribute),
+        |out, k, mesh| {
             let mut keys = mesh.edge_keys.clone();
             keys.sort_unstable();
             keys.dedup();
@@ -420,26 +425,16 @@ fn welded<G: CellGraph, F: ScalarField>(
             assert_eq!(mesh.positions.len(), mesh.edge_keys.len());
             for p in 0..mesh.polygon_count() {
                 let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
-                acc[k].push((
-                    mesh.cells[p],
-                    ids.iter()
-                        .map(|&i| {
-                            (
-                                mesh.edge_keys[i as usize],
-                                mesh.values[i as usize].to_bits(),
-                            )
-                        })
-                        .collect(),
-                ));
+                let corners = ids.iter().map(|&i| {
+                    (
+                        mesh.edge_keys[i as usize],
+                        mesh.values[i as usize].to_bits(),
+                    )
+                });
+                out.push((mesh.cells[p], corners.collect()));
             }
         },
     );
-    let mut all = vec![Vec::new(); levels.len()];
-    for p in parts {
-        for (k, v) in p.into_iter().enumerate() {
-            all[k].extend(v);
-        }
-    }
     for l in &mut all {
         l.sort();
     }
