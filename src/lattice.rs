@@ -13,13 +13,21 @@
 //! owner in the same level, and no other edge reaches its window entry
 //! between the owner's write and the last read.
 
-use crate::extract::{EmitContext, LevelMesh, code_of, decide_faces, norm2_of};
+use crate::extract::{EmitContext, LevelMesh, code_of, decide_faces, emit_cell, norm2_of};
 use crate::metacell::MetaCell;
+
+/// Largest [`EdgeWindow`] length W per axis (the table holds 4W u32s:
+/// 256 MiB at this limit).
+pub const MAX_WINDOW: u64 = 1 << 24;
 
 /// Which edges a lattice cell owns, and where their vertices go in the
 /// [`EdgeWindow`], for slot steps `[1, npi, npi·npj]`.
 #[derive(Clone, Debug)]
 pub struct EdgeOwnership {
+    /// The window fits in [`MAX_WINDOW`] entries per axis. When it does not
+    /// (layers of more than ~2²³ slots), the tables below are truncated and
+    /// must not be used: weld with the hash map instead.
+    pub fits: bool,
     /// The nine cells that share a face or an edge with a cell and come
     /// before it in slot order, as (i, j, k) offsets.
     pub lower: [[i32; 3]; 9],
@@ -88,8 +96,13 @@ impl EdgeOwnership {
         // The cells around an edge differ by at most one step along each of
         // the other two axes: their slots span at most npi + npi·npj.
         let span = step[1] as u64 + step[2] as u64;
-        let window = (span + 1).next_power_of_two().min(1 << 29) as u32;
+        // At most 2^32 (slab < 2^32); `fits` says whether the window is
+        // small enough to allocate (else the caller welds by hash).
+        let window = (span + 1).next_power_of_two();
+        let fits = window <= MAX_WINDOW;
+        let window = window.min(MAX_WINDOW) as u32;
         EdgeOwnership {
+            fits,
             lower,
             lower_steps: lower.map(|o| slot_of(o) as i32 as u32),
             own,
@@ -411,6 +424,26 @@ impl LatticeHexTable {
         }
     }
 
+    /// The same polygons as [`LatticeHexTable::emit`], welded by the mesh's
+    /// hash map ([`crate::extract::emit_cell`] in the meta-cell's local
+    /// order), for lattices whose weld window would not fit.
+    #[allow(clippy::too_many_arguments)]
+    pub fn emit_hashed(
+        &self,
+        meta: &MetaCell,
+        v0: u32,
+        f: &[f32; 8],
+        t: f32,
+        slot: u32,
+        ctx: &EmitContext,
+        mesh: &mut LevelMesh,
+    ) {
+        let ids = self.offsets.map(|o| v0 + o);
+        let phi = self.geo.map(|g| f[g as usize]);
+        let code = code_of(&phi, t);
+        emit_cell(meta, &ids, &phi, t, code, slot, ctx, mesh);
+    }
+
     /// [`LatticeHexTable::emit`] for an ambiguous code: the meta-cell's
     /// loops (in its local order, with the face decider), corners mapped
     /// to geometric edges.
@@ -505,5 +538,17 @@ mod tests {
             let nb = (c as i32 + off[0] + off[1] * npi as i32 + off[2] * (npi * npj) as i32) as u32;
             assert_eq!(c.wrapping_add(o.lower_steps[n]), nb);
         }
+    }
+
+    /// The window spans more slots than the cells around any edge, and
+    /// layers too large for it are flagged (the sweep then welds by hash).
+    #[test]
+    fn window_covers_the_edge_span_or_is_flagged() {
+        let o = EdgeOwnership::new(258, 258);
+        assert!(o.fits);
+        assert!(o.window as u64 > 258 + 258 * 258);
+        assert!(o.window.is_power_of_two());
+        let big = EdgeOwnership::new(20_000, 20_000);
+        assert!(!big.fits);
     }
 }

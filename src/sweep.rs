@@ -537,7 +537,7 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
     if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {
-        sweep_block_lattice(&lat, phi, b, minima, levels, ctx, on_level);
+        sweep_block_lattice(&lat, phi, b, minima, levels, ctx, false, on_level);
         return;
     }
     let catalog = g.catalog();
@@ -631,7 +631,10 @@ unsafe fn load8(phi: &[f32], v0: u32, dj: u32, dk: u32) -> [f32; 8] {
 
 /// [`sweep_block`] specialised for a hexahedral [`Lattice`] with φ stored
 /// per vertex: the same steps, queues, stamps and output (tests compare it
-/// with the generic loop and the brute force). Cells are read in geometric
+/// with the generic loop and the brute force). Polygons are welded by edge
+/// ownership ([`crate::lattice`]), or by the mesh's hash map when
+/// `hash_weld` is set or the lattice's layers are too large for the weld
+/// window. Cells are read in geometric
 /// vertex order (`g = i + 2j + 4k`, see [`LatticeHexTable`]), so faces,
 /// neighbours and far vertices are constants of the lattice.
 #[inline(never)]
@@ -642,6 +645,7 @@ fn sweep_block_lattice(
     minima: &[Minimum],
     levels: &[f32],
     ctx: &EmitContext,
+    hash_weld: bool,
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
     let start = b.start;
@@ -669,7 +673,10 @@ fn sweep_block_lattice(
     b.begin_sweep(levels.len());
     let done = b.done;
     let owner = EdgeOwnership::new(dj, dk / dj);
-    b.window.fit(&owner);
+    let own_weld = owner.fits && !hash_weld;
+    if own_weld {
+        b.window.fit(&owner);
+    }
     let lower = owner.lower_steps;
     // Every lower neighbour is within this many slots.
     let reach = dk + dj + di;
@@ -815,6 +822,11 @@ fn sweep_block_lattice(
                     live
                 };
                 let f = cell(c);
+                if !own_weld {
+                    lat.table
+                        .emit_hashed(lat.meta, c - lat.base, &f, t, c, ctx, mesh);
+                    continue;
+                }
                 lat.table.emit(
                     lat.meta,
                     c - lat.base,
@@ -981,6 +993,86 @@ mod tests {
 
     /// The radix sort against the standard sort: empty, one element,
     /// duplicates, keys spanning 1, 2 and 3 digits, and a non-zero start.
+    /// The lattice loop's hash-weld fallback (for layers too large for the
+    /// ownership window) gives the same indexed meshes as the ownership
+    /// weld: the same polygons as lists of grid edges, one vertex per edge.
+    #[test]
+    fn lattice_hash_weld_fallback_equals_the_ownership_weld() {
+        use crate::extract::EmitContext;
+        let mut x = 0x2545_F491_u32;
+        let mut rnd = move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x
+        };
+        for (n, holes) in [([6, 5, 4], 0), ([7, 6, 9], 15)] {
+            let dims = [n[0] + 1, n[1] + 1, n[2] + 1];
+            let np = dims.iter().product::<usize>();
+            let points = (0..np)
+                .map(|v| {
+                    let (i, j, k) = (v % dims[0], v / dims[0] % dims[1], v / (dims[0] * dims[1]));
+                    [i as f64, j as f64, k as f64]
+                })
+                .collect();
+            let grid = Grid {
+                points,
+                topology: Topology::Structured { dims },
+                point_data: vec![Property::scalar("f", vec![0.0; np])],
+                cell_data: Vec::new(),
+            };
+            let hidden: Vec<bool> = (0..n.iter().product::<usize>())
+                .map(|_| rnd() % 100 < holes)
+                .collect();
+            let g = SCGraph::build(&grid, Some(&hidden)).unwrap();
+            let phi: Vec<f32> = (0..np).map(|_| (rnd() % 17) as f32 * 0.25 - 2.0).collect();
+            let f = VertexField { values: &phi };
+            let lat = g.lattice().unwrap();
+            let ctx = EmitContext {
+                positions: g.positions(),
+                attribute: None,
+                cells_only: false,
+            };
+            let levels: Vec<f32> = (0..15).map(|l| l as f32 * 0.25 - 1.9).collect();
+            let run = |hash_weld: bool| {
+                let mut sw = Sweeper::new(&g, 2);
+                let mut out = vec![Vec::new(); levels.len()];
+                for b in &mut sw.blocks {
+                    let minima = super::block_minima(&g, &f, b);
+                    super::sweep_block_lattice(
+                        &lat,
+                        &phi,
+                        b,
+                        &minima,
+                        &levels,
+                        &ctx,
+                        hash_weld,
+                        |k, mesh, _| {
+                            let mut keys = mesh.edge_keys.clone();
+                            keys.sort_unstable();
+                            keys.dedup();
+                            assert_eq!(keys.len(), mesh.edge_keys.len(), "an edge welded twice");
+                            for p in 0..mesh.polygon_count() {
+                                let ids = &mesh.indices
+                                    [mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
+                                let corners: Vec<u64> =
+                                    ids.iter().map(|&i| mesh.edge_keys[i as usize]).collect();
+                                out[k].push((mesh.cells[p], corners));
+                            }
+                        },
+                    );
+                }
+                for l in &mut out {
+                    l.sort();
+                }
+                out
+            };
+            let owned = run(false);
+            assert!(owned.iter().map(Vec::len).sum::<usize>() > 0, "nothing cut");
+            assert_eq!(run(true), owned, "dims {dims:?} holes {holes}%");
+        }
+    }
+
     #[test]
     fn radix_sort_matches_std_sort() {
         let mut scratch = Vec::new();
