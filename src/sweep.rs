@@ -935,6 +935,33 @@ mod tests {
     use crate::scgraph::SCGraph;
     use crate::sweep::CellGraph;
 
+    /// An IJK grid of unit cubes with `n` cells per axis, about `holes` %
+    /// of them hidden at random; its S-CGraph, vertex counts and hidden flags.
+    fn unit_lattice(
+        n: [usize; 3],
+        holes: u32,
+        rnd: &mut impl FnMut() -> u32,
+    ) -> (SCGraph, [usize; 3], Vec<bool>) {
+        let dims = [n[0] + 1, n[1] + 1, n[2] + 1];
+        let np = dims.iter().product::<usize>();
+        let points = (0..np)
+            .map(|v| {
+                let (i, j, k) = (v % dims[0], v / dims[0] % dims[1], v / (dims[0] * dims[1]));
+                [i as f64, j as f64, k as f64]
+            })
+            .collect();
+        let grid = Grid {
+            points,
+            topology: Topology::Structured { dims },
+            point_data: vec![Property::scalar("f", vec![0.0; np])],
+            cell_data: Vec::new(),
+        };
+        let hidden: Vec<bool> = (0..n.iter().product::<usize>())
+            .map(|_| rnd() % 100 < holes)
+            .collect();
+        (SCGraph::build(&grid, Some(&hidden)).unwrap(), dims, hidden)
+    }
+
     /// The lattice minima equal the generic ones (same cells, same lo, same
     /// order) on random IJK grids with holes and many ties (φ in steps of
     /// 0.5), with 1 to 4 blocks.
@@ -953,24 +980,8 @@ mod tests {
             ([7, 6, 9], 10),
             ([12, 3, 5], 40),
         ] {
-            let dims = [n[0] + 1, n[1] + 1, n[2] + 1];
+            let (g, dims, hidden) = unit_lattice(n, holes, &mut rnd);
             let np = dims.iter().product::<usize>();
-            let points = (0..np)
-                .map(|v| {
-                    let (i, j, k) = (v % dims[0], v / dims[0] % dims[1], v / (dims[0] * dims[1]));
-                    [i as f64, j as f64, k as f64]
-                })
-                .collect();
-            let grid = Grid {
-                points,
-                topology: Topology::Structured { dims },
-                point_data: vec![Property::scalar("f", vec![0.0; np])],
-                cell_data: Vec::new(),
-            };
-            let hidden: Vec<bool> = (0..n.iter().product::<usize>())
-                .map(|_| rnd() % 100 < holes)
-                .collect();
-            let g = SCGraph::build(&grid, Some(&hidden)).unwrap();
             let phi: Vec<f32> = (0..np).map(|_| (rnd() % 9) as f32 * 0.5 - 2.0).collect();
             let f = VertexField { values: &phi };
             let lat = g.lattice().unwrap();
@@ -1007,24 +1018,8 @@ mod tests {
             x
         };
         for (n, holes) in [([6, 5, 4], 0), ([7, 6, 9], 15)] {
-            let dims = [n[0] + 1, n[1] + 1, n[2] + 1];
+            let (g, dims, _) = unit_lattice(n, holes, &mut rnd);
             let np = dims.iter().product::<usize>();
-            let points = (0..np)
-                .map(|v| {
-                    let (i, j, k) = (v % dims[0], v / dims[0] % dims[1], v / (dims[0] * dims[1]));
-                    [i as f64, j as f64, k as f64]
-                })
-                .collect();
-            let grid = Grid {
-                points,
-                topology: Topology::Structured { dims },
-                point_data: vec![Property::scalar("f", vec![0.0; np])],
-                cell_data: Vec::new(),
-            };
-            let hidden: Vec<bool> = (0..n.iter().product::<usize>())
-                .map(|_| rnd() % 100 < holes)
-                .collect();
-            let g = SCGraph::build(&grid, Some(&hidden)).unwrap();
             let phi: Vec<f32> = (0..np).map(|_| (rnd() % 17) as f32 * 0.25 - 2.0).collect();
             let f = VertexField { values: &phi };
             let lat = g.lattice().unwrap();
