@@ -180,9 +180,9 @@ pub struct LevelMesh {
     pub cells: Vec<u32>,
     /// Number of intersected cells emitted.
     pub cut_cells: u32,
-    /// Per polygon: the squared norm of its summed fan cross products (see
-    /// [`polygon_norm2`]), computed while emitting so that the area needs
-    /// no second pass over the indices.
+    /// Sum of the polygon areas (half the root of each [`polygon_norm2`]),
+    /// added up while emitting so that the area needs no second pass over
+    /// the indices.
     area: f64,
     /// Running count of fan triangles.
     triangle_sum: usize,
@@ -222,9 +222,9 @@ impl LevelMesh {
             .map(|w| polygon_area(&self.indices[w[0] as usize..w[1] as usize], &self.positions))
             .sum()
     }
-    /// [`LevelMesh::area`] from the per-polygon norms gathered while
-    /// emitting: the same per-polygon values summed in the same order, so
-    /// the same bits, without re-reading indices and positions.
+    /// [`LevelMesh::area`] as summed while emitting: the same per-polygon
+    /// values added in the same order, without re-reading indices and
+    /// positions.
     #[inline]
     pub fn accumulated_area(&self) -> f64 {
         self.area

@@ -304,11 +304,10 @@ impl LatticeHexTable {
 
     /// Where level `t` crosses geometric edge `e` of the cell with φ `f`,
     /// whose vertex positions start at `cell[0]` (`cell` = the positions
-    /// from its first vertex to its last): the position and the fraction
-    /// from the lower end (the arithmetic of [`LevelMesh`]'s hash-welded
-    /// corners, so the same bits).
+    /// from its first vertex to its last), with the arithmetic of
+    /// [`LevelMesh`]'s hash-welded corners (so the same bits).
     #[inline(always)]
-    fn crossing(&self, e: usize, f: &[f32; 8], t: f32, cell: &[[f32; 3]]) -> ([f32; 3], f32) {
+    fn crossing(&self, e: usize, f: &[f32; 8], t: f32, cell: &[[f32; 3]]) -> [f32; 3] {
         let (a, b) = EDGE_ENDS[e];
         let s = (t - f[a]) / (f[b] - f[a]);
         debug_assert!(cell.len() > self.goff[7] as usize);
@@ -320,13 +319,19 @@ impl LatticeHexTable {
                 *cell.get_unchecked(self.edge_high[e] as usize),
             )
         };
+        [
+            pa[0] + s * (pb[0] - pa[0]),
+            pa[1] + s * (pb[1] - pa[1]),
+            pa[2] + s * (pb[2] - pa[2]),
+        ]
+    }
+
+    /// The cell's global vertex ids and φ in the meta-cell's local order.
+    #[inline(always)]
+    fn local(&self, v0: u32, f: &[f32; 8]) -> ([u32; 8], [f32; 8]) {
         (
-            [
-                pa[0] + s * (pb[0] - pa[0]),
-                pa[1] + s * (pb[1] - pa[1]),
-                pa[2] + s * (pb[2] - pa[2]),
-            ],
-            s,
+            self.offsets.map(|o| v0 + o),
+            self.geo.map(|g| f[g as usize]),
         )
     }
 
@@ -397,14 +402,14 @@ impl LatticeHexTable {
         let own = self.cut[code] as u32 & owner.own[live as usize & 511] as u32;
         let cp = &self.codes[code];
         if cp.polys == 0 {
-            self.emit_ambiguous(meta, v0, f, t, own, owner, slot, ctx, mesh, win);
+            self.emit_ambiguous(meta, v0, f, t, code, own, owner, slot, ctx, mesh, win);
             return;
         }
         let n = cp.count as usize;
         let cell = self.cell_positions(v0, ctx.positions);
         let mut by_corner = [[0f32; 3]; 12];
         for (i, p) in by_corner.iter_mut().enumerate().take(n) {
-            *p = self.crossing(cp.corners[i] as usize, f, t, cell).0;
+            *p = self.crossing(cp.corners[i] as usize, f, t, cell);
         }
         let at = |e: usize| by_corner[cp.corner_of[e] as usize];
         self.create_owned(own, v0, f, t, at, owner, slot, ctx, mesh, win);
@@ -438,14 +443,12 @@ impl LatticeHexTable {
         ctx: &EmitContext,
         mesh: &mut LevelMesh,
     ) {
-        let ids = self.offsets.map(|o| v0 + o);
-        let phi = self.geo.map(|g| f[g as usize]);
-        let code = code_of(&phi, t);
-        emit_cell(meta, &ids, &phi, t, code, slot, ctx, mesh);
+        let (ids, phi) = self.local(v0, f);
+        emit_cell(meta, &ids, &phi, t, code_of(&phi, t), slot, ctx, mesh);
     }
 
-    /// [`LatticeHexTable::emit`] for an ambiguous code: the meta-cell's
-    /// loops (in its local order, with the face decider), corners mapped
+    /// [`LatticeHexTable::emit`] for an ambiguous geometric code `code`: the
+    /// meta-cell's loops (in its local order, with the face decider), corners mapped
     /// to geometric edges.
     #[inline(never)]
     #[allow(clippy::too_many_arguments)]
@@ -455,6 +458,7 @@ impl LatticeHexTable {
         v0: u32,
         f: &[f32; 8],
         t: f32,
+        code: usize,
         own: u32,
         owner: &EdgeOwnership,
         slot: u32,
@@ -464,16 +468,15 @@ impl LatticeHexTable {
     ) {
         let cell = self.cell_positions(v0, ctx.positions);
         let mut by_edge = [[0f32; 3]; 12];
-        let mut m = self.cut[code_index(f, t)] as u32;
+        let mut m = self.cut[code] as u32;
         while m != 0 {
             let e = m.trailing_zeros() as usize;
             m &= m - 1;
-            by_edge[e] = self.crossing(e, f, t, cell).0;
+            by_edge[e] = self.crossing(e, f, t, cell);
         }
         self.create_owned(own, v0, f, t, |e| by_edge[e], owner, slot, ctx, mesh, win);
         mesh.cut_cells += 1;
-        let gids = self.offsets.map(|o| v0 + o);
-        let phi = self.geo.map(|g| f[g as usize]);
+        let (gids, phi) = self.local(v0, f);
         let code = code_of(&phi, t);
         let outcome = if meta.ambiguous_faces[code] != 0 {
             decide_faces(meta, &gids, &phi, t, code)
@@ -488,11 +491,6 @@ impl LatticeHexTable {
             mesh.close_polygon(lp.len(), norm2, slot);
         }
     }
-}
-
-/// The geometric code of φ `f` at `t` (bit g set iff `f[g] >= t`).
-fn code_index(f: &[f32; 8], t: f32) -> usize {
-    (0..8).fold(0, |c, g| c | ((f[g] >= t) as usize) << g)
 }
 
 #[cfg(test)]

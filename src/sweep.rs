@@ -788,13 +788,12 @@ fn sweep_block_lattice(
         // share cache lines of φ, positions and the weld window), and the
         // next step visits A_k first, in that order.
         radix_sort_slots(active, &mut b.sort_scratch, start, len);
-        let slots: &[u32] = active;
         if ctx.cells_only {
-            mesh.cells.extend_from_slice(slots);
-            mesh.cut_cells = slots.len() as u32;
+            mesh.cells.extend_from_slice(active);
+            mesh.cut_cells = active.len() as u32;
         } else {
-            for (n, &c) in slots.iter().enumerate() {
-                if let Some(&ahead) = slots.get(n + 4 * PREFETCH_AHEAD) {
+            for (n, &c) in active.iter().enumerate() {
+                if let Some(&ahead) = active.get(n + 4 * PREFETCH_AHEAD) {
                     // The cell's vertex rows: φ, positions and attribute.
                     let v = ahead - lat.base;
                     for r in [v, v + dj, v + dk, v + dj + dk] {
@@ -804,6 +803,12 @@ fn sweep_block_lattice(
                             prefetch(a, r as usize);
                         }
                     }
+                }
+                let f = cell(c);
+                if !own_weld {
+                    lat.table
+                        .emit_hashed(lat.meta, c - lat.base, &f, t, c, ctx, mesh);
+                    continue;
                 }
                 // Which earlier edge neighbours are live cells of this block
                 // (they own the edges they share with this cell): all of
@@ -821,12 +826,6 @@ fn sweep_block_lattice(
                     }
                     live
                 };
-                let f = cell(c);
-                if !own_weld {
-                    lat.table
-                        .emit_hashed(lat.meta, c - lat.base, &f, t, c, ctx, mesh);
-                    continue;
-                }
                 lat.table.emit(
                     lat.meta,
                     c - lat.base,
@@ -867,7 +866,8 @@ fn radix_sort_slots(slots: &mut Vec<u32>, scratch: &mut Vec<u32>, start: u32, le
     let mask = (1usize << bits) - 1;
     scratch.clear();
     scratch.resize(slots.len(), 0);
-    let mut count = vec![0u32; 1 << bits];
+    let mut buckets = [0u32; 1 << MAX_BITS];
+    let count = &mut buckets[..1 << bits];
     let mut shift = 0;
     while shift < key_bits {
         count.fill(0);
