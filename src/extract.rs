@@ -308,16 +308,6 @@ impl LevelMesh {
         self.edge_keys.push(key);
         vi
     }
-    /// Closes the polygon made of the last `n` entries pushed onto
-    /// `indices` (welded by the caller), with source cell `slot` and the
-    /// squared norm `norm2` of its fan cross products.
-    #[inline(always)]
-    pub(crate) fn close_polygon(&mut self, n: usize, norm2: f64, slot: u32) {
-        self.offsets.push(self.indices.len() as u32);
-        self.cells.push(slot);
-        self.triangle_sum += n - 2;
-        self.area += 0.5 * norm2.sqrt();
-    }
     /// Appends the vertex where the level `t` crosses grid edge `ga`–`gb`
     /// (`ga < gb`, with φ values `fa`, `fb`).
     #[allow(clippy::too_many_arguments)]
@@ -371,7 +361,7 @@ pub fn polygon_norm2(ids: &[u32], pos: &[[f32; 3]]) -> f64 {
 
 /// [`polygon_norm2`] of the `n`-corner polygon whose corner i is at `p(i)`.
 #[inline(always)]
-pub(crate) fn norm2_of(n: usize, p: impl Fn(usize) -> [f64; 3]) -> f64 {
+fn norm2_of(n: usize, p: impl Fn(usize) -> [f64; 3]) -> f64 {
     let cross = |u: [f64; 3], v: [f64; 3]| {
         [
             u[1] * v[2] - u[2] * v[1],

@@ -13,7 +13,7 @@
 //! owner in the same level, and no other edge reaches its window entry
 //! between the owner's write and the last read.
 
-use crate::extract::{EmitContext, LevelMesh, code_of, decide_faces, emit_cell, norm2_of};
+use crate::extract::{EmitContext, LevelMesh, code_of, decide_faces, emit_cell};
 use crate::metacell::MetaCell;
 
 /// Largest [`EdgeWindow`] length W per axis (the table holds 4W u32s:
@@ -214,8 +214,6 @@ struct CodePolygons {
     corners: [u8; 12],
     /// Corner count of each polygon.
     sizes: [u8; 4],
-    /// Per geometric edge: its corner (for the cut edges).
-    corner_of: [u8; 12],
     /// Total corner count.
     count: u8,
     /// Polygon count; 0 for ambiguous codes (and the two uncut codes).
@@ -267,7 +265,6 @@ impl LatticeHexTable {
                     for &e in lp.iter() {
                         let g = local_edge[e as usize];
                         cp.corners[cp.count as usize] = g;
-                        cp.corner_of[g as usize] = cp.count;
                         cp.count += 1;
                     }
                 }
@@ -402,29 +399,34 @@ impl LatticeHexTable {
         let own = self.cut[code] as u32 & owner.own[live as usize & 511] as u32;
         let cp = &self.codes[code];
         if cp.polys == 0 {
-            self.emit_ambiguous(meta, v0, f, t, code, own, owner, slot, ctx, mesh, win);
+            self.emit_ambiguous(meta, v0, f, t, own, owner, slot, ctx, mesh, win);
             return;
         }
-        let n = cp.count as usize;
         let cell = self.cell_positions(v0, ctx.positions);
-        let mut by_corner = [[0f32; 3]; 12];
-        for (i, p) in by_corner.iter_mut().enumerate().take(n) {
-            *p = self.crossing(cp.corners[i] as usize, f, t, cell);
-        }
-        let at = |e: usize| by_corner[cp.corner_of[e] as usize];
-        self.create_owned(own, v0, f, t, at, owner, slot, ctx, mesh, win);
+        self.create_owned(
+            own,
+            v0,
+            f,
+            t,
+            |e| self.crossing(e, f, t, cell),
+            owner,
+            slot,
+            ctx,
+            mesh,
+            win,
+        );
         mesh.cut_cells += 1;
         let mut first = 0;
         for &m in &cp.sizes[..cp.polys as usize] {
             let m = m as usize;
             let corners = &cp.corners[first..first + m];
+            let start = mesh.indices.len();
             mesh.indices.extend(
                 corners
                     .iter()
                     .map(|&e| win.get(owner.slot_of(e as usize, slot))),
             );
-            let norm2 = norm2_of(m, |i| by_corner[first + i].map(f64::from));
-            mesh.close_polygon(m, norm2, slot);
+            mesh.end_polygon(start, slot);
             first += m;
         }
     }
@@ -447,9 +449,9 @@ impl LatticeHexTable {
         emit_cell(meta, &ids, &phi, t, code_of(&phi, t), slot, ctx, mesh);
     }
 
-    /// [`LatticeHexTable::emit`] for an ambiguous geometric code `code`: the
-    /// meta-cell's loops (in its local order, with the face decider), corners mapped
-    /// to geometric edges.
+    /// [`LatticeHexTable::emit`] for a cell whose code is ambiguous: the
+    /// meta-cell's loops (in its local order, with the face decider),
+    /// corners mapped to geometric edges.
     #[inline(never)]
     #[allow(clippy::too_many_arguments)]
     fn emit_ambiguous(
@@ -458,7 +460,6 @@ impl LatticeHexTable {
         v0: u32,
         f: &[f32; 8],
         t: f32,
-        code: usize,
         own: u32,
         owner: &EdgeOwnership,
         slot: u32,
@@ -467,14 +468,8 @@ impl LatticeHexTable {
         win: &mut EdgeWindow,
     ) {
         let cell = self.cell_positions(v0, ctx.positions);
-        let mut by_edge = [[0f32; 3]; 12];
-        let mut m = self.cut[code] as u32;
-        while m != 0 {
-            let e = m.trailing_zeros() as usize;
-            m &= m - 1;
-            by_edge[e] = self.crossing(e, f, t, cell);
-        }
-        self.create_owned(own, v0, f, t, |e| by_edge[e], owner, slot, ctx, mesh, win);
+        let at = |e: usize| self.crossing(e, f, t, cell);
+        self.create_owned(own, v0, f, t, at, owner, slot, ctx, mesh, win);
         mesh.cut_cells += 1;
         let (gids, phi) = self.local(v0, f);
         let code = code_of(&phi, t);
@@ -485,10 +480,10 @@ impl LatticeHexTable {
         };
         for lp in meta.loops(code, outcome) {
             let corner = |i: usize| self.local_edge[lp[i] as usize] as usize;
+            let start = mesh.indices.len();
             mesh.indices
                 .extend((0..lp.len()).map(|i| win.get(owner.slot_of(corner(i), slot))));
-            let norm2 = norm2_of(lp.len(), |i| by_edge[corner(i)].map(f64::from));
-            mesh.close_polygon(lp.len(), norm2, slot);
+            mesh.end_polygon(start, slot);
         }
     }
 }

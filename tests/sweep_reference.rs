@@ -423,6 +423,15 @@ fn welded<G: CellGraph, F: ScalarField>(
                 "level {k}: an edge welded twice"
             );
             assert_eq!(mesh.positions.len(), mesh.edge_keys.len());
+            // The running area equals the polygons' areas recomputed from
+            // the welded mesh, bit for bit (same corners, same order).
+            let area: f64 = (0..mesh.polygon_count())
+                .map(|p| {
+                    let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
+                    stratasweep::extract::polygon_area(ids, &mesh.positions)
+                })
+                .sum();
+            assert_eq!(mesh.area().to_bits(), area.to_bits(), "level {k}: area");
             for p in 0..mesh.polygon_count() {
                 let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
                 let corners = ids.iter().map(|&i| {
