@@ -233,6 +233,42 @@ pub struct Block {
     pub mesh: LevelMesh,
     /// Weld table of the lattice loop.
     window: EdgeWindow,
+    /// Queues of the lattice loop.
+    lattice: LatticeQueues,
+}
+
+/// The lattice loop's queues, kept between sweeps for their capacity.
+#[derive(Debug, Default)]
+struct LatticeQueues {
+    /// Per level k: the cells that enter at step k (`t_{k-1} <= lo < t_k`),
+    /// in the order they were found.
+    entering: Vec<Vec<u32>>,
+    /// `A_k` in slot order, each cell packed with the last level that cuts
+    /// it ([`pack_active`]).
+    active: Vec<u64>,
+    /// The cells entering at this step that the level cuts, packed.
+    fresh: Vec<u64>,
+    /// Scratch for sorting `fresh` and merging it into `active`.
+    scratch: Vec<u64>,
+}
+
+impl LatticeQueues {
+    /// Bytes held.
+    fn bytes(&self) -> usize {
+        self.entering
+            .iter()
+            .map(|q| q.capacity() * 4)
+            .sum::<usize>()
+            + (self.active.capacity() + self.fresh.capacity() + self.scratch.capacity()) * 8
+    }
+}
+
+/// A cell of the lattice loop's active queue: its slot in the high half
+/// (so sorting by value sorts by slot), the last level index that cuts it
+/// in the low half.
+#[inline(always)]
+fn pack_active(slot: u32, last: usize) -> u64 {
+    (slot as u64) << 32 | last as u64
 }
 
 impl Block {
@@ -304,6 +340,7 @@ impl Block {
                 .sum::<usize>()
             + self.mesh.capacity_bytes()
             + self.window.bytes()
+            + self.lattice.bytes()
     }
 }
 
@@ -332,6 +369,7 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
                 minima_cache: Default::default(),
                 mesh: LevelMesh::default(),
                 window: EdgeWindow::default(),
+                lattice: LatticeQueues::default(),
             })
             .collect();
         Sweeper { graph, blocks }
@@ -667,14 +705,11 @@ fn sweep_block_lattice(
         lat.vertices
     );
     // SAFETY (for `at` and `cell`): callers pass vertex ids of a live cell,
-    // or of a live neighbour (stamp < step, so not a never-sweep slot), all
-    // < lat.vertices.
+    // or of a live neighbour (stamp < seen, so not a never-sweep slot),
+    // all < lat.vertices.
     let at = |v: u32| unsafe { *phi.get_unchecked(v as usize) };
     let cell = |c: u32| unsafe { load8(phi, c - lat.base, dj, dk) };
-    b.work.clear();
-    b.active.clear();
     b.begin_sweep(levels.len());
-    let done = b.done;
     let owner = EdgeOwnership::new(dj, dk / dj);
     let own_weld = owner.fits && !hash_weld;
     if own_weld {
@@ -683,20 +718,43 @@ fn sweep_block_lattice(
     let lower = owner.lower_steps;
     // Every lower neighbour is within this many slots.
     let reach = dk + dj + di;
-    let mut next_min = 0;
+    // Every cell found in this sweep gets stamp `seen`, above the stamps
+    // of every live cell not found yet (and below NEVER): a neighbour is
+    // new iff its stamp is below `seen`.
+    let seen = b.done;
+    let n = levels.len();
+    let Block {
+        stamps,
+        mesh,
+        window,
+        lattice: q,
+        ..
+    } = b;
+    let stamps = &mut stamps[..];
+    let len = stamps.len() as u32;
+    if q.entering.len() < n {
+        q.entering.resize_with(n, Vec::new);
+    }
+    for e in &mut q.entering[..n] {
+        e.clear();
+    }
+    q.active.clear();
+    // Each cell is queued once, at the step where the level first passes
+    // its lo: the minima now, every other cell by the first neighbour
+    // that enters (see ARCHITECTURE.md, "entry levels").
+    for m in minima {
+        let l = levels.partition_point(|&t| t <= m.lo);
+        let j = (m.slot - start) as usize;
+        if l < n && stamps[j] < seen {
+            stamps[j] = seen;
+            q.entering[l].push(m.slot);
+        }
+    }
     let mut t_prev = f32::NEG_INFINITY;
     for (k, &t) in levels.iter().enumerate() {
-        let step = b.begin_level(minima, &mut next_min, t);
-        let Block {
-            stamps,
-            work,
-            active,
-            mesh,
-            window,
-            ..
-        } = b;
-        let stamps = &mut stamps[..];
-        let len = stamps.len() as u32;
+        mesh.clear();
+        let mut work = std::mem::take(&mut q.entering[k]);
+        q.fresh.clear();
         let mut i = 0;
         while i < work.len() {
             let c = work[i];
@@ -737,44 +795,57 @@ fn sweep_block_lattice(
                 fmin(fmin(f[0], f[1]), fmin(f[2], f[3])),
                 fmin(fmin(f[4], f[5]), fmin(f[6], f[7])),
             ];
-            let lo = fmin(face[4], face[5]);
             let hi = max8(&f);
-            debug_assert!(lo < t, "queued cells have lo below the level");
-            if intersects(lo, hi, t) {
-                active.push(c);
-            } else {
-                // hi < t: swept out for good.
-                stamps[(c - start) as usize] = done;
+            debug_assert!(
+                fmin(face[4], face[5]) < t,
+                "queued cells have lo below the level"
+            );
+            if t <= hi {
+                // Cut from this level through every level up to hi: the
+                // cell stays in A until then without being read again.
+                let mut last = k;
+                while last + 1 < n && levels[last + 1] <= hi {
+                    last += 1;
+                }
+                q.fresh.push(pack_active(c, last));
             }
-            // The six neighbours, unrolled: stamp every one examined (see
-            // `sweep_block`); its lo is the min of the shared face's φ and
-            // of its 4 far vertices `far + {0, e1, e2, e1 + e2}`.
-            //
-            // A neighbour's lo is at most the min of the shared face: when
-            // that is below t_prev the neighbour cannot enter at this step
-            // (lo ≥ t_prev fails), so it is skipped without touching its
-            // stamp or its far vertices; that is the case of every face
-            // behind the front.
+            // The six neighbours, unrolled. One not found yet has lo at
+            // least t_prev (every cell with a lower lo is found by the end
+            // of the previous step), so a shared face below t_prev means
+            // it was found: skipped without touching its stamp (the case
+            // of every face behind the front). A new one is queued at its
+            // entry level: this step when the shared face dips below t,
+            // else from its lo (the min of the shared face and of its 4
+            // far vertices `far + {0, e1, e2, e1 + e2}`).
             macro_rules! visit {
                 ($nb:expr, $face:expr, $far:expr, $e1:expr, $e2:expr) => {{
                     let nb: u32 = $nb;
                     let shared = face[$face];
                     let j = nb.wrapping_sub(start);
-                    if shared >= t_prev && j < len && stamps[j as usize] < step {
-                        stamps[j as usize] = step;
-                        // Not dead, not in A_{k-1}, not swept out: so its lo
-                        // is at least t_prev (every cell with a lower lo
-                        // was queued at an earlier step), and it enters
-                        // iff lo < t: at once when the shared face dips
-                        // below t, else by its far face.
+                    if shared >= t_prev && j < len && stamps[j as usize] < seen {
+                        stamps[j as usize] = seen;
                         let far: u32 = $far;
-                        if shared < t
-                            || fmin(
-                                fmin(at(far), at(far + $e1)),
-                                fmin(at(far + $e2), at(far + $e1 + $e2)),
-                            ) < t
-                        {
+                        let lo = if shared < t {
+                            shared
+                        } else {
+                            fmin(
+                                shared,
+                                fmin(
+                                    fmin(at(far), at(far + $e1)),
+                                    fmin(at(far + $e2), at(far + $e1 + $e2)),
+                                ),
+                            )
+                        };
+                        if lo < t {
                             work.push(nb);
+                        } else {
+                            let mut l = k + 1;
+                            while l < n && levels[l] <= lo {
+                                l += 1;
+                            }
+                            if l < n {
+                                q.entering[l].push(nb);
+                            }
                         }
                     }
                 }};
@@ -786,19 +857,29 @@ fn sweep_block_lattice(
             visit!(c - dk, 4, v0.wrapping_sub(dk), di, dj);
             visit!(c + dk, 5, v0 + 2 * dk, di, dj);
         }
-        // A_k in slot order: this level's polygons are emitted in that
-        // order (the weld by ownership needs it, and consecutive cells
-        // share cache lines of φ, positions and the weld window), and the
-        // next step visits A_k first, in that order.
-        radix_sort_slots(active, &mut b.sort_scratch, start, len);
+        let entered = work.len();
+        work.clear();
+        q.entering[k] = work;
+        // A_k in slot order: the cells of A_{k-1} still cut (already in
+        // order) merged with this step's cut entries (sorted). This level's
+        // polygons are emitted in that order (the weld by ownership needs
+        // it, and consecutive cells share cache lines of φ, positions and
+        // the weld window).
+        radix_sort_by_slot(&mut q.fresh, &mut q.scratch, start, len, |x| {
+            (x >> 32) as u32
+        });
+        let carried = q.active.len();
+        merge_active(&q.active, &q.fresh, k, &mut q.scratch);
+        std::mem::swap(&mut q.active, &mut q.scratch);
+        let active = &q.active;
         if ctx.cells_only {
-            mesh.cells.extend_from_slice(active);
+            mesh.cells.extend(active.iter().map(|&x| (x >> 32) as u32));
             mesh.cut_cells = active.len() as u32;
         } else {
-            for (n, &c) in active.iter().enumerate() {
+            for (n, &x) in active.iter().enumerate() {
                 if let Some(&ahead) = active.get(n + 4 * PREFETCH_AHEAD) {
                     // The cell's vertex rows: φ, positions and attribute.
-                    let v = ahead - lat.base;
+                    let v = (ahead >> 32) as u32 - lat.base;
                     for r in [v, v + dj, v + dk, v + dj + dk] {
                         prefetch(phi, r as usize);
                         prefetch(ctx.positions, r as usize);
@@ -807,6 +888,7 @@ fn sweep_block_lattice(
                         }
                     }
                 }
+                let c = (x >> 32) as u32;
                 let f = cell(c);
                 if !own_weld {
                     lat.table
@@ -844,23 +926,60 @@ fn sweep_block_lattice(
                 );
             }
         }
-        let stats = LevelStats::of(mesh, work.len() as u64);
+        // Visited: the cells read at this step (entries) and the queue of
+        // A_{k-1} filtered by each cell's last level.
+        let stats = LevelStats::of(mesh, (entered + carried) as u64);
         on_level(k, mesh, &stats);
         t_prev = t;
     }
 }
 
+/// Writes into `out` the cells of `carried` (`A_{k-1}`, packed by
+/// [`pack_active`], in slot order) still cut at level `k`, merged in slot
+/// order with `fresh` (sorted; no slot in both).
+fn merge_active(carried: &[u64], fresh: &[u64], k: usize, out: &mut Vec<u64>) {
+    out.clear();
+    out.reserve(carried.len() + fresh.len());
+    let mut f = fresh.iter().copied().peekable();
+    for &a in carried {
+        if (a as u32 as usize) < k {
+            continue;
+        }
+        while let Some(&b) = f.peek() {
+            if b > a {
+                break;
+            }
+            out.push(b);
+            f.next();
+        }
+        out.push(a);
+    }
+    out.extend(f);
+}
+
 /// Sorts `slots` (all in `start..start + len`) ascending with an LSD radix
-/// sort over `slot - start`, in as few passes of at most 13-bit digits as
-/// the key range needs (two for up to 2²⁶ slots); `scratch` is reused.
-/// Short lists take a comparison sort.
+/// sort over `slot - start` ([`radix_sort_by_slot`]).
 fn radix_sort_slots(slots: &mut Vec<u32>, scratch: &mut Vec<u32>, start: u32, len: u32) {
+    radix_sort_by_slot(slots, scratch, start, len, |c| c);
+}
+
+/// Sorts `items` by `slot(item)` (all in `start..start + len`, distinct)
+/// with an LSD radix sort over `slot - start`, in as few passes of at most
+/// 13-bit digits as the key range needs (two for up to 2²⁶ slots);
+/// `scratch` is reused. Short lists take a comparison sort.
+fn radix_sort_by_slot<T: Copy + Default>(
+    items: &mut Vec<T>,
+    scratch: &mut Vec<T>,
+    start: u32,
+    len: u32,
+    slot: impl Fn(T) -> u32,
+) {
     const MAX_BITS: u32 = 13;
-    if slots.len() < 2 {
+    if items.len() < 2 {
         return;
     }
-    if slots.len() < 1024 {
-        slots.sort_unstable();
+    if items.len() < 1024 {
+        items.sort_unstable_by_key(|&x| slot(x));
         return;
     }
     let key_bits = 32 - len.saturating_sub(1).leading_zeros();
@@ -868,14 +987,14 @@ fn radix_sort_slots(slots: &mut Vec<u32>, scratch: &mut Vec<u32>, start: u32, le
     let bits = key_bits.div_ceil(passes);
     let mask = (1usize << bits) - 1;
     scratch.clear();
-    scratch.resize(slots.len(), 0);
+    scratch.resize(items.len(), T::default());
     let mut buckets = [0u32; 1 << MAX_BITS];
     let count = &mut buckets[..1 << bits];
     let mut shift = 0;
     while shift < key_bits {
         count.fill(0);
-        for &c in slots.iter() {
-            count[((c - start) >> shift) as usize & mask] += 1;
+        for &c in items.iter() {
+            count[((slot(c) - start) >> shift) as usize & mask] += 1;
         }
         let mut sum = 0;
         for n in count.iter_mut() {
@@ -883,12 +1002,12 @@ fn radix_sort_slots(slots: &mut Vec<u32>, scratch: &mut Vec<u32>, start: u32, le
             *n = sum;
             sum += here;
         }
-        for &c in slots.iter() {
-            let d = ((c - start) >> shift) as usize & mask;
+        for &c in items.iter() {
+            let d = ((slot(c) - start) >> shift) as usize & mask;
             scratch[count[d] as usize] = c;
             count[d] += 1;
         }
-        std::mem::swap(slots, scratch);
+        std::mem::swap(items, scratch);
         shift += bits;
     }
 }
