@@ -6,7 +6,8 @@
 //! of them in slot order (the edge's *owner*) creates its vertex; the later
 //! ones read it back from an [`EdgeWindow`], a direct-mapped table indexed
 //! by the edge's lower vertex modulo a power of two larger than any slot
-//! distance between two cells that share an edge. Whether a cell owns an
+//! distance between two cells that share an edge along that axis (a row
+//! and a cell for k edges, so their section stays small). Whether a cell owns an
 //! edge depends only on which of its nine lower-slot edge neighbours are
 //! live, so a cell's owned edges are one table lookup, and no lookup can
 //! miss or hit a stale entry: an edge that is cut has a cut, live, earlier
@@ -16,7 +17,7 @@
 use crate::extract::{EmitContext, LevelMesh, code_of, decide_faces, emit_cell};
 use crate::metacell::MetaCell;
 
-/// Largest [`EdgeWindow`] length W per axis (the table holds 4W u32s:
+/// Largest [`EdgeWindow`] length W per axis (the table holds at most 4W u32s:
 /// 256 MiB at this limit).
 pub const MAX_WINDOW: u64 = 1 << 24;
 
@@ -39,10 +40,16 @@ pub struct EdgeOwnership {
     /// Per geometric edge: slot step from the cell to its lower vertex's
     /// cell (the vertex offset in the lattice).
     low_offset: [u32; 12],
-    /// Window length W: a power of two above the slot span of the cells
-    /// around any edge.
-    window: u32,
-    /// Per geometric edge: `axis·W`.
+    /// Entries of the whole table (the three sections, padded to a power
+    /// of two).
+    table_len: usize,
+    /// Per geometric edge: `W_axis − 1`, where the window length W_axis is
+    /// a power of two above the slot span of the cells around an edge
+    /// along that axis (`npi + 1` for k edges, about a layer for the
+    /// others).
+    mask: [u32; 12],
+    /// Per geometric edge: where its axis's section starts (k edges first,
+    /// so their small, busy section shares no cache lines with the others).
     axis_base: [u32; 12],
 }
 
@@ -93,30 +100,42 @@ impl EdgeOwnership {
             let lo = edge_ends(e).0;
             (0..3).map(|a| (lo >> a & 1) as u32 * step[a]).sum()
         });
-        // The cells around an edge differ by at most one step along each of
-        // the other two axes: their slots span at most npi + npi·npj.
-        let span = step[1] as u64 + step[2] as u64;
-        // At most 2^32 (slab < 2^32); `fits` says whether the window is
-        // small enough to allocate (else the caller welds by hash).
-        let window = (span + 1).next_power_of_two();
-        let fits = window <= MAX_WINDOW;
-        let window = window.min(MAX_WINDOW) as u32;
+        // The cells around an edge along axis d differ by at most one step
+        // along each of the other two axes: their slots span the sum of
+        // those two steps. At most 2^32 each (slab < 2^32); `fits` says
+        // whether the windows are small enough to allocate (else the
+        // caller welds by hash).
+        let want: [u64; 3] = std::array::from_fn(|d| {
+            let span: u64 = (0..3).filter(|&a| a != d).map(|a| step[a] as u64).sum();
+            (span + 1).next_power_of_two()
+        });
+        let fits = want.iter().all(|&w| w <= MAX_WINDOW);
+        let windows = want.map(|w| w.min(MAX_WINDOW) as u32);
+        // Sections in the order k, i, j.
+        let base = [windows[2], windows[2] + windows[0], 0];
+        let table_len = windows
+            .iter()
+            .map(|&w| w as usize)
+            .sum::<usize>()
+            .next_power_of_two();
         EdgeOwnership {
             fits,
             lower,
             lower_steps: lower.map(|o| slot_of(o) as i32 as u32),
             own,
             low_offset,
-            window,
-            axis_base: std::array::from_fn(|e| (e / 4) as u32 * window),
+            table_len,
+            mask: std::array::from_fn(|e| windows[e / 4] - 1),
+            axis_base: std::array::from_fn(|e| base[e / 4]),
         }
     }
 
-    /// Window slot of geometric edge `e` of the cell in slot `c`:
-    /// `axis·W + (slot of the edge's lower vertex mod W)`.
+    /// Window slot of geometric edge `e` of the cell in slot `c`: the
+    /// start of its axis's section plus the slot of the edge's lower
+    /// vertex mod W_axis.
     #[inline(always)]
     pub fn slot_of(&self, e: usize, c: u32) -> usize {
-        ((c.wrapping_add(self.low_offset[e]) & (self.window - 1)) + self.axis_base[e]) as usize
+        ((c.wrapping_add(self.low_offset[e]) & self.mask[e]) + self.axis_base[e]) as usize
     }
 }
 
@@ -136,7 +155,7 @@ pub const fn edge_ends(e: usize) -> (usize, usize) {
 }
 
 /// Per-level weld table of the lattice emitter: the output vertex of each
-/// cut edge, at `axis·W + (slot of its lower vertex mod W)`
+/// cut edge, in its axis's section at (slot of its lower vertex mod W_axis)
 /// ([`EdgeOwnership::slot_of`]). Never cleared: ownership
 /// guarantees every read was written earlier in the same level (see the
 /// module docs).
@@ -152,11 +171,11 @@ pub struct EdgeWindow {
 impl EdgeWindow {
     /// Sizes the window for `owner`. Keeps the table when it fits.
     pub fn fit(&mut self, owner: &EdgeOwnership) {
-        // Three axis sections of W entries, padded to 4W (a power of two).
-        let w = owner.window as usize;
-        if self.ids.len() != 4 * w {
-            self.ids = vec![0; 4 * w];
-            self.last = 4 * w - 1;
+        // Three axis sections, padded to a power of two.
+        let n = owner.table_len;
+        if self.ids.len() != n {
+            self.ids = vec![0; n];
+            self.last = n - 1;
         }
     }
 
@@ -539,8 +558,24 @@ mod tests {
     fn window_covers_the_edge_span_or_is_flagged() {
         let o = EdgeOwnership::new(258, 258);
         assert!(o.fits);
-        assert!(o.window as u64 > 258 + 258 * 258);
-        assert!(o.window.is_power_of_two());
+        let windows = [0, 1, 2].map(|d| o.mask[4 * d] + 1);
+        // Along i and j the cells around an edge span a layer and a row
+        // (or a cell); along k a row and a cell.
+        assert!(windows[0] as u64 > 258 + 258 * 258);
+        assert!(windows[1] as u64 > 1 + 258 * 258);
+        assert!(windows[2] as u64 > 1 + 258);
+        assert!(windows.iter().all(|w| w.is_power_of_two()));
+        // The three sections are disjoint and inside the table.
+        let mut used = vec![false; o.table_len];
+        for (e, w) in (0..12).map(|e| (e, windows[e / 4])) {
+            if e % 4 == 0 {
+                for x in 0..w {
+                    let i = o.slot_of(e, x.wrapping_sub(o.low_offset[e]));
+                    assert!(!used[i], "edge {e}: window entry {i} shared");
+                    used[i] = true;
+                }
+            }
+        }
         let big = EdgeOwnership::new(20_000, 20_000);
         assert!(!big.fits);
     }
