@@ -250,6 +250,13 @@ struct LatticeQueues {
     fresh: Vec<u64>,
     /// Scratch for sorting `fresh` and merging it into `active`.
     scratch: Vec<u64>,
+    /// Per block slot, one bit: never swept (dead). Built at the first
+    /// lattice sweep from the stamps.
+    dead: Vec<u64>,
+    /// Per block slot, one bit: dead, or found in this sweep. Reset from
+    /// `dead` when a sweep starts. One bit per slot instead of the u16
+    /// stamps keeps a level's neighbour tests in cache.
+    seen: Vec<u64>,
 }
 
 impl LatticeQueues {
@@ -259,8 +266,42 @@ impl LatticeQueues {
             .iter()
             .map(|q| q.capacity() * 4)
             .sum::<usize>()
-            + (self.active.capacity() + self.fresh.capacity() + self.scratch.capacity()) * 8
+            + (self.active.capacity()
+                + self.fresh.capacity()
+                + self.scratch.capacity()
+                + self.dead.capacity()
+                + self.seen.capacity())
+                * 8
     }
+
+    /// Starts a sweep over a block with `stamps`: every slot unseen but
+    /// the dead ones.
+    fn begin_sweep(&mut self, stamps: &[Stamp]) {
+        if self.dead.is_empty() && !stamps.is_empty() {
+            self.dead = vec![0; stamps.len().div_ceil(64)];
+            for (j, &s) in stamps.iter().enumerate() {
+                self.dead[j / 64] |= ((s == NEVER) as u64) << (j % 64);
+            }
+        }
+        self.seen.clear();
+        self.seen.extend_from_slice(&self.dead);
+    }
+}
+
+/// Whether bit `j` of `bits` is set.
+#[inline(always)]
+fn bit(bits: &[u64], j: u32) -> bool {
+    bits[j as usize / 64] >> (j % 64) & 1 == 1
+}
+
+/// Sets bit `j` of `bits`; returns whether it was clear.
+#[inline(always)]
+fn set_bit(bits: &mut [u64], j: u32) -> bool {
+    let w = &mut bits[j as usize / 64];
+    let m = 1u64 << (j % 64);
+    let was_clear = *w & m == 0;
+    *w |= m;
+    was_clear
 }
 
 /// A cell of the lattice loop's active queue: its slot in the high half
@@ -709,7 +750,6 @@ fn sweep_block_lattice(
     // all < lat.vertices.
     let at = |v: u32| unsafe { *phi.get_unchecked(v as usize) };
     let cell = |c: u32| unsafe { load8(phi, c - lat.base, dj, dk) };
-    b.begin_sweep(levels.len());
     let owner = EdgeOwnership::new(dj, dk / dj);
     let own_weld = owner.fits && !hash_weld;
     if own_weld {
@@ -718,10 +758,6 @@ fn sweep_block_lattice(
     let lower = owner.lower_steps;
     // Every lower neighbour is within this many slots.
     let reach = dk + dj + di;
-    // Every cell found in this sweep gets stamp `seen`, above the stamps
-    // of every live cell not found yet (and below NEVER): a neighbour is
-    // new iff its stamp is below `seen`.
-    let seen = b.done;
     let n = levels.len();
     let Block {
         stamps,
@@ -730,44 +766,50 @@ fn sweep_block_lattice(
         lattice: q,
         ..
     } = b;
-    let stamps = &mut stamps[..];
     let len = stamps.len() as u32;
-    if q.entering.len() < n {
-        q.entering.resize_with(n, Vec::new);
+    q.begin_sweep(stamps);
+    let LatticeQueues {
+        entering,
+        active,
+        fresh,
+        scratch,
+        dead,
+        seen,
+    } = q;
+    if entering.len() < n {
+        entering.resize_with(n, Vec::new);
     }
-    for e in &mut q.entering[..n] {
+    for e in &mut entering[..n] {
         e.clear();
     }
-    q.active.clear();
+    active.clear();
     // Each cell is queued once, at the step where the level first passes
     // its lo: the minima now, every other cell by the first neighbour
-    // that enters (see ARCHITECTURE.md, "entry levels").
+    // that enters (see ARCHITECTURE.md, "entry levels"). A cell is marked
+    // in `seen` when it is queued.
     for m in minima {
         let l = levels.partition_point(|&t| t <= m.lo);
-        let j = (m.slot - start) as usize;
-        if l < n && stamps[j] < seen {
-            stamps[j] = seen;
-            q.entering[l].push(m.slot);
+        if l < n && set_bit(seen, m.slot - start) {
+            entering[l].push(m.slot);
         }
     }
-    let mut t_prev = f32::NEG_INFINITY;
     for (k, &t) in levels.iter().enumerate() {
         mesh.clear();
-        let mut work = std::mem::take(&mut q.entering[k]);
-        q.fresh.clear();
+        let mut work = std::mem::take(&mut entering[k]);
+        fresh.clear();
         let mut i = 0;
         while i < work.len() {
             let c = work[i];
             if let Some(&ahead) = work.get(i + 2 * PREFETCH_AHEAD) {
-                // The four φ rows of the cell four entries ahead, the stamps
-                // of its j and k neighbours (the i ones share its line), and
-                // the φ rows of their far faces.
+                // The four φ rows of the cell four entries ahead, the seen
+                // words of its k neighbours (the i and j ones share or
+                // neighbour its word), and the φ rows of their far faces.
                 let v = ahead - lat.base;
                 for r in [v, v + dj, v + dk, v + dj + dk] {
                     prefetch(phi, r as usize);
                 }
-                for nb in [ahead - dj, ahead + dj, ahead - dk, ahead + dk] {
-                    prefetch(stamps, nb.wrapping_sub(start) as usize);
+                for nb in [ahead - dk, ahead + dk] {
+                    prefetch(seen, nb.wrapping_sub(start) as usize / 64);
                 }
                 for r in [
                     v.wrapping_sub(dk),
@@ -797,8 +839,8 @@ fn sweep_block_lattice(
             ];
             let hi = max8(&f);
             debug_assert!(
-                fmin(face[4], face[5]) < t,
-                "queued cells have lo below the level"
+                fmin(face[4], face[5]) < t && (k == 0 || fmin(face[4], face[5]) >= levels[k - 1]),
+                "a cell is read at its entry level"
             );
             if t <= hi {
                 // Cut from this level through every level up to hi: the
@@ -807,23 +849,20 @@ fn sweep_block_lattice(
                 while last + 1 < n && levels[last + 1] <= hi {
                     last += 1;
                 }
-                q.fresh.push(pack_active(c, last));
+                fresh.push(pack_active(c, last));
             }
-            // The six neighbours, unrolled. One not found yet has lo at
-            // least t_prev (every cell with a lower lo is found by the end
-            // of the previous step), so a shared face below t_prev means
-            // it was found: skipped without touching its stamp (the case
-            // of every face behind the front). A new one is queued at its
+            // The six neighbours, unrolled. A new one is queued at its
             // entry level: this step when the shared face dips below t,
             // else from its lo (the min of the shared face and of its 4
-            // far vertices `far + {0, e1, e2, e1 + e2}`).
+            // far vertices `far + {0, e1, e2, e1 + e2}`). Its lo is at
+            // least t_{k-1}: every cell with a lower lo was found by the
+            // end of the previous step.
             macro_rules! visit {
                 ($nb:expr, $face:expr, $far:expr, $e1:expr, $e2:expr) => {{
                     let nb: u32 = $nb;
                     let shared = face[$face];
                     let j = nb.wrapping_sub(start);
-                    if shared >= t_prev && j < len && stamps[j as usize] < seen {
-                        stamps[j as usize] = seen;
+                    if j < len && set_bit(seen, j) {
                         let far: u32 = $far;
                         let lo = if shared < t {
                             shared
@@ -844,7 +883,7 @@ fn sweep_block_lattice(
                                 l += 1;
                             }
                             if l < n {
-                                q.entering[l].push(nb);
+                                entering[l].push(nb);
                             }
                         }
                     }
@@ -859,19 +898,16 @@ fn sweep_block_lattice(
         }
         let entered = work.len();
         work.clear();
-        q.entering[k] = work;
+        entering[k] = work;
         // A_k in slot order: the cells of A_{k-1} still cut (already in
         // order) merged with this step's cut entries (sorted). This level's
         // polygons are emitted in that order (the weld by ownership needs
         // it, and consecutive cells share cache lines of φ, positions and
         // the weld window).
-        radix_sort_by_slot(&mut q.fresh, &mut q.scratch, start, len, |x| {
-            (x >> 32) as u32
-        });
-        let carried = q.active.len();
-        merge_active(&q.active, &q.fresh, k, &mut q.scratch);
-        std::mem::swap(&mut q.active, &mut q.scratch);
-        let active = &q.active;
+        radix_sort_by_slot(fresh, scratch, start, len, |x| (x >> 32) as u32);
+        let carried = active.len();
+        merge_active(active, fresh, k, scratch);
+        std::mem::swap(active, scratch);
         if ctx.cells_only {
             mesh.cells.extend(active.iter().map(|&x| (x >> 32) as u32));
             mesh.cut_cells = active.len() as u32;
@@ -904,10 +940,10 @@ fn sweep_block_lattice(
                     511
                 } else {
                     let mut live = 0u32;
-                    for (bit, &step) in lower.iter().enumerate() {
+                    for (n, &step) in lower.iter().enumerate() {
                         let j = c.wrapping_add(step).wrapping_sub(start);
-                        let alive = j < len && stamps[j as usize] != NEVER;
-                        live |= (alive as u32) << bit;
+                        let alive = j < len && !bit(dead, j);
+                        live |= (alive as u32) << n;
                     }
                     live
                 };
@@ -930,7 +966,6 @@ fn sweep_block_lattice(
         // A_{k-1} filtered by each cell's last level.
         let stats = LevelStats::of(mesh, (entered + carried) as u64);
         on_level(k, mesh, &stats);
-        t_prev = t;
     }
 }
 
