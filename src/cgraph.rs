@@ -399,18 +399,16 @@ fn incidence_in_parts(
             &[][..]
         }
     };
-    let mut pos: Vec<Vec<u32>> = (0..parts)
-        .into_par_iter()
-        .map(|p| {
-            let mut count = vec![0u32; nv];
-            for c in cells_of(p) {
-                for &v in live_verts(c) {
-                    count[v as usize] += 1;
-                }
+    // Allocated here, not in the workers (whose own malloc arenas would
+    // take fresh pages).
+    let mut pos: Vec<Vec<u32>> = (0..parts).map(|_| vec![0u32; nv]).collect();
+    pos.par_iter_mut().enumerate().for_each(|(p, count)| {
+        for c in cells_of(p) {
+            for &v in live_verts(c) {
+                count[v as usize] += 1;
             }
-            count
-        })
-        .collect();
+        }
+    });
     let mut start = Vec::with_capacity(nv + 1);
     let mut total = 0u32;
     for v in 0..nv {
