@@ -366,6 +366,75 @@ fn structured_as_hexes(dims: [usize; 3]) -> (Vec<u16>, Vec<u32>, Vec<u32>) {
     )
 }
 
+/// The vertex → incident live cells map (CSR: `start`, `nv + 1` entries,
+/// and the cells, each vertex's list in cell order), as a stable counting
+/// sort over chunks of cells in parallel: per chunk its count per vertex,
+/// then each chunk's first position per vertex (chunks in cell order), then
+/// each chunk writes its cells there.
+fn incidence(voff: &[u32], verts: &[u32], live: &BitSet, nv: usize) -> (Vec<u32>, Vec<u32>) {
+    let parts = if voff.len() <= 8192 {
+        1
+    } else {
+        rayon::current_num_threads().clamp(1, 8)
+    };
+    incidence_in_parts(voff, verts, live, nv, parts)
+}
+
+/// [`incidence`] over `parts` chunks of cells.
+fn incidence_in_parts(
+    voff: &[u32],
+    verts: &[u32],
+    live: &BitSet,
+    nv: usize,
+    parts: usize,
+) -> (Vec<u32>, Vec<u32>) {
+    let n = voff.len() - 1;
+    let parts = parts.max(1);
+    let chunk = n.div_ceil(parts).max(1);
+    let cells_of = |p: usize| p * chunk..((p + 1) * chunk).min(n);
+    let live_verts = |c: usize| {
+        if live.get(c) {
+            &verts[voff[c] as usize..voff[c + 1] as usize]
+        } else {
+            &[][..]
+        }
+    };
+    // Allocated here, not in the workers (whose own malloc arenas would
+    // take fresh pages).
+    let mut pos: Vec<Vec<u32>> = (0..parts).map(|_| vec![0u32; nv]).collect();
+    pos.par_iter_mut().enumerate().for_each(|(p, count)| {
+        for c in cells_of(p) {
+            for &v in live_verts(c) {
+                count[v as usize] += 1;
+            }
+        }
+    });
+    let mut start = Vec::with_capacity(nv + 1);
+    let mut total = 0u32;
+    for v in 0..nv {
+        start.push(total);
+        for count in &mut pos {
+            let k = count[v];
+            count[v] = total;
+            total += k;
+        }
+    }
+    start.push(total);
+    let inc: Vec<AtomicU32> = (0..total)
+        .into_par_iter()
+        .map(|_| AtomicU32::new(0))
+        .collect();
+    pos.into_par_iter().enumerate().for_each(|(p, mut pos)| {
+        for c in cells_of(p) {
+            for &v in live_verts(c) {
+                inc[pos[v as usize] as usize].store(c as u32, Relaxed);
+                pos[v as usize] += 1;
+            }
+        }
+    });
+    (start, inc.into_iter().map(AtomicU32::into_inner).collect())
+}
+
 /// Finds face neighbours: for each face of each live cell, the smallest
 /// other live cell that has a face with exactly the same vertex set.
 /// Returns per cell the start of its faces (`nstart`, `n + 1` entries) and
@@ -400,29 +469,7 @@ fn sew(
         nstart.push(total);
     }
     // Transient vertex -> incident live cells map (CSR).
-    let mut start = vec![0u32; nv + 1];
-    for c in 0..n {
-        if live.get(c) {
-            for &v in &verts[voff[c] as usize..voff[c + 1] as usize] {
-                start[v as usize + 1] += 1;
-            }
-        }
-    }
-    for i in 0..nv {
-        start[i + 1] += start[i];
-    }
-    let mut inc = vec![0u32; start[nv] as usize];
-    {
-        let mut fill = start.clone();
-        for c in 0..n {
-            if live.get(c) {
-                for &v in &verts[voff[c] as usize..voff[c + 1] as usize] {
-                    inc[fill[v as usize] as usize] = c as u32;
-                    fill[v as usize] += 1;
-                }
-            }
-        }
-    }
+    let (start, inc) = incidence(voff, verts, live, nv);
     // The smallest live cell `d != c` holding a face with the vertex set of
     // face `f` of `c`, and that face's index.
     // Vertices of a live cell are distinct, so "same length and every
@@ -479,7 +526,10 @@ fn sew(
         None
     };
     const UNSET: u32 = NONE - 1;
-    let nbrs: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(UNSET)).collect();
+    let nbrs: Vec<AtomicU32> = (0..total)
+        .into_par_iter()
+        .map(|_| AtomicU32::new(UNSET))
+        .collect();
     const BLOCK: usize = 4096;
     (0..n.div_ceil(BLOCK)).into_par_iter().for_each(|b| {
         for c in b * BLOCK..((b + 1) * BLOCK).min(n) {
@@ -653,34 +703,36 @@ impl CellStore {
             entries[e].2 = i as u16;
         }
         store.stencil_start.push(store.deltas.len() as u32);
+        // Each cell's stencil, in parallel (a hash collision must not merge
+        // two stencils: the key is compared); then anchors and explicit
+        // cells in cell order.
+        store.stencil = (0..n)
+            .into_par_iter()
+            .map(|c| {
+                entries
+                    .get(cell_entry[c] as usize)
+                    .map(|e| e.2)
+                    .filter(|&s| {
+                        s != ESCAPED && store.stencil_meta[s as usize] == metas[c] && {
+                            let (a, b) = store.block(s);
+                            store.deltas[a..b].iter().copied().eq(key_of(c).skip(1))
+                        }
+                    })
+                    .unwrap_or(ESCAPED)
+            })
+            .collect();
         store.anchor.reserve_exact(n);
-        store.stencil.reserve_exact(n);
         for c in 0..n {
             let v = &verts[voff[c] as usize..voff[c + 1] as usize];
-            let coded = entries
-                .get(cell_entry[c] as usize)
-                .map(|e| e.2)
-                // A hash collision must not merge two stencils: compare.
-                .filter(|&s| {
-                    s != ESCAPED && store.stencil_meta[s as usize] == metas[c] && {
-                        let (a, b) = store.block(s);
-                        store.deltas[a..b].iter().copied().eq(key_of(c).skip(1))
-                    }
-                });
-            match coded {
-                Some(s) => {
-                    store.anchor.push(v[0]);
-                    store.stencil.push(s);
-                }
-                None => {
-                    store.anchor.push(store.explicit.len() as u32);
-                    store.stencil.push(ESCAPED);
-                    store.explicit.push(metas[c] as u32);
-                    store.explicit.extend_from_slice(v);
-                    store
-                        .explicit
-                        .extend_from_slice(&nbrs[nstart[c] as usize..nstart[c + 1] as usize]);
-                }
+            if store.stencil[c] != ESCAPED {
+                store.anchor.push(v[0]);
+            } else {
+                store.anchor.push(store.explicit.len() as u32);
+                store.explicit.push(metas[c] as u32);
+                store.explicit.extend_from_slice(v);
+                store
+                    .explicit
+                    .extend_from_slice(&nbrs[nstart[c] as usize..nstart[c + 1] as usize]);
             }
         }
         store.explicit.shrink_to_fit();
@@ -761,6 +813,55 @@ impl CellStore {
             for &n in &self.explicit[a..a + m.faces.len()] {
                 f(n);
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The chunked counting sort gives the sequential CSR (lists in cell
+    /// order, dead cells left out) for any number of chunks.
+    #[test]
+    fn incidence_in_parts_equals_the_sequential_csr() {
+        let (n, nv) = (5000usize, 700usize);
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let mut voff = vec![0u32];
+        let mut verts = Vec::new();
+        let mut live = BitSet::new(n);
+        for c in 0..n {
+            for _ in 0..4 + next(5) {
+                verts.push(next(nv) as u32);
+            }
+            voff.push(verts.len() as u32);
+            if next(10) != 0 {
+                live.set(c);
+            }
+        }
+        let mut lists = vec![Vec::new(); nv];
+        for c in (0..n).filter(|&c| live.get(c)) {
+            for &v in &verts[voff[c] as usize..voff[c + 1] as usize] {
+                lists[v as usize].push(c as u32);
+            }
+        }
+        for parts in [1, 2, 3, 8, 64] {
+            let (start, inc) = incidence_in_parts(&voff, &verts, &live, nv, parts);
+            assert_eq!(start.len(), nv + 1);
+            for v in 0..nv {
+                assert_eq!(
+                    inc[start[v] as usize..start[v + 1] as usize],
+                    lists[v][..],
+                    "vertex {v}, {parts} parts"
+                );
+            }
+            assert_eq!(start[nv] as usize, inc.len());
         }
     }
 }

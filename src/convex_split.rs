@@ -118,6 +118,18 @@ pub struct SplitMap {
 }
 
 impl SplitMap {
+    /// The hidden flags of the output cells (each piece as its input cell),
+    /// as the split grid's own `vtkGhostType` would give them.
+    pub fn hidden_cells(&self, hidden: Option<&[bool]>) -> Option<Vec<bool>> {
+        let h = hidden?;
+        Some(
+            self.source
+                .iter()
+                .map(|&s| h.get(s as usize).copied().unwrap_or(false))
+                .collect(),
+        )
+    }
+
     /// Bytes held.
     pub fn bytes(&self) -> usize {
         self.source.len() * 4
@@ -560,6 +572,26 @@ pub fn split_non_convex(
     grid: &Grid,
     hidden: Option<&[bool]>,
 ) -> Result<Option<SplitGrid>, SplitError> {
+    split_with(grid, hidden, true)
+}
+
+/// [`split_non_convex`] without the properties: the split grid has no
+/// point or cell data (the sweep structures read only points and cells;
+/// properties go through [`SplitMap`]), so nothing is gathered for them.
+pub fn split_non_convex_cells(
+    grid: &Grid,
+    hidden: Option<&[bool]>,
+) -> Result<Option<SplitGrid>, SplitError> {
+    split_with(grid, hidden, false)
+}
+
+/// [`split_non_convex`], with the point and cell data carried over when
+/// `properties` is set.
+fn split_with(
+    grid: &Grid,
+    hidden: Option<&[bool]>,
+    properties: bool,
+) -> Result<Option<SplitGrid>, SplitError> {
     let Topology::Unstructured(cells) = &grid.topology else {
         return Ok(None);
     };
@@ -959,13 +991,16 @@ pub fn split_non_convex(
         mean_ids,
         report,
     };
-    let point_data = grid
-        .point_data
+    let (point_data, cell_data) = if properties {
+        (&grid.point_data[..], &grid.cell_data[..])
+    } else {
+        (&[][..], &[][..])
+    };
+    let point_data = point_data
         .iter()
         .map(|p| extend_point_property(p, &map))
         .collect();
-    let cell_data = grid
-        .cell_data
+    let cell_data = cell_data
         .iter()
         .map(|p| {
             let values = gather_tuples(&map.source, &p.values, p.components.max(1));

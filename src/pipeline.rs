@@ -10,7 +10,7 @@ use thiserror::Error;
 use crate::bruteforce::brute_force;
 use crate::cgraph::CGraph;
 use crate::ciel::{Ciel, CielSweeper};
-use crate::convex_split::{Split, SplitError, SplitMap, split_non_convex};
+use crate::convex_split::{Split, SplitError, SplitMap, split_non_convex_cells};
 use crate::extract::{EmitContext, LevelMesh};
 use crate::field::{
     AxisField, FieldSpec, LevelError, PlaneField, ScalarField, VertexField, levels_by_count,
@@ -108,13 +108,15 @@ impl Structure {
             _ => {
                 // CGraph: split non-convex polyhedra first (one pass over the
                 // polyhedra, nothing when there are none), then build once.
-                let (split_grid, map) = match split_non_convex(grid, hidden.as_deref())? {
+                // The split grid carries no properties (the structures read
+                // points and cells only); its hidden cells come from the map.
+                let (split_grid, map) = match split_non_convex_cells(grid, hidden.as_deref())? {
                     Some(sp) => (Some(sp.grid), Some(sp.map)),
                     None => (None, None),
                 };
                 let g = split_grid.as_ref().unwrap_or(grid);
-                let h = match &split_grid {
-                    Some(sg) => sg.hidden_cells(),
+                let h = match &map {
+                    Some(m) => m.hidden_cells(hidden.as_deref()),
                     None => hidden,
                 };
                 return match CGraph::build(g, h.as_deref()) {
@@ -138,10 +140,10 @@ impl Structure {
         if c.counts.non_convex == 0 {
             return Ok(Structure::Ciel(c.into()));
         }
-        let Some(split) = split_non_convex(grid, hidden.as_deref())? else {
+        let Some(split) = split_non_convex_cells(grid, hidden.as_deref())? else {
             return Ok(Structure::Ciel(c.into()));
         };
-        let h = split.grid.hidden_cells();
+        let h = split.map.hidden_cells(hidden.as_deref());
         Ok(Structure::Ciel(Split {
             inner: ciel(&split.grid, h.as_deref())?,
             map: Some(split.map),

@@ -5,7 +5,7 @@
 mod common;
 use common::Rng;
 use std::collections::BTreeSet;
-use stratasweep::convex_split::{SplitError, split_non_convex};
+use stratasweep::convex_split::{SplitError, split_non_convex, split_non_convex_cells};
 use stratasweep::field::FieldSpec;
 use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
 use stratasweep::pipeline::{
@@ -522,6 +522,44 @@ fn split_cells_carry_their_source_cell_values() {
             "output cell {o}"
         );
     }
+}
+
+#[test]
+fn split_without_properties_has_the_same_cells_and_hidden_flags() {
+    // The structures' split (no properties) gives the same cells, points
+    // and map as the full split, and the pieces' hidden flags from the map
+    // equal those the full split grid's gathered vtkGhostType gives.
+    let mut g = dented_box(6, true, &mut Rng(5));
+    let n = g.cell_count();
+    let ghost: Vec<f64> = (0..n)
+        .map(|c| if c % 5 == 2 { 32.0 } else { 0.0 })
+        .collect();
+    g.cell_data.push(Property {
+        name: "vtkGhostType".into(),
+        components: 1,
+        values: ghost,
+    });
+    let hidden = g.hidden_cells().expect("ghost array");
+    let full = split_non_convex(&g, Some(&hidden))
+        .unwrap()
+        .expect("dented cells split");
+    let bare = split_non_convex_cells(&g, Some(&hidden))
+        .unwrap()
+        .expect("dented cells split");
+    assert!(full.map.report.non_convex > 0);
+    assert_eq!(bare.grid.topology, full.grid.topology);
+    assert_eq!(bare.grid.points, full.grid.points);
+    assert_eq!(bare.map.source, full.map.source);
+    assert_eq!(
+        (&bare.map.mean_offsets, &bare.map.mean_ids),
+        (&full.map.mean_offsets, &full.map.mean_ids)
+    );
+    assert!(bare.grid.cell_data.is_empty() && bare.grid.point_data.is_empty());
+    let from_map = bare.map.hidden_cells(Some(&hidden)).expect("hidden given");
+    let gathered = full.grid.hidden_cells().expect("ghost array gathered");
+    assert_eq!(from_map, gathered);
+    assert!(from_map.iter().any(|&h| h) && from_map.iter().any(|&h| !h));
+    assert_eq!(bare.map.hidden_cells(None), None);
 }
 
 #[test]
