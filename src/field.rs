@@ -75,7 +75,12 @@ impl ScalarField for VertexField<'_> {
 /// instead of re-deriving it from positions. Same values, bit for bit, as
 /// `f.phi`.
 pub fn materialise<F: ScalarField>(f: &F, n: usize) -> Vec<f32> {
-    (0..n as u32).into_par_iter().map(|v| f.phi(v)).collect()
+    let mut out = crate::mem::huge_vec(n);
+    (0..n as u32)
+        .into_par_iter()
+        .map(|v| f.phi(v))
+        .collect_into_vec(&mut out);
+    out
 }
 
 /// What to slice by, before it is bound to a structure's arrays.

@@ -337,16 +337,15 @@ impl Grid {
     /// Positions as f32 relative to [`Grid::origin`].
     pub fn rebased_positions(&self) -> Vec<[f32; 3]> {
         let o = self.origin();
-        self.points
-            .iter()
-            .map(|p| {
-                [
-                    (p[0] - o[0]) as f32,
-                    (p[1] - o[1]) as f32,
-                    (p[2] - o[2]) as f32,
-                ]
-            })
-            .collect()
+        let mut out = crate::mem::huge_vec(self.points.len());
+        out.extend(self.points.iter().map(|p| {
+            [
+                (p[0] - o[0]) as f32,
+                (p[1] - o[1]) as f32,
+                (p[2] - o[2]) as f32,
+            ]
+        }));
+        out
     }
 
     /// Looks up a point property by name.

@@ -21,6 +21,7 @@ pub mod gpu;
 pub mod grid;
 pub mod io;
 pub mod lattice;
+pub mod mem;
 pub mod mesh;
 pub mod metacell;
 pub mod pipeline;

@@ -295,7 +295,9 @@ pub fn vertex_property(grid: &Grid, s: &Structure, name: &str) -> Result<Vec<f32
             Some(m) => m.extend_vertex_values(&vals),
             None => vals,
         };
-        return Ok(vals.iter().map(|&v| v as f32).collect());
+        let mut out = crate::mem::huge_vec(vals.len());
+        out.extend(vals.iter().map(|&v| v as f32));
+        return Ok(out);
     }
     if let Some(p) = grid.cell_property(name) {
         let vals: Vec<f64> = (0..p.len()).map(|i| p.scalar_at(i)).collect();
