@@ -36,7 +36,7 @@ pub struct EdgeOwnership {
     pub lower_steps: [u32; 9],
     /// Per set of live lower neighbours (bit n = `lower[n]` live): the
     /// edges the cell owns.
-    own: Vec<u16>,
+    own: Box<[u16; 512]>,
     /// Per geometric edge: slot step from the cell to its lower vertex's
     /// cell (the vertex offset in the lattice).
     low_offset: [u32; 12],
@@ -95,7 +95,9 @@ impl EdgeOwnership {
                     m | (owned as u16) << e
                 })
             })
-            .collect();
+            .collect::<Vec<u16>>()
+            .try_into()
+            .expect("512 entries");
         let low_offset = std::array::from_fn(|e| {
             let lo = edge_ends(e).0;
             (0..3).map(|a| (lo >> a & 1) as u32 * step[a]).sum()
@@ -208,9 +210,9 @@ impl EdgeWindow {
 #[derive(Clone, Debug)]
 pub struct LatticeHexTable {
     /// Per geometric code: its polygons (`polys == 0`: ambiguous).
-    codes: Vec<CodePolygons>,
+    codes: Box<[CodePolygons; 256]>,
     /// Per geometric code: the cut geometric edges (bit mask).
-    cut: Vec<u16>,
+    cut: [u16; 256],
     /// Per geometric edge: offset of its lower vertex from `v0`.
     edge_low: [u32; 12],
     /// Per geometric edge: offset of its upper vertex from `v0`.
@@ -290,7 +292,9 @@ impl LatticeHexTable {
                 cp.polys = loops.len() as u8;
                 cp
             })
-            .collect();
+            .collect::<Vec<CodePolygons>>()
+            .try_into()
+            .expect("256 codes");
         let cut = (0..256)
             .map(|code| {
                 (0..12).fold(0u16, |m, e| {
@@ -298,7 +302,9 @@ impl LatticeHexTable {
                     m | (((code >> a ^ code >> b) & 1) as u16) << e
                 })
             })
-            .collect();
+            .collect::<Vec<u16>>()
+            .try_into()
+            .expect("256 codes");
         let edge_low = std::array::from_fn(|e| goff[edge_ends(e).0]);
         let edge_high = std::array::from_fn(|e| goff[edge_ends(e).1]);
         LatticeHexTable {
@@ -318,14 +324,12 @@ impl LatticeHexTable {
         self.goff
     }
 
-    /// Where level `t` crosses geometric edge `e` of the cell with φ `f`,
+    /// The point at parameter `s` along geometric edge `e` of the cell
     /// whose vertex positions start at `cell[0]` (`cell` = the positions
     /// from its first vertex to its last), with the arithmetic of
     /// [`LevelMesh`]'s hash-welded corners (so the same bits).
     #[inline(always)]
-    fn crossing(&self, e: usize, f: &[f32; 8], t: f32, cell: &[[f32; 3]]) -> [f32; 3] {
-        let (a, b) = EDGE_ENDS[e];
-        let s = (t - f[a]) / (f[b] - f[a]);
+    fn point_on_edge(&self, e: usize, s: f32, cell: &[[f32; 3]]) -> [f32; 3] {
         debug_assert!(cell.len() > self.goff[7] as usize);
         // SAFETY: `cell` spans offsets 0..=goff[7] (checked by `cell_positions`)
         // and every edge end is one of the eight offsets goff[0..8].
@@ -357,8 +361,9 @@ impl LatticeHexTable {
         &pos[v0 as usize..=(v0 + self.goff[7]) as usize]
     }
 
-    /// Creates the vertices of the cut edges in `own` (`at(e)`: where the
-    /// level crosses edge e) and records them in the window.
+    /// Creates the vertices where level `t` crosses the cut edges in `own`
+    /// (positions from `cell`, see [`LatticeHexTable::point_on_edge`]) and
+    /// records them in the window.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn create_owned(
@@ -367,7 +372,7 @@ impl LatticeHexTable {
         v0: u32,
         f: &[f32; 8],
         t: f32,
-        at: impl Fn(usize) -> [f32; 3],
+        cell: &[[f32; 3]],
         owner: &EdgeOwnership,
         slot: u32,
         ctx: &EmitContext,
@@ -378,15 +383,14 @@ impl LatticeHexTable {
             let e = own.trailing_zeros() as usize;
             own &= own - 1;
             let (ga, gb) = (v0 + self.edge_low[e], v0 + self.edge_high[e]);
+            let (fa, fb) = (f[EDGE_ENDS[e].0], f[EDGE_ENDS[e].1]);
+            let s = (t - fa) / (fb - fa);
             let value = match ctx.attribute {
-                Some(a) => {
-                    let (fa, fb) = (f[EDGE_ENDS[e].0], f[EDGE_ENDS[e].1]);
-                    let s = (t - fa) / (fb - fa);
-                    a[ga as usize] + s * (a[gb as usize] - a[ga as usize])
-                }
+                Some(a) => a[ga as usize] + s * (a[gb as usize] - a[ga as usize]),
                 None => t,
             };
-            let vi = mesh.push_welded_vertex((ga as u64) << 32 | gb as u64, at(e), value);
+            let p = self.point_on_edge(e, s, cell);
+            let vi = mesh.push_welded_vertex((ga as u64) << 32 | gb as u64, p, value);
             win.set(owner.slot_of(e, slot), vi);
         }
     }
@@ -422,18 +426,7 @@ impl LatticeHexTable {
             return;
         }
         let cell = self.cell_positions(v0, ctx.positions);
-        self.create_owned(
-            own,
-            v0,
-            f,
-            t,
-            |e| self.crossing(e, f, t, cell),
-            owner,
-            slot,
-            ctx,
-            mesh,
-            win,
-        );
+        self.create_owned(own, v0, f, t, cell, owner, slot, ctx, mesh, win);
         mesh.cut_cells += 1;
         let mut first = 0;
         for &m in &cp.sizes[..cp.polys as usize] {
@@ -487,8 +480,7 @@ impl LatticeHexTable {
         win: &mut EdgeWindow,
     ) {
         let cell = self.cell_positions(v0, ctx.positions);
-        let at = |e: usize| self.crossing(e, f, t, cell);
-        self.create_owned(own, v0, f, t, at, owner, slot, ctx, mesh, win);
+        self.create_owned(own, v0, f, t, cell, owner, slot, ctx, mesh, win);
         mesh.cut_cells += 1;
         let (gids, phi) = self.local(v0, f);
         let code = code_of(&phi, t);
