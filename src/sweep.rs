@@ -764,6 +764,7 @@ fn sweep_block_lattice(
         mesh,
         window,
         lattice: q,
+        sort_scratch,
         ..
     } = b;
     let len = stamps.len() as u32;
@@ -795,7 +796,11 @@ fn sweep_block_lattice(
     }
     for (k, &t) in levels.iter().enumerate() {
         mesh.clear();
+        // The cells queued for this step by earlier ones, read in slot
+        // order (warped 256³: 3–5 % faster than in the order found); the
+        // ones found during the step follow.
         let mut work = std::mem::take(&mut entering[k]);
+        radix_sort_slots(&mut work, sort_scratch, start, len);
         fresh.clear();
         let mut i = 0;
         while i < work.len() {
