@@ -712,13 +712,15 @@ unsafe fn load8(phi: &[f32], v0: u32, dj: u32, dk: u32) -> [f32; 8] {
 }
 
 /// [`sweep_block`] specialised for a hexahedral [`Lattice`] with φ stored
-/// per vertex: the same steps, queues, stamps and output (tests compare it
-/// with the generic loop and the brute force). Polygons are welded by edge
-/// ownership ([`crate::lattice`]), or by the mesh's hash map when
-/// `hash_weld` is set or the lattice's layers are too large for the weld
-/// window. Cells are read in geometric
-/// vertex order (`g = i + 2j + 4k`, see [`LatticeHexTable`]), so faces,
-/// neighbours and far vertices are constants of the lattice.
+/// per vertex: the same cut cells `A_k` and output (tests compare it with
+/// the generic loop and the brute force), but each cell is read once, at
+/// its entry level, and stays in `A` until the last level below its `hi`
+/// (see [`LatticeQueues`]). Polygons are welded by edge ownership
+/// ([`crate::lattice`]), or by the mesh's hash map when `hash_weld` is set
+/// or the lattice's layers are too large for the weld window. Cells are
+/// read in geometric vertex order (`g = i + 2j + 4k`, see
+/// [`LatticeHexTable`]), so faces, neighbours and far vertices are
+/// constants of the lattice.
 #[inline(never)]
 fn sweep_block_lattice(
     lat: &Lattice,
@@ -746,7 +748,7 @@ fn sweep_block_lattice(
         lat.vertices
     );
     // SAFETY (for `at` and `cell`): callers pass vertex ids of a live cell,
-    // or of a live neighbour (stamp < seen, so not a never-sweep slot),
+    // or of a live neighbour (not in `seen`, so not a never-sweep slot),
     // all < lat.vertices.
     let at = |v: u32| unsafe { *phi.get_unchecked(v as usize) };
     let cell = |c: u32| unsafe { load8(phi, c - lat.base, dj, dk) };
