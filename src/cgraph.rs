@@ -621,7 +621,7 @@ const NONE_DELTA: i32 = i32::MIN;
 ///
 /// Cell `c` with stencil `s = stencil[c] != ESCAPED` has meta
 /// `stencil_meta[s]`, vertices `anchor[c] + deltas[k]` and neighbours
-/// `c + deltas[nv + f]` (wrapping, [`NONE_DELTA`] = none) with `k`, `f`
+/// `c + deltas[nv + f]` (wrapping, `NONE_DELTA` = none) with `k`, `f`
 /// running over the stencil's block of `deltas`. An escaped cell has
 /// `explicit[anchor[c]..]` = meta id, vertex ids, neighbour ids.
 #[derive(Clone, Debug, Default)]

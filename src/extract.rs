@@ -117,7 +117,7 @@ impl EdgeMap {
 
     /// Makes room for `extra` more entries within the load limit, so that
     /// the next `extra` inserts need no check; `keys` as in
-    /// [`EdgeMap::get_or_insert`].
+    /// `EdgeMap::get_or_insert`.
     #[inline(always)]
     pub fn reserve(&mut self, extra: usize, keys: &[u64]) {
         while (self.len + extra) * 8 > self.entries.len() * 3 {

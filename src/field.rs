@@ -34,7 +34,7 @@ impl ScalarField for PlaneField<'_> {
     }
 }
 
-/// φ(x) = ±x[axis]: planes orthogonal to a coordinate axis, in local
+/// φ(x) = ±x\[axis\]: planes orthogonal to a coordinate axis, in local
 /// coordinates. Gives the same values as the equivalent [`PlaneField`].
 #[derive(Clone, Copy, Debug)]
 pub struct AxisField<'a> {

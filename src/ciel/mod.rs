@@ -29,7 +29,7 @@
 //!
 //! # Construction (§4.2), linear in the input
 //!
-//! See [`build`]: per chunk of cells in parallel, face loops are read,
+//! See `build`: per chunk of cells in parallel, face loops are read,
 //! faces with fewer than three vertices, repeated vertices, duplicate faces,
 //! open or non-manifold edges are rejected with an error naming the cell and
 //! face; faces are oriented consistently by propagation across shared
