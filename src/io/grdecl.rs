@@ -1836,9 +1836,29 @@ mod tests {
                 }
             }
         }
+        for odd in [b':', b';', b'?', 0x7f, 0xfa, 0xff, 0x80, 0x00] {
+            for at in 0..12 {
+                let mut t = b"123456789012.3456789".to_vec();
+                t.insert(at, odd);
+                tokens.push(t);
+            }
+        }
         tokens.push(b"9007199254740992".to_vec());
         tokens.push(b"9007199254740991".to_vec());
         tokens.push(b"18446744073709551616".to_vec());
+        // The same tokens followed by more bytes (the window goes on after
+        // a token, so the eight-byte steps run): a separator, then digits.
+        let padded: Vec<Vec<u8>> = tokens
+            .iter()
+            .enumerate()
+            .map(|(k, t)| {
+                let mut p = t.clone();
+                p.push([b' ', b'/', b'\n', b'*', b'x', b'e'][k % 6]);
+                p.extend_from_slice(b"1234567890");
+                p
+            })
+            .collect();
+        tokens.extend(padded);
         let mut parsed = 0;
         for t in &tokens {
             let a = parse_prefix(t).map(|(v, l)| (v.to_bits(), l));
