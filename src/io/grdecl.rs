@@ -560,18 +560,7 @@ pub fn parse_number(t: &[u8]) -> Option<f64> {
 #[inline(always)]
 fn parse_prefix(t: &[u8]) -> Option<(f64, usize)> {
     let n = t.len();
-    let mut i = 0;
-    let neg = match t.first() {
-        Some(b'-') => {
-            i = 1;
-            true
-        }
-        Some(b'+') => {
-            i = 1;
-            false
-        }
-        _ => false,
-    };
+    let (neg, mut i) = sign(t, 0);
     let mut mant: u64 = 0;
     let int0 = i;
     while i < n && t[i].is_ascii_digit() {
@@ -600,30 +589,21 @@ fn parse_prefix(t: &[u8]) -> Option<(f64, usize)> {
     }
     let mut exp = -((frac1 - frac0) as i32);
     if i < n && matches!(t[i], b'e' | b'E' | b'd' | b'D') {
-        i += 1;
-        let eneg = match t.get(i) {
-            Some(b'-') => {
-                i += 1;
-                true
-            }
-            Some(b'+') => {
-                i += 1;
-                false
-            }
-            _ => false,
-        };
-        let s = i;
-        let mut e: i32 = 0;
-        while i < n && t[i].is_ascii_digit() {
-            e = e.saturating_mul(10).saturating_add((t[i] - b'0') as i32);
-            i += 1;
-        }
-        if i == s {
-            return None;
-        }
-        exp = exp.saturating_add(if eneg { -e } else { e });
+        let (e, j) = exponent(t, i + 1)?;
+        exp = exp.saturating_add(e);
+        i = j;
     }
-    if total - lz > 19 || mant >= 1 << 53 || !(-22..=22).contains(&exp) {
+    if total - lz > 19 {
+        return None;
+    }
+    Some((exact_value(mant, exp, neg)?, i))
+}
+
+/// `±mant · 10^exp` when Clinger's fast path makes it exact (`mant < 2^53`,
+/// `|exp| ≤ 22`: one correctly rounded multiplication or division).
+#[inline(always)]
+fn exact_value(mant: u64, exp: i32, neg: bool) -> Option<f64> {
+    if mant >= 1 << 53 || !(-22..=22).contains(&exp) {
         return None;
     }
     let m = mant as f64;
@@ -632,7 +612,31 @@ fn parse_prefix(t: &[u8]) -> Option<(f64, usize)> {
     } else {
         m / POW10[(-exp) as usize]
     };
-    Some((if neg { -v } else { v }, i))
+    Some(if neg { -v } else { v })
+}
+
+/// An optional sign at `t[i]`: whether it is `-`, and where what follows starts.
+#[inline(always)]
+fn sign(t: &[u8], i: usize) -> (bool, usize) {
+    match t.get(i) {
+        Some(b'-') => (true, i + 1),
+        Some(b'+') => (false, i + 1),
+        _ => (false, i),
+    }
+}
+
+/// The exponent after `e`/`E`/`d`/`D` of a number, from `t[i]` on: its
+/// signed value (saturating) and where it ends; `None` without digits.
+#[inline(always)]
+fn exponent(t: &[u8], i: usize) -> Option<(i32, usize)> {
+    let (neg, mut i) = sign(t, i);
+    let s = i;
+    let mut e: i32 = 0;
+    while i < t.len() && t[i].is_ascii_digit() {
+        e = e.saturating_mul(10).saturating_add((t[i] - b'0') as i32);
+        i += 1;
+    }
+    (i > s).then_some((if neg { -e } else { e }, i))
 }
 
 fn parse_slow(t: &[u8]) -> Option<f64> {
@@ -1716,18 +1720,7 @@ mod tests {
     /// as the reference.
     fn parse_prefix_reference(t: &[u8]) -> Option<(f64, usize)> {
         let n = t.len();
-        let mut i = 0;
-        let neg = match t.first() {
-            Some(b'-') => {
-                i = 1;
-                true
-            }
-            Some(b'+') => {
-                i = 1;
-                false
-            }
-            _ => false,
-        };
+        let (neg, mut i) = sign(t, 0);
         let mut mant: u64 = 0;
         let mut digits = 0u32;
         let mut any = false;
@@ -1765,39 +1758,14 @@ mod tests {
             return None;
         }
         if i < n && matches!(t[i], b'e' | b'E' | b'd' | b'D') {
-            i += 1;
-            let eneg = match t.get(i) {
-                Some(b'-') => {
-                    i += 1;
-                    true
-                }
-                Some(b'+') => {
-                    i += 1;
-                    false
-                }
-                _ => false,
-            };
-            let s = i;
-            let mut e: i32 = 0;
-            while i < n && t[i].is_ascii_digit() {
-                e = e.saturating_mul(10).saturating_add((t[i] - b'0') as i32);
-                i += 1;
-            }
-            if i == s {
-                return None;
-            }
-            exp = exp.saturating_add(if eneg { -e } else { e });
+            let (e, j) = exponent(t, i + 1)?;
+            exp = exp.saturating_add(e);
+            i = j;
         }
-        if digits > 19 || mant >= 1 << 53 || !(-22..=22).contains(&exp) {
+        if digits > 19 {
             return None;
         }
-        let m = mant as f64;
-        let v = if exp >= 0 {
-            m * POW10[exp as usize]
-        } else {
-            m / POW10[(-exp) as usize]
-        };
-        Some((if neg { -v } else { v }, i))
+        Some((exact_value(mant, exp, neg)?, i))
     }
 
     /// `parse_prefix` gives the same value (bit for bit) and length as the
