@@ -286,9 +286,15 @@ impl<T: CellGraph> CellGraph for Split<T> {
 
 /// Newell normal (twice the vector area) of a loop of points.
 pub fn newell(pts: &[[f64; 3]]) -> [f64; 3] {
+    newell_by(pts.len(), |i| pts[i])
+}
+
+/// [`newell`] of the loop `pt(0), …, pt(len − 1)` (same arithmetic).
+#[inline]
+fn newell_by(len: usize, pt: impl Fn(usize) -> [f64; 3]) -> [f64; 3] {
     let mut n = [0.0; 3];
-    for i in 0..pts.len() {
-        let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
+    for i in 0..len {
+        let (a, b) = (pt(i), pt((i + 1) % len));
         n[0] += (a[1] - b[1]) * (a[2] + b[2]);
         n[1] += (a[2] - b[2]) * (a[0] + b[0]);
         n[2] += (a[0] - b[0]) * (a[1] + b[1]);
@@ -333,14 +339,30 @@ fn mean(pts: impl ExactSizeIterator<Item = P3>) -> P3 {
 /// second vertex is the smaller neighbour; and whether `face` runs in that
 /// direction.
 fn canonical(face: &[u32]) -> (Vec<u32>, bool) {
+    let (i0, same) = canonical_start(face);
+    let n = face.len();
+    (
+        (0..n).map(|k| canonical_at(face, i0, same, k)).collect(),
+        same,
+    )
+}
+
+/// Where [`canonical`]'s loop starts in `face`, and whether it runs in
+/// `face`'s direction (without building it).
+fn canonical_start(face: &[u32]) -> (usize, bool) {
     let n = face.len();
     let i0 = (0..n).min_by_key(|&i| face[i]).unwrap_or(0);
-    let fwd: Vec<u32> = (0..n).map(|k| face[(i0 + k) % n]).collect();
-    if fwd[1] < fwd[n - 1] {
-        (fwd, true)
+    (i0, face[(i0 + 1) % n] < face[(i0 + n - 1) % n])
+}
+
+/// Vertex `k` of [`canonical`]'s loop, from [`canonical_start`]'s answer.
+#[inline]
+fn canonical_at(face: &[u32], i0: usize, same: bool, k: usize) -> u32 {
+    let n = face.len();
+    if same {
+        face[(i0 + k) % n]
     } else {
-        let back: Vec<u32> = (0..n).map(|k| face[(i0 + n - k) % n]).collect();
-        (back, false)
+        face[(i0 + n - k) % n]
     }
 }
 
@@ -460,10 +482,10 @@ enum Element {
 /// Plane of an element: (point on it, unit outward normal).
 fn element_plane(e: &Element, pos: &dyn Fn(u32) -> P3) -> Option<(P3, P3)> {
     let (c, n) = match e {
-        Element::Base(ids) => {
-            let pts: Vec<P3> = ids.iter().map(|&v| pos(v)).collect();
-            (mean(pts.iter().copied()), newell(&pts))
-        }
+        Element::Base(ids) => (
+            mean(ids.iter().map(|&v| pos(v))),
+            newell_by(ids.len(), |i| pos(ids[i])),
+        ),
         Element::Tri([a, b, c]) => {
             let (a, b, c) = (pos(*a), pos(*b), pos(*c));
             (a, cross(sub(b, a), sub(c, a)))
@@ -758,14 +780,15 @@ fn split_with(
             };
             let mut elems: Vec<(usize, Element)> = Vec::new();
             for (fi, (f, &i)) in faces.iter().zip(ids).enumerate() {
-                let (can, same) = canonical(f);
+                let (i0, same) = canonical_start(f);
                 let orient = |t: [u32; 3]| if same { t } else { [t[0], t[2], t[1]] };
                 match table.plan[i].as_ref().expect("planned") {
                     FacePlan::Whole => elems.push((fi, Element::Base(f.clone()))),
                     FacePlan::Fan(q) => {
-                        let k = can.len();
+                        let k = f.len();
+                        let can = |j: usize| canonical_at(f, i0, same, j % k);
                         for j in 0..k {
-                            elems.push((fi, Element::Tri(orient([*q, can[j], can[(j + 1) % k]]))));
+                            elems.push((fi, Element::Tri(orient([*q, can(j), can(j + 1)]))));
                         }
                     }
                     FacePlan::Ears(tris) => {
@@ -792,17 +815,16 @@ fn split_with(
             let mut vol = 0.0;
             let mut acc = [0.0; 3];
             for (_, e) in &elems {
-                let pts: Vec<P3> = match e {
-                    Element::Base(ids) => ids.iter().map(|&v| cpos(v)).collect(),
-                    Element::Tri(t) => t.iter().map(|&v| cpos(v)).collect(),
+                let ids: &[u32] = match e {
+                    Element::Base(ids) => ids,
+                    Element::Tri(t) => t,
                 };
-                for j in 1..pts.len() - 1 {
-                    let w = dot(sub(pts[0], vm), cross(sub(pts[j], vm), sub(pts[j + 1], vm))) / 6.0;
+                let p0 = cpos(ids[0]);
+                for j in 1..ids.len() - 1 {
+                    let (pj, pk) = (cpos(ids[j]), cpos(ids[j + 1]));
+                    let w = dot(sub(p0, vm), cross(sub(pj, vm), sub(pk, vm))) / 6.0;
                     vol += w;
-                    acc = add(
-                        acc,
-                        scale(add(add(add(pts[0], pts[j]), pts[j + 1]), vm), w / 4.0),
-                    );
+                    acc = add(acc, scale(add(add(add(p0, pj), pk), vm), w / 4.0));
                 }
             }
             let centroid = scale(acc, 1.0 / vol);
@@ -1037,5 +1059,55 @@ fn extend_point_property(p: &Property, map: &SplitMap) -> Property {
         name: p.name.clone(),
         components: p.components,
         values,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The previous `canonical`: the loop rotated to its smallest id, in
+    /// the direction of the smaller neighbour, built both ways.
+    fn canonical_reference(face: &[u32]) -> (Vec<u32>, bool) {
+        let n = face.len();
+        let i0 = (0..n).min_by_key(|&i| face[i]).unwrap_or(0);
+        let fwd: Vec<u32> = (0..n).map(|k| face[(i0 + k) % n]).collect();
+        if fwd[1] < fwd[n - 1] {
+            (fwd, true)
+        } else {
+            ((0..n).map(|k| face[(i0 + n - k) % n]).collect(), false)
+        }
+    }
+
+    /// `canonical_start` + `canonical_at` (the split's per-cell pass builds
+    /// no loop) give the reference loop and direction on random loops of
+    /// distinct ids, both orientations.
+    #[test]
+    fn canonical_without_a_loop_equals_the_reference() {
+        let mut state = 0x1234_5678_9abc_def1u64;
+        let mut next = move |m: u64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % m
+        };
+        let mut reversed = 0;
+        for _ in 0..5000 {
+            let n = 3 + next(10) as usize;
+            let mut face: Vec<u32> = Vec::new();
+            while face.len() < n {
+                let v = next(1000) as u32;
+                if !face.contains(&v) {
+                    face.push(v);
+                }
+            }
+            let (want, dir) = canonical_reference(&face);
+            let (i0, same) = canonical_start(&face);
+            let got: Vec<u32> = (0..n).map(|k| canonical_at(&face, i0, same, k)).collect();
+            assert_eq!((got, same), (want.clone(), dir), "{face:?}");
+            assert_eq!(canonical(&face), (want, dir));
+            reversed += !dir as usize;
+        }
+        assert!(reversed > 1000 && reversed < 4000, "{reversed} reversed");
     }
 }
