@@ -212,7 +212,7 @@ pub struct LatticeHexTable {
     /// Per geometric code: its polygons (`polys == 0`: ambiguous).
     codes: Box<[CodePolygons; 256]>,
     /// Per geometric code: the cut geometric edges (bit mask).
-    cut: [u16; 256],
+    cut: Box<[u16; 256]>,
     /// Per geometric edge: offset of its lower vertex from `v0`.
     edge_low: [u32; 12],
     /// Per geometric edge: offset of its upper vertex from `v0`.
