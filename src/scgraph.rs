@@ -254,6 +254,7 @@ impl CellGraph for SCGraph {
             vertices: self.positions.len(),
             base: slab,
             deltas: [1, self.dims[0] as u32, slab],
+            live: &self.live,
             surrounded: &self.surrounded,
             meta: self.catalog.get(builtin::HEXAHEDRON),
             table: &self.table,

@@ -157,6 +157,8 @@ pub struct Lattice<'a> {
     pub base: u32,
     /// Slot (and vertex id) steps along i, j, k.
     pub deltas: [u32; 3],
+    /// Per slot: live (the never-sweep slots are the others).
+    pub live: &'a BitSet,
     /// Per slot: live, and so are its 18 face and edge neighbours.
     pub surrounded: &'a BitSet,
     /// The hexahedron's meta-cell.
@@ -250,8 +252,8 @@ struct LatticeQueues {
     fresh: Vec<u64>,
     /// Scratch for sorting `fresh` and merging it into `active`.
     scratch: Vec<u64>,
-    /// Per block slot, one bit: never swept (dead). Built at the first
-    /// lattice sweep from the stamps.
+    /// Per block slot, one bit: never swept (dead), from the lattice's
+    /// live bits when a sweep starts.
     dead: Vec<u64>,
     /// Per block slot, one bit: dead, or found in this sweep. Reset from
     /// `dead` when a sweep starts. One bit per slot instead of the u16
@@ -274,15 +276,13 @@ impl LatticeQueues {
                 * 8
     }
 
-    /// Starts a sweep over a block with `stamps`: every slot unseen but
-    /// the dead ones.
-    fn begin_sweep(&mut self, stamps: &[Stamp]) {
-        if self.dead.is_empty() && !stamps.is_empty() {
-            self.dead = vec![0; stamps.len().div_ceil(64)];
-            for (j, &s) in stamps.iter().enumerate() {
-                self.dead[j / 64] |= ((s == NEVER) as u64) << (j % 64);
-            }
-        }
+    /// Starts a sweep over the block of `len` slots from `start`: `dead`
+    /// is the complement of `live` there, and every slot is unseen but the
+    /// dead ones.
+    fn begin_sweep(&mut self, live: &BitSet, start: u32, len: usize) {
+        self.dead.clear();
+        self.dead
+            .extend((0..len.div_ceil(64)).map(|w| !live.word_at(start as i64 + 64 * w as i64)));
         self.seen.clear();
         self.seen.extend_from_slice(&self.dead);
     }
@@ -770,7 +770,7 @@ fn sweep_block_lattice(
         ..
     } = b;
     let len = stamps.len() as u32;
-    q.begin_sweep(stamps);
+    q.begin_sweep(lat.live, start, len as usize);
     let LatticeQueues {
         entering,
         active,
