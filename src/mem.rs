@@ -9,9 +9,9 @@ const HUGE_PAGE: usize = 2 << 20;
 /// An empty vector with room for `n` items. When that spans at least
 /// 8 MiB, the kernel is asked (Linux `madvise(MADV_HUGEPAGE)`, before any
 /// page is touched) to back it with transparent huge pages: the sweep reads
-/// rows of φ, positions and attributes a grid layer apart, and with 4 KiB
-/// pages most of those reads also miss the TLB (warped 256³, 200 levels,
-/// alternating runs: sweep 0.883–0.911 s → 0.820–0.848 s). A hint only:
+/// rows of φ, positions and attributes a grid layer apart, more pages than
+/// the TLB covers at 4 KiB (warped 256³, 200 levels, alternating runs:
+/// sweep 0.883–0.911 s → 0.820–0.848 s). A hint only:
 /// without THP, or on other systems, it is a plain allocation.
 pub fn huge_vec<T>(n: usize) -> Vec<T> {
     let v = Vec::with_capacity(n);

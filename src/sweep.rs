@@ -252,12 +252,10 @@ struct LatticeQueues {
     fresh: Vec<u64>,
     /// Scratch for sorting `fresh` and merging it into `active`.
     scratch: Vec<u64>,
-    /// Per block slot, one bit: never swept (dead), from the lattice's
-    /// live bits when a sweep starts.
-    dead: Vec<u64>,
-    /// Per block slot, one bit: dead, or found in this sweep. Reset from
-    /// `dead` when a sweep starts. One bit per slot instead of the u16
-    /// stamps keeps a level's neighbour tests in cache.
+    /// Per block slot, one bit: dead (never swept), or found in this
+    /// sweep. Reset from the lattice's live bits when a sweep starts. One
+    /// bit per slot instead of the u16 stamps keeps a level's neighbour
+    /// tests in cache.
     seen: Vec<u64>,
 }
 
@@ -271,27 +269,17 @@ impl LatticeQueues {
             + (self.active.capacity()
                 + self.fresh.capacity()
                 + self.scratch.capacity()
-                + self.dead.capacity()
                 + self.seen.capacity())
                 * 8
     }
 
-    /// Starts a sweep over the block of `len` slots from `start`: `dead`
-    /// is the complement of `live` there, and every slot is unseen but the
-    /// dead ones.
+    /// Starts a sweep over the block of `len` slots from `start`: every
+    /// slot is unseen but the dead ones (the complement of `live`).
     fn begin_sweep(&mut self, live: &BitSet, start: u32, len: usize) {
-        self.dead.clear();
-        self.dead
-            .extend((0..len.div_ceil(64)).map(|w| !live.word_at(start as i64 + 64 * w as i64)));
         self.seen.clear();
-        self.seen.extend_from_slice(&self.dead);
+        self.seen
+            .extend((0..len.div_ceil(64)).map(|w| !live.word_at(start as i64 + 64 * w as i64)));
     }
-}
-
-/// Whether bit `j` of `bits` is set.
-#[inline(always)]
-fn bit(bits: &[u64], j: u32) -> bool {
-    bits[j as usize / 64] >> (j % 64) & 1 == 1
 }
 
 /// Sets bit `j` of `bits`; returns whether it was clear.
@@ -776,7 +764,6 @@ fn sweep_block_lattice(
         active,
         fresh,
         scratch,
-        dead,
         seen,
     } = q;
     if entering.len() < n {
@@ -949,7 +936,7 @@ fn sweep_block_lattice(
                     let mut live = 0u32;
                     for (n, &step) in lower.iter().enumerate() {
                         let j = c.wrapping_add(step).wrapping_sub(start);
-                        let alive = j < len && !bit(dead, j);
+                        let alive = j < len && lat.live.get(c.wrapping_add(step) as usize);
                         live |= (alive as u32) << n;
                     }
                     live
@@ -1099,6 +1086,16 @@ mod tests {
     use crate::scgraph::SCGraph;
     use crate::sweep::CellGraph;
 
+    /// A xorshift32 generator from `seed` (non-zero).
+    fn xorshift(mut x: u32) -> impl FnMut() -> u32 {
+        move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x
+        }
+    }
+
     /// An IJK grid of unit cubes with `n` cells per axis, about `holes` %
     /// of them hidden at random; its S-CGraph, vertex counts and hidden flags.
     fn unit_lattice(
@@ -1131,13 +1128,7 @@ mod tests {
     /// 0.5), with 1 to 4 blocks.
     #[test]
     fn lattice_minima_match_generic() {
-        let mut x = 0x9E37_79B9_u32;
-        let mut rnd = move || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            x
-        };
+        let mut rnd = xorshift(0x9E37_79B9_u32);
         for (n, holes) in [
             ([1, 1, 1], 0),
             ([5, 4, 3], 0),
@@ -1172,13 +1163,7 @@ mod tests {
     #[test]
     fn lattice_hash_weld_fallback_equals_the_ownership_weld() {
         use crate::extract::EmitContext;
-        let mut x = 0x2545_F491_u32;
-        let mut rnd = move || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            x
-        };
+        let mut rnd = xorshift(0x2545_F491_u32);
         for (n, holes) in [([6, 5, 4], 0), ([7, 6, 9], 15)] {
             let (g, dims, _) = unit_lattice(n, holes, &mut rnd);
             let np = dims.iter().product::<usize>();
@@ -1245,13 +1230,7 @@ mod tests {
                 self.0[v as usize]
             }
         }
-        let mut x = 0x1234_5679_u32;
-        let mut rnd = move || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            x
-        };
+        let mut rnd = xorshift(0x1234_5679_u32);
         let (g, dims, _) = unit_lattice([6, 7, 5], 10, &mut rnd);
         let np = dims.iter().product::<usize>();
         let ctx = EmitContext {
@@ -1290,13 +1269,14 @@ mod tests {
                 let want = cells(&mut Sweeper::new(&g, threads), &phi, generic, &levels);
                 assert!(!want.is_empty());
                 let got = cells(&mut reused, &phi, generic, &levels);
-                let missed: Vec<_> = want.iter().filter(|c| !got.contains(c)).take(5).collect();
-                assert!(
-                    got == want,
-                    "threads {threads} round {round}: {} cut cells, want {}; missed (level, cell) {missed:?}",
-                    got.len(),
-                    want.len()
-                );
+                if got != want {
+                    let missed: Vec<_> = want.iter().filter(|c| !got.contains(c)).take(5).collect();
+                    panic!(
+                        "threads {threads} round {round}: {} cut cells, want {}; missed (level, cell) {missed:?}",
+                        got.len(),
+                        want.len()
+                    );
+                }
             }
         }
     }
@@ -1306,7 +1286,7 @@ mod tests {
     #[test]
     fn radix_sort_matches_std_sort() {
         let mut scratch = Vec::new();
-        let mut x = 0x2545_f491_u32;
+        let mut rnd = xorshift(0x2545_f491);
         for (n, len, start) in [
             (0usize, 10u32, 0u32),
             (1, 10, 5),
@@ -1315,14 +1295,7 @@ mod tests {
             (5000, 3_000_000, 17),
             (20000, 4_000_000_000, 1),
         ] {
-            let mut v: Vec<u32> = (0..n)
-                .map(|_| {
-                    x ^= x << 13;
-                    x ^= x >> 17;
-                    x ^= x << 5;
-                    start + x % len
-                })
-                .collect();
+            let mut v: Vec<u32> = (0..n).map(|_| start + rnd() % len).collect();
             let mut want = v.clone();
             want.sort_unstable();
             radix_sort_slots(&mut v, &mut scratch, start, len);
