@@ -10,6 +10,8 @@ use crate::lattice::{EdgeOwnership, EdgeWindow, LatticeHexTable};
 use crate::metacell::{Catalog, MAX_META_VERTICES, MetaCell};
 use crate::structure::BitSet;
 
+mod chunks;
+
 /// Per-cell step stamp. 16 bits keep the S-CGraph within 20 bytes per
 /// vertex; the stamps are reset once every 65 534 levels.
 pub type Stamp = u16;
@@ -237,6 +239,8 @@ pub struct Block {
     window: EdgeWindow,
     /// Queues of the lattice loop.
     lattice: LatticeQueues,
+    /// State of the chunked lattice loop.
+    chunked: chunks::ChunkQueues,
 }
 
 /// The lattice loop's queues, kept between sweeps for their capacity.
@@ -370,6 +374,7 @@ impl Block {
             + self.mesh.capacity_bytes()
             + self.window.bytes()
             + self.lattice.bytes()
+            + self.chunked.bytes()
     }
 }
 
@@ -399,6 +404,7 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
                 mesh: LevelMesh::default(),
                 window: EdgeWindow::default(),
                 lattice: LatticeQueues::default(),
+                chunked: Default::default(),
             })
             .collect();
         Sweeper { graph, blocks }
@@ -607,7 +613,12 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
     if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {
-        sweep_block_lattice(&lat, phi, b, minima, levels, ctx, false, on_level);
+        if std::env::var_os("STRATASWEEP_CELL_LOOP").is_some() || levels.len() > chunks::MAX_LEVELS
+        {
+            sweep_block_lattice(&lat, phi, b, minima, levels, ctx, false, on_level);
+        } else {
+            chunks::sweep_block_chunks(&lat, phi, b, minima, levels, ctx, false, on_level);
+        }
         return;
     }
     let catalog = g.catalog();
@@ -745,9 +756,6 @@ fn sweep_block_lattice(
     if own_weld {
         b.window.fit(&owner);
     }
-    let lower = owner.lower_steps;
-    // Every lower neighbour is within this many slots.
-    let reach = dk + dj + di;
     let n = levels.len();
     let Block {
         stamps,
@@ -765,6 +773,7 @@ fn sweep_block_lattice(
         fresh,
         scratch,
         seen,
+        ..
     } = q;
     if entering.len() < n {
         entering.resize_with(n, Vec::new);
@@ -902,64 +911,95 @@ fn sweep_block_lattice(
         let carried = active.len();
         merge_active(active, fresh, k, scratch);
         std::mem::swap(active, scratch);
-        if ctx.cells_only {
-            mesh.cells.extend(active.iter().map(|&x| (x >> 32) as u32));
-            mesh.cut_cells = active.len() as u32;
-        } else {
-            for (n, &x) in active.iter().enumerate() {
-                if let Some(&ahead) = active.get(n + 4 * PREFETCH_AHEAD) {
-                    // The cell's vertex rows: φ, positions and attribute.
-                    let v = (ahead >> 32) as u32 - lat.base;
-                    for r in [v, v + dj, v + dk, v + dj + dk] {
-                        prefetch(phi, r as usize);
-                        prefetch(ctx.positions, r as usize);
-                        if let Some(a) = ctx.attribute {
-                            prefetch(a, r as usize);
-                        }
-                    }
-                }
-                let c = (x >> 32) as u32;
-                let f = cell(c);
-                if !own_weld {
-                    lat.table
-                        .emit_hashed(lat.meta, c - lat.base, &f, t, c, ctx, mesh);
-                    continue;
-                }
-                // Which earlier edge neighbours are live cells of this block
-                // (they own the edges they share with this cell): all of
-                // them for a surrounded cell away from the block's ends.
-                let inner =
-                    c.wrapping_sub(start).wrapping_sub(reach) < len.saturating_sub(2 * reach);
-                let live = if inner && lat.surrounded.get(c as usize) {
-                    511
-                } else {
-                    let mut live = 0u32;
-                    for (n, &step) in lower.iter().enumerate() {
-                        let j = c.wrapping_add(step).wrapping_sub(start);
-                        let alive = j < len && lat.live.get(c.wrapping_add(step) as usize);
-                        live |= (alive as u32) << n;
-                    }
-                    live
-                };
-                lat.table.emit(
-                    lat.meta,
-                    c - lat.base,
-                    &f,
-                    t,
-                    code8(&f, t),
-                    &owner,
-                    live,
-                    c,
-                    ctx,
-                    mesh,
-                    window,
-                );
-            }
-        }
+        let slot_of = |x: u64| (x >> 32) as u32;
+        let weld = own_weld.then_some(&owner);
+        emit_cut_cells(
+            lat, phi, active, slot_of, start, len, t, ctx, weld, mesh, window,
+        );
         // Visited: the cells read at this step (entries) and the queue of
         // A_{k-1} filtered by each cell's last level.
         let stats = LevelStats::of(mesh, (entered + carried) as u64);
         on_level(k, mesh, &stats);
+    }
+}
+
+/// Emits level `t`'s polygons of a block's cut cells `cut` (slots
+/// `slot_of(x)`, ascending; the block has `len` slots from `start`) into
+/// `mesh`, welded by edge ownership through `window` when `owner` is given,
+/// else by the mesh's hash map. With [`EmitContext::cells_only`] it records
+/// only the cells.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn emit_cut_cells<T: Copy>(
+    lat: &Lattice,
+    phi: &[f32],
+    cut: &[T],
+    slot_of: impl Fn(T) -> u32,
+    start: u32,
+    len: u32,
+    t: f32,
+    ctx: &EmitContext,
+    owner: Option<&EdgeOwnership>,
+    mesh: &mut LevelMesh,
+    window: &mut EdgeWindow,
+) {
+    let [di, dj, dk] = lat.deltas;
+    if ctx.cells_only {
+        mesh.cells.extend(cut.iter().map(|&x| slot_of(x)));
+        mesh.cut_cells = cut.len() as u32;
+        return;
+    }
+    // Every lower neighbour is within this many slots.
+    let reach = dk + dj + di;
+    for (n, &x) in cut.iter().enumerate() {
+        if let Some(&ahead) = cut.get(n + 4 * PREFETCH_AHEAD) {
+            // The cell's vertex rows: φ, positions and attribute.
+            let v = slot_of(ahead) - lat.base;
+            for r in [v, v + dj, v + dk, v + dj + dk] {
+                prefetch(phi, r as usize);
+                prefetch(ctx.positions, r as usize);
+                if let Some(a) = ctx.attribute {
+                    prefetch(a, r as usize);
+                }
+            }
+        }
+        let c = slot_of(x);
+        // SAFETY: `c` is a live cell, whose vertices are < lat.vertices <=
+        // phi.len() (checked by the callers).
+        let f = unsafe { load8(phi, c - lat.base, dj, dk) };
+        let Some(owner) = owner else {
+            lat.table
+                .emit_hashed(lat.meta, c - lat.base, &f, t, c, ctx, mesh);
+            continue;
+        };
+        // Which earlier edge neighbours are live cells of this block (they
+        // own the edges they share with this cell): all of them for a
+        // surrounded cell away from the block's ends.
+        let inner = c.wrapping_sub(start).wrapping_sub(reach) < len.saturating_sub(2 * reach);
+        let live = if inner && lat.surrounded.get(c as usize) {
+            511
+        } else {
+            let mut live = 0u32;
+            for (n, &step) in owner.lower_steps.iter().enumerate() {
+                let j = c.wrapping_add(step).wrapping_sub(start);
+                let alive = j < len && lat.live.get(c.wrapping_add(step) as usize);
+                live |= (alive as u32) << n;
+            }
+            live
+        };
+        lat.table.emit(
+            lat.meta,
+            c - lat.base,
+            &f,
+            t,
+            code8(&f, t),
+            owner,
+            live,
+            c,
+            ctx,
+            mesh,
+            window,
+        );
     }
 }
 
@@ -1212,6 +1252,119 @@ mod tests {
             let owned = run(false);
             assert!(owned.iter().map(Vec::len).sum::<usize>() > 0, "nothing cut");
             assert_eq!(run(true), owned, "dims {dims:?} holes {holes}%");
+        }
+    }
+
+    /// The chunked lattice loop gives, level by level, the same output as
+    /// the per-cell loop: the same cut cells in the same order, the same
+    /// indexed polygons, areas and visited counts. Random IJK grids with
+    /// holes, φ in steps that put many vertices exactly on levels, 1 to 3
+    /// blocks, and rows shorter and longer than a chunk.
+    #[test]
+    fn chunked_loop_equals_the_cell_loop() {
+        use crate::extract::EmitContext;
+        let mut rnd = xorshift(0x6A09_E667_u32);
+        // Ramps along ±i, ±j and ±k (φ from -2 to 2 across the grid) make
+        // the sweep cross chunk ends along i, rows and layers, both ways, as
+        // its only way on.
+        for (n, holes, (axis, ramp)) in [
+            ([1, 1, 1], 0, (0, 0.0)),
+            ([6, 5, 4], 0, (0, 0.0)),
+            ([7, 6, 9], 15, (0, 0.0)),
+            ([70, 3, 4], 10, (0, 0.0)),
+            ([130, 2, 3], 0, (0, 0.0)),
+            ([9, 8, 7], 60, (0, 0.0)),
+            ([200, 1, 1], 0, (0, -1.0)),
+            ([200, 1, 1], 0, (0, 1.0)),
+            ([150, 2, 1], 5, (0, -1.0)),
+            ([70, 40, 1], 0, (1, -1.0)),
+            ([300, 12, 1], 0, (1, -1.0)),
+            ([300, 12, 1], 0, (1, 1.0)),
+            ([150, 1, 12], 0, (2, -1.0)),
+            ([150, 1, 12], 3, (2, 1.0)),
+            ([300, 12, 2], 35, (1, -1.0)),
+            ([300, 12, 2], 35, (1, 1.0)),
+            ([150, 2, 12], 35, (2, -1.0)),
+            ([150, 2, 12], 35, (2, 1.0)),
+        ] {
+            let (g, dims, _) = unit_lattice(n, holes, &mut rnd);
+            let np = dims.iter().product::<usize>();
+            let phi: Vec<f32> = (0..np)
+                .map(|v| {
+                    let ijk = [v % dims[0], v / dims[0] % dims[1], v / (dims[0] * dims[1])];
+                    if ramp == 0.0 {
+                        (rnd() % 17) as f32 * 0.25 - 2.0
+                    } else {
+                        ramp * (ijk[axis] as f32 / dims[axis] as f32 * 4.0 - 2.0)
+                    }
+                })
+                .collect();
+            let attr: Vec<f32> = (0..np).map(|_| (rnd() % 1000) as f32 * 0.01).collect();
+            let f = VertexField { values: &phi };
+            let lat = g.lattice().unwrap();
+            let ctx = EmitContext {
+                positions: g.positions(),
+                attribute: Some(&attr),
+                cells_only: false,
+            };
+            // Levels on and between the φ steps, some outside the range.
+            let levels: Vec<f32> = (0..23).map(|l| l as f32 * 0.25 - 2.6).collect();
+            for threads in 1..=3 {
+                let run = |chunked: bool| {
+                    let mut sw = Sweeper::new(&g, threads);
+                    let mut out = Vec::new();
+                    for b in &mut sw.blocks {
+                        let minima = super::block_minima(&g, &f, b);
+                        let mut on_level =
+                            |k: usize, mesh: &super::LevelMesh, st: &super::LevelStats| {
+                                out.push((
+                                    k,
+                                    mesh.cells.clone(),
+                                    mesh.offsets.clone(),
+                                    mesh.indices.clone(),
+                                    mesh.edge_keys.clone(),
+                                    mesh.values.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                                    st.visited,
+                                    st.area.to_bits(),
+                                ));
+                            };
+                        if chunked {
+                            super::chunks::sweep_block_chunks(
+                                &lat,
+                                &phi,
+                                b,
+                                &minima,
+                                &levels,
+                                &ctx,
+                                false,
+                                &mut on_level,
+                            );
+                        } else {
+                            super::sweep_block_lattice(
+                                &lat,
+                                &phi,
+                                b,
+                                &minima,
+                                &levels,
+                                &ctx,
+                                false,
+                                &mut on_level,
+                            );
+                        }
+                    }
+                    out
+                };
+                let cells = run(false);
+                assert!(
+                    cells.iter().map(|o| o.1.len()).sum::<usize>() > 0 || holes > 50,
+                    "nothing cut: {dims:?}"
+                );
+                assert_eq!(
+                    run(true),
+                    cells,
+                    "dims {dims:?} holes {holes}% threads {threads}"
+                );
+            }
         }
     }
 
