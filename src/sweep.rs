@@ -613,7 +613,9 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
     if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {
-        if std::env::var_os("STRATASWEEP_CELL_LOOP").is_some() || levels.len() > chunks::MAX_LEVELS
+        if std::env::var_os("STRATASWEEP_CELL_LOOP").is_some()
+            || levels.len() > chunks::MAX_LEVELS
+            || !chunks::chunks_pay_off(&lat, phi, b.start, b.stamps.len() as u32)
         {
             sweep_block_lattice(&lat, phi, b, minima, levels, ctx, false, on_level);
         } else {

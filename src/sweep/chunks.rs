@@ -311,6 +311,32 @@ fn dead_bits(lat: &Lattice, start: u32, len: u32, w: u32) -> u64 {
     !lat.live.word_at(start as i64 + first as i64) | past
 }
 
+/// Whether the chunked loop should beat the per-cell one for φ on this
+/// block: unless φ changes much faster along i (along a chunk) than along
+/// j or k. Then each level crosses a chunk in a few cells only, and the
+/// chunk is processed at many steps for few cut cells (warped 256³ swept
+/// along x: 1.06 s chunked against 0.91 s per cell; along y and z the
+/// chunked loop is 9–24 % faster). Measured on up to 4096 live cells
+/// spread over the block: the mean |Δφ| along i against the larger of
+/// those along j and k.
+pub(super) fn chunks_pay_off(lat: &Lattice, phi: &[f32], start: u32, len: u32) -> bool {
+    let [di, dj, dk] = lat.deltas;
+    let stride = (len / 4096).max(1);
+    let mut g = [0f64; 3];
+    let mut c = start;
+    while c < start + len {
+        if lat.live.get(c as usize) {
+            let v = (c - lat.base) as usize;
+            let at = |d: u32| (phi[v + d as usize] - phi[v]).abs() as f64;
+            g[0] += at(di);
+            g[1] += at(dj);
+            g[2] += at(dk);
+        }
+        c += stride;
+    }
+    g[0] <= 0.6 * g[1].max(g[2])
+}
+
 /// [`super::sweep_block_lattice`] over 64-cell chunks (see the module
 /// docs): the same cut cells per level, emitted in slot order with the
 /// same polygons. Needs at most [`MAX_LEVELS`] levels.
