@@ -1309,9 +1309,11 @@ mod tests {
                 attribute: Some(&attr),
                 cells_only: false,
             };
-            // Levels on and between the φ steps, some outside the range.
-            let levels: Vec<f32> = (0..23).map(|l| l as f32 * 0.25 - 2.6).collect();
-            for threads in 1..=3 {
+            // Levels on and between the φ steps, some outside the range;
+            // evenly spaced and not.
+            let even: Vec<f32> = (0..23).map(|l| l as f32 * 0.25 - 2.6).collect();
+            let uneven: Vec<f32> = (0..12).map(|l| (l * l) as f32 * 0.04 - 2.1).collect();
+            for (levels, threads) in [(&even, 1), (&even, 2), (&even, 3), (&uneven, 2)] {
                 let run = |chunked: bool| {
                     let mut sw = Sweeper::new(&g, threads);
                     let mut out = Vec::new();
@@ -1336,7 +1338,7 @@ mod tests {
                                 &phi,
                                 b,
                                 &minima,
-                                &levels,
+                                levels,
                                 &ctx,
                                 false,
                                 &mut on_level,
@@ -1347,7 +1349,7 @@ mod tests {
                                 &phi,
                                 b,
                                 &minima,
-                                &levels,
+                                levels,
                                 &ctx,
                                 false,
                                 &mut on_level,

@@ -109,11 +109,15 @@ impl ChunkQueues {
 }
 
 /// `#{t in levels : t <= x}` (the index of the first level above x), for
-/// ascending levels: a guess from their mean spacing, checked against its
-/// neighbours, else a binary search.
-#[derive(Clone, Copy)]
+/// ascending levels, 64 values at a time: a guess from the levels' mean
+/// spacing (vectorised), moved by at most one level and checked against
+/// the levels around it; values whose check fails (unevenly spaced levels)
+/// take a binary search.
 struct LevelIndex<'a> {
     levels: &'a [f32],
+    /// The levels between −∞ and +∞ sentinels: the count c of x has
+    /// `padded[c] <= x < padded[c + 1]`.
+    padded: Vec<f32>,
     first: f32,
     inv_step: f32,
 }
@@ -122,41 +126,56 @@ impl<'a> LevelIndex<'a> {
     fn new(levels: &'a [f32]) -> Self {
         let n = levels.len();
         let span = levels[n - 1] - levels[0];
-        let inv_step = if n > 1 && span > 0.0 {
+        let inv_step = if n > 1 && span > 0.0 && ((n - 1) as f32 / span).is_finite() {
             (n - 1) as f32 / span
         } else {
             0.0
         };
+        let mut padded = Vec::with_capacity(n + 2);
+        padded.push(f32::NEG_INFINITY);
+        padded.extend_from_slice(levels);
+        padded.push(f32::INFINITY);
         LevelIndex {
             levels,
+            padded,
             first: levels[0],
             inv_step,
         }
     }
 
+    /// `out[p]` = the count of `xs[p]` (finite values, or ±∞).
     #[inline(always)]
-    fn count_le(&self, x: f32) -> usize {
-        let l = self.levels;
-        let n = l.len();
-        let g = (x - self.first) * self.inv_step;
-        // The level at or below x nearest to the guess, plus one.
-        let mut c = if g >= 0.0 {
-            (g as usize).saturating_add(1).min(n)
-        } else {
-            0
-        };
-        if c < n && l[c] <= x {
-            c += 1;
-            if c < n && l[c] <= x {
-                return l.partition_point(|&t| t <= x);
+    fn count_le_64(&self, xs: &[f32; 64], out: &mut [u8]) {
+        let n = self.levels.len();
+        let nf = n as f32;
+        let mut guess = [0u32; 64];
+        for (g, &x) in guess.iter_mut().zip(xs) {
+            // f32::max/min drop a NaN ((±∞ − ±∞)·0): the guess is then 0.
+            let y = ((x - self.first) * self.inv_step + 1.0).max(0.0).min(nf);
+            // SAFETY: y is finite and in 0..=n (< 256).
+            *g = unsafe { y.to_int_unchecked::<u32>() };
+        }
+        let p = &self.padded[..];
+        debug_assert_eq!(p.len(), n + 2);
+        let mut all_ok = true;
+        for ((o, &x), &g) in out.iter_mut().zip(xs).zip(&guess) {
+            let mut c = g as usize;
+            // SAFETY: c <= n, so c + 1 <= n + 1 < p.len(); after the moves
+            // c stays in 0..=n (p[n + 1] = +∞ is only <= x = +∞, then c is
+            // clamped; p[0] = −∞ is never > x).
+            unsafe {
+                c += (*p.get_unchecked(c + 1) <= x) as usize;
+                c = c.min(n);
+                c -= (*p.get_unchecked(c) > x) as usize;
+                all_ok &= *p.get_unchecked(c) <= x && (x < *p.get_unchecked(c + 1) || c == n);
             }
-        } else if c > 0 && l[c - 1] > x {
-            c -= 1;
-            if c > 0 && l[c - 1] > x {
-                return l.partition_point(|&t| t <= x);
+            *o = c as u8;
+        }
+        if !all_ok {
+            for (o, &x) in out.iter_mut().zip(xs) {
+                *o = self.levels.partition_point(|&t| t <= x) as u8;
             }
         }
-        c
     }
 }
 
@@ -203,19 +222,18 @@ fn fill_levels(
     dead: u64,
     index: &LevelIndex,
 ) -> u8 {
+    let lo: [f32; 64] = std::array::from_fn(|p| if mn[p] < mn[p + 1] { mn[p] } else { mn[p + 1] });
+    let hi: [f32; 64] = std::array::from_fn(|p| if mx[p] > mx[p + 1] { mx[p] } else { mx[p + 1] });
     let (enter, leave) = rec.split_at_mut(64);
+    index.count_le_64(&lo, enter);
+    index.count_le_64(&hi, leave);
     let mut least = u8::MAX;
     for p in 0..64 {
         if dead >> p & 1 == 1 {
             enter[p] = u8::MAX;
             leave[p] = 0;
-        } else {
-            let lo = if mn[p] < mn[p + 1] { mn[p] } else { mn[p + 1] };
-            let hi = if mx[p] > mx[p + 1] { mx[p] } else { mx[p + 1] };
-            enter[p] = index.count_le(lo) as u8;
-            leave[p] = index.count_le(hi) as u8;
-            least = least.min(enter[p]);
         }
+        least = least.min(enter[p]);
     }
     least
 }
@@ -531,5 +549,55 @@ pub(super) fn sweep_block_chunks(
         let stats = LevelStats::of(mesh, entered + prev_cut);
         prev_cut = q.slots.len() as u64;
         on_level(k, mesh, &stats);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::LevelIndex;
+
+    /// The batched level index equals a binary search over the levels, for
+    /// evenly and unevenly spaced levels, values on, between and outside
+    /// the levels, and ±∞.
+    #[test]
+    fn level_index_equals_the_binary_search() {
+        let mut x = 0x1234_5678u32;
+        let mut rnd = move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x
+        };
+        let even: Vec<f32> = (0..200).map(|k| -3.7 + k as f32 * 0.031).collect();
+        let uneven: Vec<f32> = (0..50).map(|k| (k * k) as f32 * 0.01 - 2.0).collect();
+        let single = vec![0.5f32];
+        let tight: Vec<f32> = (0..255).map(|k| 1000.0 + k as f32 * 0.000_1).collect();
+        for levels in [even, uneven, single, tight] {
+            let index = LevelIndex::new(&levels);
+            for round in 0..200 {
+                let xs: [f32; 64] = std::array::from_fn(|p| match (round + p) % 5 {
+                    // A level itself, or its neighbours in f32.
+                    0 => levels[rnd() as usize % levels.len()],
+                    1 => f32::from_bits(levels[rnd() as usize % levels.len()].to_bits() + 1),
+                    2 => f32::from_bits(levels[rnd() as usize % levels.len()].to_bits() - 1),
+                    3 if p % 17 == 0 => [f32::INFINITY, f32::NEG_INFINITY][p % 2],
+                    _ => {
+                        let (a, b) = (levels[0], levels[levels.len() - 1]);
+                        a - 1.0 + (b - a + 2.0) * (rnd() % 10_000) as f32 / 10_000.0
+                    }
+                });
+                let mut got = [0u8; 64];
+                index.count_le_64(&xs, &mut got);
+                for (p, &x) in xs.iter().enumerate() {
+                    let want = levels.partition_point(|&t| t <= x);
+                    assert_eq!(
+                        got[p] as usize,
+                        want,
+                        "x = {x} among {} levels",
+                        levels.len()
+                    );
+                }
+            }
+        }
     }
 }
