@@ -1332,29 +1332,23 @@ mod tests {
                                     st.area.to_bits(),
                                 ));
                             };
-                        if chunked {
-                            super::chunks::sweep_block_chunks(
-                                &lat,
-                                &phi,
-                                b,
-                                &minima,
-                                levels,
-                                &ctx,
-                                false,
-                                &mut on_level,
-                            );
+                        type Loop<'a, C> = fn(
+                            &super::Lattice<'a>,
+                            &[f32],
+                            &mut super::Block,
+                            &[super::Minimum],
+                            &[f32],
+                            &EmitContext,
+                            bool,
+                            C,
+                        );
+                        let sweep_block: Loop<_> = if chunked {
+                            super::chunks::sweep_block_chunks
                         } else {
-                            super::sweep_block_lattice(
-                                &lat,
-                                &phi,
-                                b,
-                                &minima,
-                                levels,
-                                &ctx,
-                                false,
-                                &mut on_level,
-                            );
-                        }
+                            super::sweep_block_lattice
+                        };
+                        let (lat, phi) = (&lat, &phi[..]);
+                        sweep_block(lat, phi, b, &minima, levels, &ctx, false, &mut on_level);
                     }
                     out
                 };

@@ -42,7 +42,8 @@ pub(super) const MAX_LEVELS: usize = 255;
 /// The chunked loop's state, kept between sweeps for its capacity.
 #[derive(Debug, Default)]
 pub struct ChunkQueues {
-    /// Per chunk: [`UNTOUCHED`], [`DONE`], or its record in `levels`.
+    /// Per chunk: [`UNTOUCHED`], [`PENDING`], [`DONE`], or its record in
+    /// `levels` (touched: it has a step scheduled).
     state: Vec<u32>,
     /// Records of 128 bytes: the `enter` bytes of the chunk's 64 cells, then
     /// their `leave` bytes (dead cells: 255 and 0).
