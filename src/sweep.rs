@@ -1199,9 +1199,10 @@ mod tests {
         }
     }
 
-    /// The lattice loop's hash-weld fallback (for layers too large for the
-    /// ownership window) gives the same indexed meshes as the ownership
-    /// weld: the same polygons as lists of grid edges, one vertex per edge.
+    /// The lattice loops' hash-weld fallback (for layers too large for the
+    /// ownership window), per cell and chunked, gives the same indexed
+    /// meshes as the ownership weld: the same polygons as lists of grid
+    /// edges, one vertex per edge.
     #[test]
     fn lattice_hash_weld_fallback_equals_the_ownership_weld() {
         use crate::extract::EmitContext;
@@ -1218,42 +1219,48 @@ mod tests {
                 cells_only: false,
             };
             let levels: Vec<f32> = (0..15).map(|l| l as f32 * 0.25 - 1.9).collect();
-            let run = |hash_weld: bool| {
+            let run = |hash_weld: bool, chunked: bool| {
                 let mut sw = Sweeper::new(&g, 2);
                 let mut out = vec![Vec::new(); levels.len()];
                 for b in &mut sw.blocks {
                     let minima = super::block_minima(&g, &f, b);
-                    super::sweep_block_lattice(
-                        &lat,
-                        &phi,
-                        b,
-                        &minima,
-                        &levels,
-                        &ctx,
-                        hash_weld,
-                        |k, mesh, _| {
-                            let mut keys = mesh.edge_keys.clone();
-                            keys.sort_unstable();
-                            keys.dedup();
-                            assert_eq!(keys.len(), mesh.edge_keys.len(), "an edge welded twice");
-                            for p in 0..mesh.polygon_count() {
-                                let ids = &mesh.indices
-                                    [mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
-                                let corners: Vec<u64> =
-                                    ids.iter().map(|&i| mesh.edge_keys[i as usize]).collect();
-                                out[k].push((mesh.cells[p], corners));
-                            }
-                        },
-                    );
+                    let on_level = |k: usize, mesh: &super::LevelMesh, _: &super::LevelStats| {
+                        let mut keys = mesh.edge_keys.clone();
+                        keys.sort_unstable();
+                        keys.dedup();
+                        assert_eq!(keys.len(), mesh.edge_keys.len(), "an edge welded twice");
+                        for p in 0..mesh.polygon_count() {
+                            let ids = &mesh.indices
+                                [mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
+                            let corners: Vec<u64> =
+                                ids.iter().map(|&i| mesh.edge_keys[i as usize]).collect();
+                            out[k].push((mesh.cells[p], corners));
+                        }
+                    };
+                    if chunked {
+                        super::chunks::sweep_block_chunks(
+                            &lat, &phi, b, &minima, &levels, &ctx, hash_weld, on_level,
+                        );
+                    } else {
+                        super::sweep_block_lattice(
+                            &lat, &phi, b, &minima, &levels, &ctx, hash_weld, on_level,
+                        );
+                    }
                 }
                 for l in &mut out {
                     l.sort();
                 }
                 out
             };
-            let owned = run(false);
+            let owned = run(false, false);
             assert!(owned.iter().map(Vec::len).sum::<usize>() > 0, "nothing cut");
-            assert_eq!(run(true), owned, "dims {dims:?} holes {holes}%");
+            for chunked in [false, true] {
+                assert_eq!(
+                    run(true, chunked),
+                    owned,
+                    "dims {dims:?} holes {holes}% chunked {chunked}"
+                );
+            }
         }
     }
 
