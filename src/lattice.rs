@@ -14,7 +14,7 @@
 //! owner in the same level, and no other edge reaches its window entry
 //! between the owner's write and the last read.
 
-use crate::extract::{EmitContext, LevelMesh, code_of, decide_faces, emit_cell};
+use crate::extract::{EmitContext, HexWriter, LevelMesh, code_of, decide_faces, emit_cell};
 use crate::metacell::MetaCell;
 
 /// Largest [`EdgeWindow`] length W per axis (the table holds at most 4W u32s:
@@ -37,20 +37,17 @@ pub struct EdgeOwnership {
     /// Per set of live lower neighbours (bit n = `lower[n]` live): the
     /// edges the cell owns.
     own: Box<[u16; 512]>,
-    /// Per geometric edge: slot step from the cell to its lower vertex's
-    /// cell (the vertex offset in the lattice).
-    low_offset: [u32; 12],
     /// Entries of the whole table (the three sections, padded to a power
     /// of two).
     table_len: usize,
-    /// Per geometric edge: `W_axis − 1`, where the window length W_axis is
-    /// a power of two above the slot span of the cells around an edge
-    /// along that axis (`npi + 1` for k edges, about a layer for the
-    /// others).
-    mask: [u32; 12],
-    /// Per geometric edge: where its axis's section starts (k edges first,
-    /// so their small, busy section shares no cache lines with the others).
-    axis_base: [u32; 12],
+    /// Per geometric edge (padded to 16): the slot step from the cell to
+    /// its lower vertex's cell (the vertex offset in the lattice), then
+    /// `W_axis − 1`, where the window length W_axis is a power of two
+    /// above the slot span of the cells around an edge along that axis
+    /// (`npi + 1` for k edges, about a layer for the others), then where
+    /// its axis's section starts (k edges first, so their small, busy
+    /// section shares no cache lines with the others).
+    window_edges: [[u32; 4]; 16],
 }
 
 impl EdgeOwnership {
@@ -98,7 +95,7 @@ impl EdgeOwnership {
             .collect::<Vec<u16>>()
             .try_into()
             .expect("512 entries");
-        let low_offset = std::array::from_fn(|e| {
+        let low_offset: [u32; 12] = std::array::from_fn(|e| {
             let lo = edge_ends(e).0;
             (0..3).map(|a| (lo >> a & 1) as u32 * step[a]).sum()
         });
@@ -120,15 +117,22 @@ impl EdgeOwnership {
             .map(|&w| w as usize)
             .sum::<usize>()
             .next_power_of_two();
+        let mask: [u32; 12] = std::array::from_fn(|e| windows[e / 4] - 1);
+        let axis_base: [u32; 12] = std::array::from_fn(|e| base[e / 4]);
+        let window_edges = std::array::from_fn(|e| {
+            if e < 12 {
+                [low_offset[e], mask[e], axis_base[e], 0]
+            } else {
+                [0; 4]
+            }
+        });
         EdgeOwnership {
             fits,
             lower,
             lower_steps: lower.map(|o| slot_of(o) as i32 as u32),
             own,
-            low_offset,
             table_len,
-            mask: std::array::from_fn(|e| windows[e / 4] - 1),
-            axis_base: std::array::from_fn(|e| base[e / 4]),
+            window_edges,
         }
     }
 
@@ -137,7 +141,8 @@ impl EdgeOwnership {
     /// vertex mod W_axis.
     #[inline(always)]
     pub fn slot_of(&self, e: usize, c: u32) -> usize {
-        ((c.wrapping_add(self.low_offset[e]) & self.mask[e]) + self.axis_base[e]) as usize
+        let [off, mask, base, _] = self.window_edges[e & 15];
+        ((c.wrapping_add(off) & mask) + base) as usize
     }
 }
 
@@ -161,13 +166,23 @@ pub const fn edge_ends(e: usize) -> (usize, usize) {
 /// ([`EdgeOwnership::slot_of`]). Never cleared: ownership
 /// guarantees every read was written earlier in the same level (see the
 /// module docs).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct EdgeWindow {
+    /// Never empty; its length is a power of two.
     ids: Vec<u32>,
-    /// `ids.len() − 1` when that is a power of two minus one, so indexing
-    /// needs no bounds check; slots are always in range (see
-    /// [`EdgeOwnership::slot_of`]), the mask only proves it to the compiler.
+    /// `ids.len() − 1`, so `i & last` is always in bounds; slots are
+    /// always in range (see [`EdgeOwnership::slot_of`]), the mask only
+    /// makes the unchecked indexing sound.
     last: usize,
+}
+
+impl Default for EdgeWindow {
+    fn default() -> Self {
+        EdgeWindow {
+            ids: vec![0],
+            last: 0,
+        }
+    }
 }
 
 impl EdgeWindow {
@@ -175,6 +190,7 @@ impl EdgeWindow {
     pub fn fit(&mut self, owner: &EdgeOwnership) {
         // Three axis sections, padded to a power of two.
         let n = owner.table_len;
+        debug_assert!(n.is_power_of_two());
         if self.ids.len() != n {
             self.ids = vec![0; n];
             self.last = n - 1;
@@ -189,13 +205,16 @@ impl EdgeWindow {
     /// The vertex recorded at window slot `i` (from [`EdgeOwnership::slot_of`]).
     #[inline(always)]
     fn get(&self, i: usize) -> u32 {
-        self.ids[i & self.last]
+        // SAFETY: `last` is `ids.len() − 1` (set with `ids` by `fit`), so
+        // `i & last < ids.len()`.
+        unsafe { *self.ids.get_unchecked(i & self.last) }
     }
 
     /// Records vertex `v` at window slot `i`.
     #[inline(always)]
     fn set(&mut self, i: usize, v: u32) {
-        self.ids[i & self.last] = v;
+        // SAFETY: as in `get`.
+        unsafe { *self.ids.get_unchecked_mut(i & self.last) = v }
     }
 }
 
@@ -363,7 +382,8 @@ impl LatticeHexTable {
 
     /// Creates the vertices where level `t` crosses the cut edges in `own`
     /// (positions from `cell`, see [`LatticeHexTable::point_on_edge`]) and
-    /// records them in the window.
+    /// records them in the window. The attribute, when given, holds every
+    /// vertex of the cell.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn create_owned(
@@ -376,21 +396,39 @@ impl LatticeHexTable {
         owner: &EdgeOwnership,
         slot: u32,
         ctx: &EmitContext,
-        mesh: &mut LevelMesh,
+        out: &mut HexWriter,
         win: &mut EdgeWindow,
     ) {
         while own != 0 {
-            let e = own.trailing_zeros() as usize;
+            let e = own.trailing_zeros() as usize & 15;
             own &= own - 1;
-            let (ga, gb) = (v0 + self.edge_low[e], v0 + self.edge_high[e]);
-            let (fa, fb) = (f[EDGE_ENDS[e].0], f[EDGE_ENDS[e].1]);
+            // SAFETY: e < 12 (own holds edge bits only) and the edge tables
+            // have 12 entries.
+            let (lo, hi, (a, b)) = unsafe {
+                (
+                    *self.edge_low.get_unchecked(e),
+                    *self.edge_high.get_unchecked(e),
+                    *EDGE_ENDS.get_unchecked(e),
+                )
+            };
+            let (ga, gb) = (v0 + lo, v0 + hi);
+            // SAFETY: a, b < 8.
+            let (fa, fb) = unsafe { (*f.get_unchecked(a), *f.get_unchecked(b)) };
             let s = (t - fa) / (fb - fa);
             let value = match ctx.attribute {
-                Some(a) => a[ga as usize] + s * (a[gb as usize] - a[ga as usize]),
+                // SAFETY: the attribute holds the cell's vertices ga < gb
+                // (checked once by the sweep: it has a value per vertex).
+                Some(attr) => unsafe {
+                    let (xa, xb) = (
+                        *attr.get_unchecked(ga as usize),
+                        *attr.get_unchecked(gb as usize),
+                    );
+                    xa + s * (xb - xa)
+                },
                 None => t,
             };
             let p = self.point_on_edge(e, s, cell);
-            let vi = mesh.push_welded_vertex((ga as u64) << 32 | gb as u64, p, value);
+            let vi = out.vertex((ga as u64) << 32 | gb as u64, p, value);
             win.set(owner.slot_of(e, slot), vi);
         }
     }
@@ -401,12 +439,13 @@ impl LatticeHexTable {
     /// slot order; `live` has bit n set when `owner.lower[n]` is a live
     /// cell of the same sweep block; the cell creates the vertices of the
     /// cut edges it owns and reads the others from `win` (sized by
-    /// [`EdgeWindow::fit`] for `owner`).
+    /// [`EdgeWindow::fit`] for `owner`). Returns false, having written
+    /// nothing, when the code has an ambiguous face: then call
+    /// [`LatticeHexTable::emit_ambiguous`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub fn emit(
+    pub(crate) fn emit(
         &self,
-        meta: &MetaCell,
         v0: u32,
         f: &[f32; 8],
         t: f32,
@@ -415,32 +454,35 @@ impl LatticeHexTable {
         live: u32,
         slot: u32,
         ctx: &EmitContext,
-        mesh: &mut LevelMesh,
+        out: &mut HexWriter,
         win: &mut EdgeWindow,
-    ) {
+    ) -> bool {
         let code = code & 255;
         let own = self.cut[code] as u32 & owner.own[live as usize & 511] as u32;
         let cp = &self.codes[code];
         if cp.polys == 0 {
-            self.emit_ambiguous(meta, v0, f, t, own, owner, slot, ctx, mesh, win);
-            return;
+            return false;
         }
+        out.begin_cell();
         let cell = self.cell_positions(v0, ctx.positions);
-        self.create_owned(own, v0, f, t, cell, owner, slot, ctx, mesh, win);
-        mesh.cut_cells += 1;
+        self.create_owned(own, v0, f, t, cell, owner, slot, ctx, out, win);
         let mut first = 0;
-        for &m in &cp.sizes[..cp.polys as usize] {
-            let m = m as usize;
-            let corners = &cp.corners[first..first + m];
-            let start = mesh.indices.len();
-            mesh.indices.extend(
-                corners
-                    .iter()
-                    .map(|&e| win.get(owner.slot_of(e as usize, slot))),
+        for p in 0..(cp.polys as usize & 3) {
+            let m = cp.sizes[p] as usize;
+            debug_assert!(first + m <= 12);
+            // SAFETY: a code's polygons have 12 corners in all (every cut
+            // edge once), so first + i < 12; corners are edges (< 12).
+            out.polygon(
+                m,
+                |i| unsafe {
+                    let e = *cp.corners.get_unchecked(first + i) as usize;
+                    win.get(owner.slot_of(e, slot))
+                },
+                slot,
             );
-            mesh.end_polygon(start, slot);
             first += m;
         }
+        true
     }
 
     /// The same polygons as [`LatticeHexTable::emit`], welded by the mesh's
@@ -466,30 +508,35 @@ impl LatticeHexTable {
     /// corners mapped to geometric edges.
     #[inline(never)]
     #[allow(clippy::too_many_arguments)]
-    fn emit_ambiguous(
+    pub(crate) fn emit_ambiguous(
         &self,
         meta: &MetaCell,
         v0: u32,
         f: &[f32; 8],
         t: f32,
-        own: u32,
+        code: usize,
+        live: u32,
         owner: &EdgeOwnership,
         slot: u32,
         ctx: &EmitContext,
         mesh: &mut LevelMesh,
         win: &mut EdgeWindow,
     ) {
+        let code = code & 255;
+        let own = self.cut[code] as u32 & owner.own[live as usize & 511] as u32;
         let cell = self.cell_positions(v0, ctx.positions);
-        self.create_owned(own, v0, f, t, cell, owner, slot, ctx, mesh, win);
-        mesh.cut_cells += 1;
+        let mut out = HexWriter::new(mesh, 1);
+        out.begin_cell();
+        self.create_owned(own, v0, f, t, cell, owner, slot, ctx, &mut out, win);
+        drop(out);
         let (gids, phi) = self.local(v0, f);
-        let code = code_of(&phi, t);
-        let outcome = if meta.ambiguous_faces[code] != 0 {
-            decide_faces(meta, &gids, &phi, t, code)
+        let local_code = code_of(&phi, t);
+        let outcome = if meta.ambiguous_faces[local_code] != 0 {
+            decide_faces(meta, &gids, &phi, t, local_code)
         } else {
             0
         };
-        for lp in meta.loops(code, outcome) {
+        for lp in meta.loops(local_code, outcome) {
             let corner = |i: usize| self.local_edge[lp[i] as usize] as usize;
             let start = mesh.indices.len();
             mesh.indices
@@ -550,7 +597,7 @@ mod tests {
     fn window_covers_the_edge_span_or_is_flagged() {
         let o = EdgeOwnership::new(258, 258);
         assert!(o.fits);
-        let windows = [0, 1, 2].map(|d| o.mask[4 * d] + 1);
+        let windows = [0, 1, 2].map(|d| o.window_edges[4 * d][1] + 1);
         // Along i and j the cells around an edge span a layer and a row
         // (or a cell); along k a row and a cell.
         assert!(windows[0] as u64 > 258 + 258 * 258);
@@ -562,7 +609,7 @@ mod tests {
         for (e, w) in (0..12).map(|e| (e, windows[e / 4])) {
             if e % 4 == 0 {
                 for x in 0..w {
-                    let i = o.slot_of(e, x.wrapping_sub(o.low_offset[e]));
+                    let i = o.slot_of(e, x.wrapping_sub(o.window_edges[e][0]));
                     assert!(!used[i], "edge {e}: window entry {i} shared");
                     used[i] = true;
                 }

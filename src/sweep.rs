@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects, prefetch};
+use crate::extract::{EmitContext, HexWriter, LevelMesh, code_of, emit_cell, intersects, prefetch};
 use crate::field::ScalarField;
 use crate::lattice::{EdgeOwnership, EdgeWindow, LatticeHexTable};
 use crate::metacell::{Catalog, MAX_META_VERTICES, MetaCell};
@@ -951,11 +951,10 @@ fn emit_cut_cells<T: Copy>(
         mesh.cut_cells = cut.len() as u32;
         return;
     }
-    // Every lower neighbour is within this many slots.
-    let reach = dk + dj + di;
-    for (n, &x) in cut.iter().enumerate() {
+    // The vertex rows (φ, positions and attribute) of the cell some
+    // entries ahead of the n-th.
+    let prefetch_ahead = |n: usize| {
         if let Some(&ahead) = cut.get(n + 4 * PREFETCH_AHEAD) {
-            // The cell's vertex rows: φ, positions and attribute.
             let v = slot_of(ahead) - lat.base;
             for r in [v, v + dj, v + dk, v + dj + dk] {
                 prefetch(phi, r as usize);
@@ -965,20 +964,33 @@ fn emit_cut_cells<T: Copy>(
                 }
             }
         }
-        let c = slot_of(x);
-        // SAFETY: `c` is a live cell, whose vertices are < lat.vertices <=
-        // phi.len() (checked by the callers).
-        let f = unsafe { load8(phi, c - lat.base, dj, dk) };
-        let Some(owner) = owner else {
+    };
+    // SAFETY (for `load`): `c` is a live cell, whose vertices are <
+    // lat.vertices <= phi.len() (checked by the callers).
+    let load = |c: u32| unsafe { load8(phi, c - lat.base, dj, dk) };
+    let Some(owner) = owner else {
+        for (n, &x) in cut.iter().enumerate() {
+            prefetch_ahead(n);
+            let c = slot_of(x);
+            let f = load(c);
             lat.table
                 .emit_hashed(lat.meta, c - lat.base, &f, t, c, ctx, mesh);
-            continue;
-        };
-        // Which earlier edge neighbours are live cells of this block (they
-        // own the edges they share with this cell): all of them for a
-        // surrounded cell away from the block's ends.
+        }
+        return;
+    };
+    // The emitter reads the attribute of the cells' vertices unchecked.
+    assert!(
+        ctx.attribute.is_none_or(|a| a.len() >= lat.vertices),
+        "the attribute has fewer values than the lattice has vertices"
+    );
+    // Every lower neighbour is within this many slots.
+    let reach = dk + dj + di;
+    // Which earlier edge neighbours of cell c are live cells of this block
+    // (they own the edges they share with it): all of them for a
+    // surrounded cell away from the block's ends.
+    let live_lower = |c: u32| {
         let inner = c.wrapping_sub(start).wrapping_sub(reach) < len.saturating_sub(2 * reach);
-        let live = if inner && lat.surrounded.get(c as usize) {
+        if inner && lat.surrounded.get(c as usize) {
             511
         } else {
             let mut live = 0u32;
@@ -988,20 +1000,48 @@ fn emit_cut_cells<T: Copy>(
                 live |= (alive as u32) << n;
             }
             live
-        };
-        lat.table.emit(
-            lat.meta,
-            c - lat.base,
-            &f,
-            t,
-            code8(&f, t),
-            owner,
-            live,
-            c,
-            ctx,
-            mesh,
-            window,
-        );
+        }
+    };
+    // Batches of cells written without capacity checks; a cell with an
+    // ambiguous face ends its batch and is written through the mesh.
+    let mut n = 0;
+    while n < cut.len() {
+        let batch = (cut.len() - n).min(1024);
+        let mut out = HexWriter::new(mesh, batch);
+        let end = n + batch;
+        let mut ambiguous = None;
+        while n < end {
+            prefetch_ahead(n);
+            let c = slot_of(cut[n]);
+            n += 1;
+            let f = load(c);
+            let code = code8(&f, t);
+            let live = live_lower(c);
+            let v0 = c - lat.base;
+            if !lat
+                .table
+                .emit(v0, &f, t, code, owner, live, c, ctx, &mut out, window)
+            {
+                ambiguous = Some((c, f, code, live));
+                break;
+            }
+        }
+        drop(out);
+        if let Some((c, f, code, live)) = ambiguous {
+            lat.table.emit_ambiguous(
+                lat.meta,
+                c - lat.base,
+                &f,
+                t,
+                code,
+                live,
+                owner,
+                c,
+                ctx,
+                mesh,
+                window,
+            );
+        }
     }
 }
 
