@@ -1304,6 +1304,115 @@ mod tests {
         }
     }
 
+    /// The batched, unchecked writes of the lattice emitter
+    /// (`extract::HexWriter`) give, level by level, the hash-welded path's
+    /// output: the same polygons in the same order, each corner with the
+    /// same grid edge, position bits and attribute bits, and running sums
+    /// (area, triangles, cut cells) equal to the ones recomputed from the
+    /// mesh. Levels cut more cells than one batch (1024), and a noisy φ
+    /// puts cells with ambiguous faces (which end a batch) among them.
+    #[test]
+    fn batched_emission_equals_the_hash_weld() {
+        use crate::extract::EmitContext;
+        let mut rnd = xorshift(0x68E3_1DA4_u32);
+        let (g, dims, _) = unit_lattice([50, 44, 5], 3, &mut rnd);
+        let np = dims.iter().product::<usize>();
+        // Layers of φ near k, with noise that makes faces ambiguous.
+        let phi: Vec<f32> = (0..np)
+            .map(|v| (v / (dims[0] * dims[1])) as f32 + (rnd() % 64) as f32 / 80.0 - 0.4)
+            .collect();
+        let attr: Vec<f32> = (0..np).map(|_| (rnd() % 1000) as f32 * 0.001).collect();
+        let f = VertexField { values: &phi };
+        let lat = g.lattice().unwrap();
+        let ctx = EmitContext {
+            positions: g.positions(),
+            attribute: Some(&attr),
+            cells_only: false,
+        };
+        let levels: Vec<f32> = (0..9).map(|l| l as f32 * 0.55 + 0.2).collect();
+        // Per level: the polygons (cell, corners as edge key, position and
+        // attribute bits), cut cells and the running sums.
+        type Corner = (u64, [u32; 3], u32);
+        type Level = (Vec<(u32, Vec<Corner>)>, u32, u64, usize);
+        let run = |hash_weld: bool| -> Vec<Level> {
+            let mut sw = Sweeper::new(&g, 1);
+            let mut out = vec![Default::default(); levels.len()];
+            let b = &mut sw.blocks[0];
+            let minima = super::block_minima(&g, &f, b);
+            let on_level = |k: usize, mesh: &super::LevelMesh, _: &super::LevelStats| {
+                let polys = (0..mesh.polygon_count())
+                    .map(|p| {
+                        let ids =
+                            &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
+                        let corners = ids
+                            .iter()
+                            .map(|&i| {
+                                let i = i as usize;
+                                (
+                                    mesh.edge_keys[i],
+                                    mesh.positions[i].map(f32::to_bits),
+                                    mesh.values[i].to_bits(),
+                                )
+                            })
+                            .collect();
+                        (mesh.cells[p], corners)
+                    })
+                    .collect();
+                assert_eq!(mesh.accumulated_area().to_bits(), mesh.area().to_bits());
+                assert_eq!(mesh.accumulated_triangles(), mesh.triangle_count());
+                out[k] = (
+                    polys,
+                    mesh.cut_cells,
+                    mesh.accumulated_area().to_bits(),
+                    mesh.accumulated_triangles(),
+                );
+            };
+            super::chunks::sweep_block_chunks(
+                &lat, &phi, b, &minima, &levels, &ctx, hash_weld, on_level,
+            );
+            out
+        };
+        let batched = run(false);
+        assert!(
+            batched.iter().any(|l| l.1 > 1024),
+            "no level fills a batch: {:?}",
+            batched.iter().map(|l| l.1).collect::<Vec<_>>()
+        );
+        // Cells with a face whose corners alternate above and below.
+        let faces = [
+            [0, 2, 6, 4],
+            [1, 3, 7, 5],
+            [0, 1, 5, 4],
+            [2, 3, 7, 6],
+            [0, 1, 3, 2],
+            [4, 5, 7, 6],
+        ];
+        let [_, dj, dk] = lat.deltas;
+        let ambiguous: usize = batched
+            .iter()
+            .zip(&levels)
+            .map(|(l, &t)| {
+                let mut cells: Vec<u32> = l.0.iter().map(|p| p.0).collect();
+                cells.dedup();
+                cells
+                    .iter()
+                    .filter(|&&c| {
+                        let f = unsafe { super::load8(&phi, c - lat.base, dj, dk) };
+                        faces.iter().any(|q| {
+                            let a = q.map(|v| f[v] >= t);
+                            a[0] == a[2] && a[1] == a[3] && a[0] != a[1]
+                        })
+                    })
+                    .count()
+            })
+            .sum();
+        assert!(
+            ambiguous > 10,
+            "only {ambiguous} cells with an ambiguous face"
+        );
+        assert_eq!(run(true), batched);
+    }
+
     /// The chunked lattice loop gives, level by level, the same output as
     /// the per-cell loop: the same cut cells in the same order, the same
     /// indexed polygons, areas and visited counts. Random IJK grids with
