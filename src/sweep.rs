@@ -931,7 +931,7 @@ fn sweep_block_lattice(
 /// else by the mesh's hash map. With [`EmitContext::cells_only`] it records
 /// only the cells.
 #[allow(clippy::too_many_arguments)]
-#[inline(always)]
+#[inline(never)]
 fn emit_cut_cells<T: Copy>(
     lat: &Lattice,
     phi: &[f32],
