@@ -485,7 +485,7 @@ impl LatticeHexTable {
         true
     }
 
-    /// The same polygons as [`LatticeHexTable::emit`], welded by the mesh's
+    /// The same polygons as `LatticeHexTable::emit`, welded by the mesh's
     /// hash map ([`crate::extract::emit_cell`] in the meta-cell's local
     /// order), for lattices whose weld window would not fit.
     #[allow(clippy::too_many_arguments)]
