@@ -1205,6 +1205,15 @@ mod tests {
         (SCGraph::build(&grid, Some(&hidden)).unwrap(), dims, hidden)
     }
 
+    /// The emission context of `g` with attribute `attr`.
+    fn attribute_ctx<'a>(g: &'a SCGraph, attr: &'a [f32]) -> crate::extract::EmitContext<'a> {
+        crate::extract::EmitContext {
+            positions: g.positions(),
+            attribute: Some(attr),
+            cells_only: false,
+        }
+    }
+
     /// The lattice minima equal the generic ones (same cells, same lo, same
     /// order) on random IJK grids with holes and many ties (φ in steps of
     /// 0.5), with 1 to 4 blocks.
@@ -1313,7 +1322,6 @@ mod tests {
     /// puts cells with ambiguous faces (which end a batch) among them.
     #[test]
     fn batched_emission_equals_the_hash_weld() {
-        use crate::extract::EmitContext;
         let mut rnd = xorshift(0x68E3_1DA4_u32);
         let (g, dims, _) = unit_lattice([50, 44, 5], 3, &mut rnd);
         let np = dims.iter().product::<usize>();
@@ -1324,11 +1332,7 @@ mod tests {
         let attr: Vec<f32> = (0..np).map(|_| (rnd() % 1000) as f32 * 0.001).collect();
         let f = VertexField { values: &phi };
         let lat = g.lattice().unwrap();
-        let ctx = EmitContext {
-            positions: g.positions(),
-            attribute: Some(&attr),
-            cells_only: false,
-        };
+        let ctx = attribute_ctx(&g, &attr);
         let levels: Vec<f32> = (0..9).map(|l| l as f32 * 0.55 + 0.2).collect();
         // Per level: the polygons (cell, corners as edge key, position and
         // attribute bits), cut cells and the running sums.
@@ -1460,11 +1464,7 @@ mod tests {
             let attr: Vec<f32> = (0..np).map(|_| (rnd() % 1000) as f32 * 0.01).collect();
             let f = VertexField { values: &phi };
             let lat = g.lattice().unwrap();
-            let ctx = EmitContext {
-                positions: g.positions(),
-                attribute: Some(&attr),
-                cells_only: false,
-            };
+            let ctx = attribute_ctx(&g, &attr);
             // Levels on and between the φ steps, some outside the range;
             // evenly spaced and not.
             let even: Vec<f32> = (0..23).map(|l| l as f32 * 0.25 - 2.6).collect();
