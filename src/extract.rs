@@ -430,12 +430,12 @@ impl<'m> HexWriter<'m> {
     /// Appends the polygon of source cell `slot` with the `m` corners
     /// `corner(0..m)` (vertices already written), adding its area as
     /// [`LevelMesh::end_polygon`] does. At most [`HexWriter::PER_CELL`]
-    /// corners and 4 polygons per [`HexWriter::begin_cell`].
+    /// corners and polygons per [`HexWriter::begin_cell`].
     #[inline(always)]
     pub(crate) fn polygon(&mut self, m: usize, corner: impl Fn(usize) -> u32, slot: u32) {
         debug_assert!((3..=Self::PER_CELL).contains(&m));
         let start = self.ni;
-        // SAFETY: room for PER_CELL corners and 4 polygons of this cell
+        // SAFETY: room for PER_CELL corners and PER_CELL polygons of this cell
         // (`begin_cell`); every corner is a vertex index below `nv`, so its
         // position was written.
         unsafe {

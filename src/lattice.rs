@@ -247,7 +247,8 @@ pub struct LatticeHexTable {
 }
 
 /// The polygons of one non-ambiguous code, fixed size: every cut edge is
-/// one corner of exactly one polygon (at most 12 corners, 4 polygons).
+/// one corner of exactly one polygon (at most 12 corners and 3 polygons;
+/// codes with more polygons are left to the general path).
 #[derive(Clone, Copy, Debug, Default)]
 struct CodePolygons {
     /// The corners of all polygons, one after the other (geometric edges).
@@ -296,8 +297,9 @@ impl LatticeHexTable {
                 }
                 let loops: Vec<&[u8]> = meta.loops(local, 0).collect();
                 let corners: usize = loops.iter().map(|l| l.len()).sum();
-                if loops.len() > 4 || corners > 12 {
-                    // Not a hexahedron's table: take the general path.
+                if loops.len() > 3 || corners > 12 {
+                    // Not a hexahedron's table (its unambiguous codes have
+                    // at most two loops): take the general path.
                     return cp;
                 }
                 for (n, lp) in loops.iter().enumerate() {
@@ -467,6 +469,9 @@ impl LatticeHexTable {
         let cell = self.cell_positions(v0, ctx.positions);
         self.create_owned(own, v0, f, t, cell, owner, slot, ctx, out, win);
         let mut first = 0;
+        // At most 3 polygons (`LatticeHexTable::new`), so the mask keeps
+        // the count and proves `p < 4` to the compiler.
+        debug_assert!(cp.polys <= 3);
         for p in 0..(cp.polys as usize & 3) {
             let m = cp.sizes[p] as usize;
             debug_assert!(first + m <= 12);
