@@ -613,9 +613,7 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
     if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {
-        if std::env::var_os("STRATASWEEP_CELL_LOOP").is_some()
-            || levels.len() > chunks::MAX_LEVELS
-            || !chunks::chunks_pay_off(&lat, phi, b.start, b.stamps.len() as u32)
+        if std::env::var_os("STRATASWEEP_CELL_LOOP").is_some() || levels.len() > chunks::MAX_LEVELS
         {
             sweep_block_lattice(&lat, phi, b, minima, levels, ctx, false, on_level);
         } else {
@@ -1424,7 +1422,6 @@ mod tests {
     /// blocks, and rows shorter and longer than a chunk.
     #[test]
     fn chunked_loop_equals_the_cell_loop() {
-        use crate::extract::EmitContext;
         let mut rnd = xorshift(0x6A09_E667_u32);
         // Ramps along ±i, ±j and ±k (φ from -2 to 2 across the grid) make
         // the sweep cross chunk ends along i, rows and layers, both ways, as
@@ -1448,6 +1445,11 @@ mod tests {
             ([300, 12, 2], 35, (1, 1.0)),
             ([150, 2, 12], 35, (2, -1.0)),
             ([150, 2, 12], 35, (2, 1.0)),
+            // Several patch rows and columns of every width.
+            ([20, 37, 5], 0, (1, -1.0)),
+            ([21, 35, 5], 10, (2, 1.0)),
+            ([70, 19, 3], 5, (0, 1.0)),
+            ([13, 70, 2], 0, (0, -1.0)),
         ] {
             let (g, dims, _) = unit_lattice(n, holes, &mut rnd);
             let np = dims.iter().product::<usize>();
@@ -1470,7 +1472,7 @@ mod tests {
             let even: Vec<f32> = (0..23).map(|l| l as f32 * 0.25 - 2.6).collect();
             let uneven: Vec<f32> = (0..12).map(|l| (l * l) as f32 * 0.04 - 2.1).collect();
             for (levels, threads) in [(&even, 1), (&even, 2), (&even, 3), (&uneven, 2)] {
-                let run = |chunked: bool| {
+                let run = |width: Option<u32>| {
                     let mut sw = Sweeper::new(&g, threads);
                     let mut out = Vec::new();
                     for b in &mut sw.blocks {
@@ -1488,36 +1490,45 @@ mod tests {
                                     st.area.to_bits(),
                                 ));
                             };
-                        type Loop<'a, C> = fn(
-                            &super::Lattice<'a>,
-                            &[f32],
-                            &mut super::Block,
-                            &[super::Minimum],
-                            &[f32],
-                            &EmitContext,
-                            bool,
-                            C,
-                        );
-                        let sweep_block: Loop<_> = if chunked {
-                            super::chunks::sweep_block_chunks
-                        } else {
-                            super::sweep_block_lattice
-                        };
                         let (lat, phi) = (&lat, &phi[..]);
-                        sweep_block(lat, phi, b, &minima, levels, &ctx, false, &mut on_level);
+                        match width {
+                            Some(w) => super::chunks::sweep_block_patches(
+                                w,
+                                lat,
+                                phi,
+                                b,
+                                &minima,
+                                levels,
+                                &ctx,
+                                false,
+                                &mut on_level,
+                            ),
+                            None => super::sweep_block_lattice(
+                                lat,
+                                phi,
+                                b,
+                                &minima,
+                                levels,
+                                &ctx,
+                                false,
+                                &mut on_level,
+                            ),
+                        }
                     }
                     out
                 };
-                let cells = run(false);
+                let cells = run(None);
                 assert!(
                     cells.iter().map(|o| o.1.len()).sum::<usize>() > 0 || holes > 50,
                     "nothing cut: {dims:?}"
                 );
-                assert_eq!(
-                    run(true),
-                    cells,
-                    "dims {dims:?} holes {holes}% threads {threads}"
-                );
+                for width in super::chunks::WIDTHS {
+                    assert_eq!(
+                        run(Some(width)),
+                        cells,
+                        "dims {dims:?} holes {holes}% threads {threads} patch width {width}"
+                    );
+                }
             }
         }
     }

@@ -1,10 +1,14 @@
 //! The lattice loop over 64-cell chunks: the sweep of DESIGN §3 on a
-//! hexahedral [`Lattice`], with 64 consecutive slots (a run along i) handled
-//! together.
+//! hexahedral [`Lattice`], with 64 cells handled together. A chunk is a
+//! *patch* of `width × height` cells (i × j, `width` one of [`WIDTHS`],
+//! `height = 64 / width`) in one layer, the width picked per block from
+//! φ's change along i and j ([`patch_width`]) so that a level crosses a
+//! patch in as many cells as it can: then the patch is processed at few
+//! steps for many cut cells.
 //!
 //! A chunk is *touched* when the propagation first reaches it: a minimum in
 //! it enters, or a cell across one of its faces does. Touching reads its
-//! four vertex rows once and stores, per cell, its entry level
+//! `2 · (height + 1)` vertex rows once and stores, per cell, its entry level
 //! `enter = #{t_k <= lo}` (the first level with `lo < t_k`) and
 //! `leave = #{t_k <= hi}`: the cell is cut exactly at the levels
 //! `enter <= k < leave` (the tie rule `lo < t <= hi`, decided once with the
@@ -13,7 +17,10 @@
 //! (SIMD): the cells that enter at k touch the chunks across their faces,
 //! the cut ones go to the step's output, and the chunk schedules itself at
 //! its next such step. When none is left it is done and its level bytes
-//! are freed, so memory follows the sweep front, not the grid.
+//! are freed, so memory follows the sweep front, not the grid. A step's cut
+//! cells go to the emitter in slot order (its weld needs it): one row of
+//! patches at a time, cell row by cell row, patch by patch along i. The
+//! S-CGraph's ghost column and row (never live) get no patches.
 //!
 //! Why every cut cell is found: every cell c with `enter(c) = j` has its
 //! chunk touched by step j. By induction on the key `(lo, slot)`: a minimum's
@@ -61,6 +68,11 @@ pub struct ChunkQueues {
     cut_chunks: Vec<u64>,
     /// This step's cut cells, in slot order.
     slots: Vec<u32>,
+    /// Per patch: [`HAS_LEFT`] … [`HAS_UP`].
+    flags: Vec<u8>,
+    /// The cut patches of one patch row being collected: first slot, cut
+    /// cells.
+    group: Vec<(u32, u64)>,
 }
 
 impl ChunkQueues {
@@ -71,6 +83,8 @@ impl ChunkQueues {
             + self.slots.capacity()
             + self.pending.capacity())
             * 4
+            + self.flags.capacity()
+            + self.group.capacity() * 16
             + self.levels.capacity()
             + (self.cut.capacity() + self.cut_chunks.capacity()) * 8
             + self
@@ -97,6 +111,29 @@ impl ChunkQueues {
         self.cut_chunks.clear();
         self.cut_chunks.resize(chunks.div_ceil(64), 0);
         self.pending.clear();
+    }
+
+    /// Appends the cut cells of the patches in `group` (one row of patches
+    /// of `shape`, in order) to `slots` in slot order, and empties the
+    /// group.
+    fn flush_group(&mut self, shape: &Patches) {
+        let (width, row_bits) = (shape.width, shape.row_bits());
+        let dj = shape.dj;
+        let any = self.group.iter().fold(0u64, |a, g| a | g.1);
+        for r in 0..shape.height {
+            if any >> (width * r) & row_bits == 0 {
+                continue;
+            }
+            for &(first, cut) in &self.group {
+                let mut row = cut >> (width * r) & row_bits;
+                let base = first + r * dj;
+                while row != 0 {
+                    self.slots.push(base + row.trailing_zeros());
+                    row &= row - 1;
+                }
+            }
+        }
+        self.group.clear();
     }
 
     /// A free record (grown when none is).
@@ -180,54 +217,236 @@ impl<'a> LevelIndex<'a> {
     }
 }
 
-/// Per column q of a chunk (vertices `v + q + {0, dj, dk, dj + dk}`,
-/// q in 0..65), the min and max of φ. Vertices outside φ (only dead cells
-/// have them) read +∞ for the min and −∞ for the max.
-#[inline(always)]
-fn column_ranges(phi: &[f32], v: i64, dj: u32, dk: u32) -> ([f32; 65], [f32; 65]) {
-    let rows = [0, dj as i64, dk as i64, (dj + dk) as i64];
-    let mut mn = [f32::INFINITY; 65];
-    let mut mx = [f32::NEG_INFINITY; 65];
-    if v >= 0 && v + (dj + dk) as i64 + 65 <= phi.len() as i64 {
-        for r in rows {
-            let row = &phi[(v + r) as usize..(v + r) as usize + 65];
-            for q in 0..65 {
-                mn[q] = if row[q] < mn[q] { row[q] } else { mn[q] };
-                mx[q] = if row[q] > mx[q] { row[q] } else { mx[q] };
-            }
-        }
-    } else {
-        for r in rows {
-            for q in 0..65 {
-                if let Some(&x) = usize::try_from(v + r + q as i64)
-                    .ok()
-                    .and_then(|i| phi.get(i))
-                {
-                    mn[q] = mn[q].min(x);
-                    mx[q] = mx[q].max(x);
-                }
-            }
-        }
-    }
-    (mn, mx)
+/// Patch flags: it has a neighbour patch before it along i, after it along
+/// i, before it along j, after it along j.
+const HAS_LEFT: u8 = 1;
+/// See [`HAS_LEFT`].
+const HAS_RIGHT: u8 = 2;
+/// See [`HAS_LEFT`].
+const HAS_DOWN: u8 = 4;
+/// See [`HAS_LEFT`].
+const HAS_UP: u8 = 8;
+/// The patch widths (cells along i) the loop is built for; the height is
+/// 64 / width.
+pub(super) const WIDTHS: [u32; 4] = [8, 16, 32, 64];
+
+/// The block's slots cut into patches of `width × height` cells (i × j,
+/// 64 in all) in one layer: patch `w = (layer · rows + row) · columns +
+/// column`, cell bit `width · (j mod height) + (i mod width)`. Slots outside
+/// the block, and the patch cells past a row or layer end, are dead bits.
+#[derive(Clone, Copy, Debug)]
+struct Patches {
+    /// Cells along i and rows along j.
+    width: u32,
+    height: u32,
+    /// Slot steps along j and k.
+    dj: u32,
+    dk: u32,
+    /// Patches per patch row (along i), patch rows per layer (along j).
+    columns: u32,
+    rows: u32,
+    /// The block's first layer, and its slots.
+    first_layer: u32,
+    start: u32,
+    len: u32,
+    /// Patches in all.
+    count: u32,
 }
 
-/// Fills a chunk's record: per cell p, `enter` and `leave` from its min and
-/// max over the columns p and p + 1 (dead cells, in `dead`: 255 and 0).
-/// Returns the least `enter`.
+impl Patches {
+    /// The patches of `width` for the block `start..start + len` of `lat`.
+    /// When the lattice's last column and last row of slots hold no live
+    /// cell (the S-CGraph's ghost layer), the patches stop before them.
+    fn new(width: u32, lat: &Lattice, start: u32, len: u32) -> Self {
+        debug_assert!(WIDTHS.contains(&width));
+        let [_, dj, dk] = lat.deltas;
+        let height = 64 / width;
+        let npj = dk / dj;
+        let (first_layer, end_layer) = (start / dk, (start + len).div_ceil(dk));
+        let any_live = |slot: &dyn Fn(u32, u32) -> u32, n: u32| {
+            (first_layer..end_layer).any(|k| (0..n).any(|x| lat.live.get(slot(k, x) as usize)))
+        };
+        let ghost_column = npj > 0 && !any_live(&|k, j| k * dk + j * dj + dj - 1, npj);
+        let ghost_row = dj > 0 && !any_live(&|k, i| k * dk + (npj - 1) * dj + i, dj);
+        let columns = (dj - ghost_column as u32).div_ceil(width);
+        let rows = (npj - ghost_row as u32).div_ceil(height);
+        let layers = end_layer - first_layer;
+        Patches {
+            width,
+            height,
+            dj,
+            dk,
+            columns,
+            rows,
+            first_layer,
+            start,
+            len,
+            count: layers * rows * columns,
+        }
+    }
+
+    /// The bits of one row of cells (the first).
+    #[inline(always)]
+    fn row_bits(&self) -> u64 {
+        u64::MAX >> (64 - self.width)
+    }
+
+    /// The bits of the first column of cells.
+    #[inline(always)]
+    fn column_bits(&self) -> u64 {
+        (0..self.height).fold(0, |m, r| m | 1 << (self.width * r))
+    }
+
+    /// The slot of patch w's first cell (bit 0; it may lie outside the
+    /// block).
+    #[inline(always)]
+    fn first_slot(&self, w: u32) -> u32 {
+        let column = w % self.columns;
+        let row = w / self.columns % self.rows;
+        let layer = w / (self.columns * self.rows) + self.first_layer;
+        layer * self.dk + row * self.height * self.dj + column * self.width
+    }
+
+    /// [`HAS_LEFT`] … [`HAS_UP`] of patch `w`.
+    fn flags(&self, w: u32) -> u8 {
+        let column = w % self.columns;
+        let row = w / self.columns % self.rows;
+        let flag = |has: bool, bit: u8| if has { bit } else { 0 };
+        flag(column > 0, HAS_LEFT)
+            | flag(column + 1 < self.columns, HAS_RIGHT)
+            | flag(row > 0, HAS_DOWN)
+            | flag(row + 1 < self.rows, HAS_UP)
+    }
+
+    /// The patch of slot `c` (in the block).
+    #[inline(always)]
+    fn of_slot(&self, c: u32) -> u32 {
+        let i = c % self.dj;
+        let j = c / self.dj % (self.dk / self.dj);
+        let layer = c / self.dk - self.first_layer;
+        (layer * self.rows + j / self.height) * self.columns + i / self.width
+    }
+
+    /// The dead bits of patch `w` (slots never swept: not live, past a row
+    /// or layer end, or outside the block).
+    fn dead_bits(&self, lat: &Lattice, w: u32) -> u64 {
+        let first = self.first_slot(w);
+        let row_cells = (self.dj - self.width * (w % self.columns)).min(self.width);
+        debug_assert!(row_cells > 0);
+        let row_mask = u64::MAX >> (64 - row_cells);
+        let rows_left = self.dk / self.dj - self.height * (w / self.columns % self.rows);
+        let mut live = 0u64;
+        for r in 0..self.height.min(rows_left) {
+            let c = first + r * self.dj;
+            let mut bits = lat.live.word_at(c as i64) & row_mask;
+            // Only the block's slots.
+            let below = self.start.saturating_sub(c).min(64);
+            let above = (self.start + self.len).saturating_sub(c).min(64);
+            let inside = if above == 64 { !0 } else { (1u64 << above) - 1 };
+            bits &= inside & (!0u64).checked_shl(below).unwrap_or(0);
+            live |= bits << (self.width * r);
+        }
+        !live
+    }
+}
+
+/// Per cell bit of a `W × 64/W` patch whose first cell's first vertex is
+/// `v`, the min and max of φ over the cell's vertices. Vertices outside φ
+/// (only dead cells have them) read +∞ for the min and −∞ for the max; dead
+/// cells get values that the caller overwrites.
+#[inline(always)]
+fn patch_ranges<const W: usize>(phi: &[f32], v: i64, dj: u32, dk: u32) -> ([f32; 64], [f32; 64]) {
+    let h = 64 / W;
+    let (dj, dk) = (dj as i64, dk as i64);
+    // The last vertex read: row h, the upper layer, column W.
+    let inside = v >= 0 && v + h as i64 * dj + dk + (W as i64) < phi.len() as i64;
+    // Per vertex of row r (columns 0..=W), the min and max over its two
+    // layers.
+    let column_range = |r: usize, mn: &mut [f32; 65], mx: &mut [f32; 65]| {
+        let at = v + r as i64 * dj;
+        if inside {
+            let a = &phi[at as usize..][..W + 1];
+            let b = &phi[(at + dk) as usize..][..W + 1];
+            for q in 0..=W {
+                // As the per-cell loop's min and max: a NaN is skipped (φ
+                // is finite, the grid is checked, but the loops agree).
+                let (x, y) = (a[q], b[q]);
+                let m = if x < f32::INFINITY { x } else { f32::INFINITY };
+                mn[q] = if y < m { y } else { m };
+                let n = if x > f32::NEG_INFINITY {
+                    x
+                } else {
+                    f32::NEG_INFINITY
+                };
+                mx[q] = if y > n { y } else { n };
+            }
+        } else {
+            for q in 0..=W {
+                let (mut m, mut n) = (f32::INFINITY, f32::NEG_INFINITY);
+                for layer in [0, dk] {
+                    let i = at + layer + q as i64;
+                    if let Some(&x) = usize::try_from(i).ok().and_then(|i| phi.get(i)) {
+                        m = if x < m { x } else { m };
+                        n = if x > n { x } else { n };
+                    }
+                }
+                mn[q] = m;
+                mx[q] = n;
+            }
+        }
+    };
+    let mut lo = [0f32; 64];
+    let mut hi = [0f32; 64];
+    let (mut mn0, mut mx0) = ([0f32; 65], [0f32; 65]);
+    let (mut mn1, mut mx1) = ([0f32; 65], [0f32; 65]);
+    column_range(0, &mut mn0, &mut mx0);
+    for r in 0..h {
+        column_range(r + 1, &mut mn1, &mut mx1);
+        let (lo, hi) = (&mut lo[W * r..W * r + W], &mut hi[W * r..W * r + W]);
+        for q in 0..W {
+            let x = if mn0[q] < mn0[q + 1] {
+                mn0[q]
+            } else {
+                mn0[q + 1]
+            };
+            let y = if mn1[q] < mn1[q + 1] {
+                mn1[q]
+            } else {
+                mn1[q + 1]
+            };
+            lo[q] = if x < y { x } else { y };
+            let x = if mx0[q] > mx0[q + 1] {
+                mx0[q]
+            } else {
+                mx0[q + 1]
+            };
+            let y = if mx1[q] > mx1[q + 1] {
+                mx1[q]
+            } else {
+                mx1[q + 1]
+            };
+            hi[q] = if x > y { x } else { y };
+        }
+        std::mem::swap(&mut mn0, &mut mn1);
+        std::mem::swap(&mut mx0, &mut mx1);
+    }
+    (lo, hi)
+}
+
+/// Fills a patch's record: per cell bit p, `enter` and `leave` from its
+/// min and max (dead cells, in `dead`: 255 and 0). Returns the least
+/// `enter`.
 #[inline(always)]
 fn fill_levels(
     rec: &mut [u8],
-    mn: &[f32; 65],
-    mx: &[f32; 65],
+    lo: &[f32; 64],
+    hi: &[f32; 64],
     dead: u64,
     index: &LevelIndex,
 ) -> u8 {
-    let lo: [f32; 64] = std::array::from_fn(|p| if mn[p] < mn[p + 1] { mn[p] } else { mn[p + 1] });
-    let hi: [f32; 64] = std::array::from_fn(|p| if mx[p] > mx[p + 1] { mx[p] } else { mx[p + 1] });
     let (enter, leave) = rec.split_at_mut(64);
-    index.count_le_64(&lo, enter);
-    index.count_le_64(&hi, leave);
+    index.count_le_64(lo, enter);
+    index.count_le_64(hi, leave);
     let mut least = u8::MAX;
     for p in 0..64 {
         if dead >> p & 1 == 1 {
@@ -318,30 +537,24 @@ fn step_masks(rec: &[u8], k: u8) -> StepMasks {
     }
 }
 
-/// The dead slots (never swept) of chunk `w`, and the bits past the block.
-#[inline(always)]
-fn dead_bits(lat: &Lattice, start: u32, len: u32, w: u32) -> u64 {
-    let first = 64 * w;
-    let past = if len - first < 64 {
-        !0u64 << (len - first)
-    } else {
-        0
-    };
-    !lat.live.word_at(start as i64 + first as i64) | past
-}
-
-/// Whether the chunked loop should beat the per-cell one for φ on this
-/// block: unless φ changes much faster along i (along a chunk) than along
-/// j or k. Then each level crosses a chunk in a few cells only, and the
-/// chunk is processed at many steps for few cut cells (warped 256³ swept
-/// along x: 1.06 s chunked against 0.91 s per cell; along y and z the
-/// chunked loop is 9–24 % faster). Measured on up to 4096 live cells
-/// spread over the block: the mean |Δφ| along i against the larger of
-/// those along j and k.
-pub(super) fn chunks_pay_off(lat: &Lattice, phi: &[f32], start: u32, len: u32) -> bool {
-    let [di, dj, dk] = lat.deltas;
+/// The patch width (cells along i; the height along j is 64 / width) that
+/// makes a level cross a patch in the most cells, so that each patch is
+/// processed at the fewest steps: the one with the least φ change across
+/// the patch, `width · |Δφ|_i + height · |Δφ|_j` (the layer's |Δφ|_k is the
+/// same for all). Measured on up to 4096 live cells spread over the block.
+/// `STRATASWEEP_PATCH_WIDTH` (one of [`WIDTHS`]) overrides it, for A/B
+/// benchmarks.
+pub(super) fn patch_width(lat: &Lattice, phi: &[f32], start: u32, len: u32) -> u32 {
+    if let Some(w) = std::env::var("STRATASWEEP_PATCH_WIDTH")
+        .ok()
+        .and_then(|w| w.parse().ok())
+        .filter(|w| WIDTHS.contains(w))
+    {
+        return w;
+    }
+    let [di, dj, _] = lat.deltas;
     let stride = (len / 4096).max(1);
-    let mut g = [0f64; 3];
+    let mut g = [0f64; 2];
     let mut c = start;
     while c < start + len {
         if lat.live.get(c as usize) {
@@ -349,18 +562,21 @@ pub(super) fn chunks_pay_off(lat: &Lattice, phi: &[f32], start: u32, len: u32) -
             let at = |d: u32| (phi[v + d as usize] - phi[v]).abs() as f64;
             g[0] += at(di);
             g[1] += at(dj);
-            g[2] += at(dk);
         }
         c += stride;
     }
-    g[0] <= 0.6 * g[1].max(g[2])
+    let extent = |w: u32| w as f64 * g[0] + (64 / w) as f64 * g[1];
+    WIDTHS
+        .into_iter()
+        .min_by(|&a, &b| extent(a).total_cmp(&extent(b)))
+        .unwrap_or(8)
 }
 
-/// [`super::sweep_block_lattice`] over 64-cell chunks (see the module
-/// docs): the same cut cells per level, emitted in slot order with the
-/// same polygons. Needs at most [`MAX_LEVELS`] levels.
+/// [`super::sweep_block_lattice`] over 64-cell patches (see the module
+/// docs) of the width [`patch_width`] picks: the same cut cells per level,
+/// emitted in slot order with the same polygons. Needs at most
+/// [`MAX_LEVELS`] levels.
 #[allow(clippy::too_many_arguments)]
-#[inline(never)]
 pub(super) fn sweep_block_chunks(
     lat: &Lattice,
     phi: &[f32],
@@ -369,7 +585,56 @@ pub(super) fn sweep_block_chunks(
     levels: &[f32],
     ctx: &EmitContext,
     hash_weld: bool,
-    mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
+    on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
+) {
+    let width = patch_width(lat, phi, b.start, b.stamps.len() as u32);
+    sweep_block_patches(width, lat, phi, b, minima, levels, ctx, hash_weld, on_level);
+}
+
+/// [`sweep_block_chunks`] with patches `width` cells wide (one of
+/// [`WIDTHS`]).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn sweep_block_patches(
+    width: u32,
+    lat: &Lattice,
+    phi: &[f32],
+    b: &mut Block,
+    minima: &[Minimum],
+    levels: &[f32],
+    ctx: &EmitContext,
+    hash_weld: bool,
+    on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
+) {
+    let args = (lat, phi, b, minima, levels, ctx, hash_weld, on_level);
+    match width {
+        8 => sweep_shaped::<8>(args),
+        16 => sweep_shaped::<16>(args),
+        32 => sweep_shaped::<32>(args),
+        64 => sweep_shaped::<64>(args),
+        _ => panic!("patch width {width}: not one of {WIDTHS:?}"),
+    }
+}
+
+/// The arguments of [`sweep_block_chunks`].
+type SweepArgs<'a, 'l, L> = (
+    &'a Lattice<'l>,
+    &'a [f32],
+    &'a mut Block,
+    &'a [Minimum],
+    &'a [f32],
+    &'a EmitContext<'a>,
+    bool,
+    L,
+);
+
+/// [`sweep_block_patches`] for patches `W` cells wide.
+#[inline(never)]
+fn sweep_shaped<const W: usize>(
+    (lat, phi, b, minima, levels, ctx, hash_weld, mut on_level): SweepArgs<
+        '_,
+        '_,
+        impl FnMut(usize, &LevelMesh, &LevelStats),
+    >,
 ) {
     let n = levels.len();
     assert!(n <= MAX_LEVELS, "{n} levels: at most {MAX_LEVELS}");
@@ -399,20 +664,25 @@ pub(super) fn sweep_block_chunks(
         ..
     } = b;
     let len = stamps.len() as u32;
-    let chunks = len.div_ceil(64) as i64;
+    let patches = Patches::new(W as u32, lat, start, len);
+    let (row_bits, column_bits) = (patches.row_bits(), patches.column_bits());
+    let (first_row, last_row) = (row_bits, row_bits << (64 - W));
+    let (first_column, last_column) = (column_bits, column_bits << (W - 1));
+    let chunks = patches.count;
     q.begin(chunks as usize, n);
-    // First vertex of chunk w's first cell.
-    let first_vertex = |w: u32| (start as i64 + 64 * w as i64) - lat.base as i64;
-    // Face steps to the neighbour rows and layers: (chunks, bits).
-    let steps = [dj, dk].map(|d| ((d / 64) as i64, d % 64));
-    // Touches chunk w at step k: fills its record, then queues it for this
+    q.flags.clear();
+    q.flags.extend((0..chunks).map(|w| patches.flags(w)));
+    // First vertex of patch w's first cell.
+    let first_vertex = |w: u32| patches.first_slot(w) as i64 - lat.base as i64;
+    let layer = patches.columns * patches.rows;
+    // Touches patch w at step k: fills its record, then queues it for this
     // step (a cell enters at k), schedules it, or marks it done.
     let touch = |q: &mut ChunkQueues, work: &mut Vec<u32>, w: u32, k: usize| {
-        let (mn, mx) = column_ranges(phi, first_vertex(w), dj, dk);
+        let (lo, hi) = patch_ranges::<W>(phi, first_vertex(w), dj, dk);
         let r = q.alloc();
         let rec = &mut q.levels[r as usize * 128..r as usize * 128 + 128];
-        let least = fill_levels(rec, &mn, &mx, dead_bits(lat, start, len, w), &index) as usize;
-        debug_assert!(least >= k, "a chunk is touched by its first entry step");
+        let least = fill_levels(rec, &lo, &hi, patches.dead_bits(lat, w), &index) as usize;
+        debug_assert!(least >= k, "a patch is touched by its first entry step");
         q.state[w as usize] = r;
         if least == k {
             work.push(w);
@@ -429,12 +699,15 @@ pub(super) fn sweep_block_chunks(
         mesh.clear();
         work.clear();
         work.append(&mut q.scheduled[k]);
-        // The minima entering at this step touch their chunks.
+        // The minima entering at this step touch their patches.
         while next_min < minima.len() && minima[next_min].lo < t {
-            let j = minima[next_min].slot.wrapping_sub(start);
-            if j < len && q.state[(j / 64) as usize] == UNTOUCHED {
-                q.state[(j / 64) as usize] = PENDING;
-                q.pending.push(j / 64);
+            let c = minima[next_min].slot;
+            if c.wrapping_sub(start) < len {
+                let w = patches.of_slot(c);
+                if q.state[w as usize] == UNTOUCHED {
+                    q.state[w as usize] = PENDING;
+                    q.pending.push(w);
+                }
             }
             next_min += 1;
         }
@@ -442,8 +715,8 @@ pub(super) fn sweep_block_chunks(
         let mut i = 0;
         loop {
             if i == work.len() {
-                // Touch the chunks reached so far (their rows prefetched a
-                // few chunks ahead); those with a cell entering now join
+                // Touch the patches reached so far (their rows prefetched a
+                // few patches ahead); those with a cell entering now join
                 // this step's work.
                 if q.pending.is_empty() {
                     break;
@@ -452,11 +725,13 @@ pub(super) fn sweep_block_chunks(
                 for (p, &w) in pending.iter().enumerate() {
                     if let Some(&ahead) = pending.get(p + 2) {
                         let v = first_vertex(ahead);
-                        for r in [0, dj, dk, dj + dk] {
-                            for line in [0, 16, 32, 48, 64] {
-                                let x = v + (r + line) as i64;
-                                if x >= 0 {
-                                    prefetch_nta(phi, x as usize);
+                        for r in 0..=64 / W as u32 {
+                            for l in [0, dk] {
+                                let x = v + (r * dj + l) as i64;
+                                for line in (0..=W).step_by(16) {
+                                    if x >= 0 {
+                                        prefetch_nta(phi, x as usize + line);
+                                    }
                                 }
                             }
                         }
@@ -469,7 +744,7 @@ pub(super) fn sweep_block_chunks(
             }
             let w = work[i];
             if let Some(&ahead) = work.get(i + 4) {
-                // Its level record (touched chunks only: those pushed by a
+                // Its level record (touched patches only: those pushed by a
                 // touch this step are processed right after it).
                 let r = q.state[ahead as usize] as usize;
                 if r < PENDING as usize {
@@ -495,44 +770,52 @@ pub(super) fn sweep_block_chunks(
                 continue;
             }
             entered += new.count_ones() as u64;
-            // The chunks across the faces of the entering cells: along i
-            // the chunk's ends, across rows and layers the one or two
-            // chunks that the shifted cells land in.
-            let w64 = w as i64;
-            let reach = |c: i64, bits: u64, q: &mut ChunkQueues| {
-                if bits != 0 && (0..chunks).contains(&c) && q.state[c as usize] == UNTOUCHED {
-                    q.state[c as usize] = PENDING;
-                    q.pending.push(c as u32);
+            // The patches across the faces of the entering cells: along i
+            // and j those at the patch's sides, along k the ones above and
+            // below.
+            let reach = |w: u32, q: &mut ChunkQueues| {
+                if q.state[w as usize] == UNTOUCHED {
+                    q.state[w as usize] = PENDING;
+                    q.pending.push(w);
                 }
             };
-            reach(w64 - 1, new & 1, q);
-            reach(w64 + 1, new >> 63, q);
-            for (qd, o) in steps {
-                if o == 0 {
-                    reach(w64 + qd, new, q);
-                    reach(w64 - qd, new, q);
-                } else {
-                    reach(w64 + qd, new << o, q);
-                    reach(w64 + qd + 1, new >> (64 - o), q);
-                    reach(w64 - qd, new >> o, q);
-                    reach(w64 - qd - 1, new << (64 - o), q);
-                }
+            let flags = q.flags[w as usize];
+            if new & first_column != 0 && flags & HAS_LEFT != 0 {
+                reach(w - 1, q);
+            }
+            if new & last_column != 0 && flags & HAS_RIGHT != 0 {
+                reach(w + 1, q);
+            }
+            if new & first_row != 0 && flags & HAS_DOWN != 0 {
+                reach(w - patches.columns, q);
+            }
+            if new & last_row != 0 && flags & HAS_UP != 0 {
+                reach(w + patches.columns, q);
+            }
+            if w >= layer {
+                reach(w - layer, q);
+            }
+            if w + layer < chunks {
+                reach(w + layer, q);
             }
         }
-        // This step's cut cells in slot order: the cut chunks in order.
+        // This step's cut cells in slot order: per patch row of a layer
+        // (the cut patches in order, grouped), row by row of cells, patch
+        // by patch.
         q.slots.clear();
-        for (x, word) in q.cut_chunks.iter_mut().enumerate() {
-            while *word != 0 {
-                let w = 64 * x as u32 + word.trailing_zeros();
-                *word &= *word - 1;
-                let base = start + 64 * w;
-                let mut cut = q.cut[w as usize];
-                while cut != 0 {
-                    q.slots.push(base + cut.trailing_zeros());
-                    cut &= cut - 1;
+        let mut group_end = 0u32;
+        for x in 0..q.cut_chunks.len() {
+            while q.cut_chunks[x] != 0 {
+                let w = 64 * x as u32 + q.cut_chunks[x].trailing_zeros();
+                q.cut_chunks[x] &= q.cut_chunks[x] - 1;
+                if w >= group_end {
+                    q.flush_group(&patches);
+                    group_end = (w / patches.columns + 1) * patches.columns;
                 }
+                q.group.push((patches.first_slot(w), q.cut[w as usize]));
             }
         }
+        q.flush_group(&patches);
         let weld = own_weld.then_some(&owner);
         emit_cut_cells(
             lat,
