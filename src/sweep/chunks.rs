@@ -342,7 +342,12 @@ impl Patches {
     /// block).
     #[inline(always)]
     fn first_slot(&self, w: u32) -> u32 {
-        let (layer, row, column) = self.place(w);
+        self.first_slot_at(self.place(w))
+    }
+
+    /// [`Patches::first_slot`] of the patch at `(layer, row, column)`.
+    #[inline(always)]
+    fn first_slot_at(&self, (layer, row, column): (u32, u32, u32)) -> u32 {
         (layer + self.first_layer) * self.dk + row * self.height * self.dj + column * self.width
     }
 
@@ -368,8 +373,9 @@ impl Patches {
     /// The dead bits of patch `w` (slots never swept: not live, past a row
     /// or layer end, or outside the block).
     fn dead_bits(&self, lat: &Lattice, w: u32) -> u64 {
-        let first = self.first_slot(w);
-        let (_, row, column) = self.place(w);
+        let place = self.place(w);
+        let first = self.first_slot_at(place);
+        let (_, row, column) = place;
         let row_cells = (self.dj - self.width * column).min(self.width);
         debug_assert!(row_cells > 0);
         let row_mask = u64::MAX >> (64 - row_cells);
