@@ -300,6 +300,7 @@ struct BenchArgs {
 fn main() {
     restore_default_sigpipe();
     tune_allocator();
+    quiet_headless_vulkan_layer();
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
         eprintln!("error: {}", error_chain(&e));
@@ -316,6 +317,24 @@ fn restore_default_sigpipe() {
     // SIG_DFL is a valid disposition for SIGPIPE.
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+/// Turns off Mesa's Vulkan device-selection layer on machines without a
+/// desktop session (no `XDG_RUNTIME_DIR`: servers, containers, CI), unless
+/// the user configured it. The layer only reorders the adapter list, which
+/// `GpuContext` sorts itself, but it connects to Wayland to do so and there
+/// prints "error: XDG_RUNTIME_DIR is invalid or not set" twice per run: a
+/// false alarm on the README's first command.
+fn quiet_headless_vulkan_layer() {
+    let set = |k: &str| std::env::var_os(k).is_some();
+    if cfg!(target_os = "linux")
+        && !set("XDG_RUNTIME_DIR")
+        && !set("NODEVICE_SELECT")
+        && !set("MESA_VK_DEVICE_SELECT")
+    {
+        // SAFETY: called first thing in main, before any thread exists.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
     }
 }
 
