@@ -358,14 +358,31 @@ fn tune_allocator() {
 }
 
 /// The error and its causes joined by ": ", skipping a cause whose text
-/// its predecessor already ends with (errors that print their source).
+/// its predecessor already ends with (errors that print their source), and
+/// a cause's leading X when the text so far ends with X and the cause goes
+/// on with ':' ("cannot load a.vtk" then "a.vtk: invalid grid" or
+/// "a.vtk:3: …" names the file once). Nothing is lost: the text so far
+/// still ends with X.
 fn error_chain(e: &anyhow::Error) -> String {
     let mut msg = e.to_string();
     for cause in e.chain().skip(1) {
         let c = cause.to_string();
-        if !msg.ends_with(&c) {
+        if msg.ends_with(&c) {
+            continue;
+        }
+        // The longest tail of msg after a space that c starts with, then ':'.
+        let repeated = msg
+            .match_indices(' ')
+            .map(|(i, _)| &msg[i + 1..])
+            .find(|tail| {
+                !tail.is_empty() && c.starts_with(tail) && c[tail.len()..].starts_with(':')
+            })
+            .map_or(0, str::len);
+        if repeated == 0 {
             msg.push_str(": ");
             msg.push_str(&c);
+        } else {
+            msg.push_str(&c[repeated..]);
         }
     }
     msg

@@ -158,7 +158,11 @@ fn bad_inputs_give_errors_naming_the_problem() {
     let bad = tmp("bad.vtk");
     std::fs::write(&bad, "# vtk DataFile Version 3.0\nbad\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n0 0 0 1 0 0\n").unwrap();
     let e = run_err(&["info", bad.to_str().unwrap()]);
-    assert!(e.contains("bad.vtk"), "{e}");
+    assert_eq!(
+        e.matches(bad.to_str().unwrap()).count(),
+        1,
+        "named once: {e}"
+    );
     let e = run_err(&[
         "slice",
         "/nonexistent/grid.vtu",
@@ -261,6 +265,7 @@ fn corner_point_generate_info_and_slice() {
         e.contains("bad.grdecl:3") && e.contains("ZCORN has 7 values, expected 8"),
         "{e}"
     );
+    assert_eq!(e.matches(b.to_str().unwrap()).count(), 1, "named once: {e}");
 }
 
 /// A missing file is named, and the OS error is printed once (an error that
