@@ -862,11 +862,13 @@ fn sweep_shaped<const W: usize>(
             while q.cut_chunks[x] != 0 {
                 let w = 64 * x as u32 + q.cut_chunks[x].trailing_zeros();
                 q.cut_chunks[x] &= q.cut_chunks[x] - 1;
+                let place = patches.place(w);
                 if w >= group_end {
                     q.flush_group(&patches);
-                    group_end = w - patches.place(w).2 + patches.columns;
+                    group_end = w - place.2 + patches.columns;
                 }
-                q.group.push((patches.first_slot(w), q.cut[w as usize]));
+                q.group
+                    .push((patches.first_slot_at(place), q.cut[w as usize]));
             }
         }
         q.flush_group(&patches);
