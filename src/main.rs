@@ -404,54 +404,6 @@ fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
     Ok((g, n, s))
 }
 
-/// True for paths read as Eclipse corner-point input (GRDECL text, decks,
-/// includes, EGRID); VTK files keep their readers.
-fn is_cornerpoint(path: &Path) -> bool {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    !matches!(ext.as_str(), "vtk" | "vtu" | "vts")
-}
-
-/// Reads a corner-point grid (GRDECL, .DATA deck, EGRID) into a zoo grid,
-/// with a JSON summary: per-class counts, bulk volume, skipped keywords.
-fn load_cornerpoint(path: &Path) -> Result<(Grid, Value)> {
-    let t = Instant::now();
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-    let (cp, extra) = if ext.eq_ignore_ascii_case("egrid") || ext.eq_ignore_ascii_case("fegrid") {
-        let e = io::egrid::read_egrid(path)?;
-        let extra =
-            json!({"format": "egrid", "init": e.init.as_ref().map(|p| p.display().to_string())});
-        (e.grid, extra)
-    } else {
-        let d = io::grdecl::read_grdecl(path)?;
-        let s = t.elapsed().as_secs_f64();
-        let extra = json!({
-            "format": "grdecl", "files": d.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
-            "skipped_keywords": d.skipped, "text_bytes": d.bytes, "parse_s": s,
-            "parse_mb_per_s": d.bytes as f64 / s.max(1e-9) / 1e6,
-        });
-        (d.grid, extra)
-    };
-    let read_s = t.elapsed().as_secs_f64();
-    let (dims, mapaxes) = (cp.dims, cp.mapaxes);
-    let (mapunits, gridunit) = (cp.mapunits.clone(), cp.gridunit.clone());
-    let (grid, rep) = cp.into_grid()?;
-    let mut classes = serde_json::Map::new();
-    for (k, v) in rep.class_counts() {
-        classes.insert(k.into(), json!(v));
-    }
-    let info = json!({
-        "dims": dims, "classes": classes, "vertices": rep.vertices,
-        "bulk_volume": rep.bulk_volume, "mapaxes": mapaxes, "mapunits": mapunits,
-        "gridunit": gridunit, "ijk_right_handed_up": rep.ijk_right_handed_up,
-        "read_s": read_s, "to_grid_s": t.elapsed().as_secs_f64() - read_s, "input": extra,
-    });
-    Ok((grid, info))
-}
-
 fn load_with_info(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64, Option<Value>)> {
     let t = Instant::now();
     let mut info = None;
@@ -468,15 +420,9 @@ fn load_with_info(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64, Op
             bail!("give a grid file, or --demo for the built-in grid")
         };
         let sp = spinner(quiet, format!("reading {}", path.display()));
-        let g = if is_cornerpoint(path) {
-            let (g, i) = load_cornerpoint(path)
-                .with_context(|| format!("cannot load {}", path.display()))?;
-            info = Some(i);
-            g
-        } else {
-            io::vtk_read::read_vtk(path)
-                .with_context(|| format!("cannot load {}", path.display()))?
-        };
+        let loaded = io::load(path).with_context(|| format!("cannot load {}", path.display()))?;
+        info = loaded.cornerpoint;
+        let g = loaded.grid;
         sp.finish_and_clear();
         (g, path.display().to_string())
     };
@@ -1258,13 +1204,13 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
     let Some(path) = &a.input.grid else {
         bail!("--load-only needs a corner-point grid file")
     };
-    if !is_cornerpoint(path) {
+    let format = io::load::detect(path)?;
+    if !format.is_cornerpoint() {
         bail!("--load-only is for corner-point input (.grdecl, .DATA, .EGRID)");
     }
     let t = Instant::now();
     let cpu0 = thread_cpu_ns();
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-    let (cp, bytes) = if ext.eq_ignore_ascii_case("egrid") {
+    let (cp, bytes) = if format == io::Format::Egrid {
         let n = std::fs::metadata(path)?.len();
         (io::egrid::read_egrid(path)?.grid, n)
     } else {

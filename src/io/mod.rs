@@ -2,5 +2,8 @@
 
 pub mod egrid;
 pub mod grdecl;
+pub mod load;
 pub mod vtk_read;
 pub mod writers;
+
+pub use load::{Format, LoadError, Loaded, load};

@@ -146,11 +146,18 @@ pub fn read_vtk(path: &Path) -> Result<Grid, VtkReadError> {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let parse: fn(&[u8], &str) -> Result<Grid, VtkReadError> = match ext.as_str() {
-        "vtk" => parse_vtk_legacy,
-        "vtu" | "vts" => parse_vtk_xml,
-        _ => return Err(VtkReadError::UnsupportedExtension { file, ext }),
-    };
+    match ext.as_str() {
+        "vtk" => read_vtk_as(path, false),
+        "vtu" | "vts" => read_vtk_as(path, true),
+        _ => Err(VtkReadError::UnsupportedExtension { file, ext }),
+    }
+}
+
+/// Reads a VTK file as XML (`xml`) or legacy, whatever its extension.
+pub fn read_vtk_as(path: &Path, xml: bool) -> Result<Grid, VtkReadError> {
+    let file = path.display().to_string();
+    let parse: fn(&[u8], &str) -> Result<Grid, VtkReadError> =
+        if xml { parse_vtk_xml } else { parse_vtk_legacy };
     let io_err = |source| VtkReadError::Io {
         file: file.clone(),
         source,
