@@ -249,6 +249,7 @@ pub fn cmd_bench_devices(a: &BenchArgs, devices: &[String], quiet: bool) -> Resu
         threads,
         brute_force: false,
         collect_mesh: false,
+        sweep: Default::default(),
     };
     let noop = |_: usize| {};
     let mut rows = Vec::new();

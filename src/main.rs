@@ -16,6 +16,7 @@ use stratasweep::pipeline::{
     LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice, slice,
 };
 use stratasweep::structure::CELL_CLASS_NAMES;
+use stratasweep::sweep::SweepOptions;
 use stratasweep::{generate, io};
 
 /// Cells per axis of the built-in demo grid (`--demo`).
@@ -429,6 +430,18 @@ fn load_with_info(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64, Op
     grid.validate()
         .with_context(|| format!("invalid grid {name}"))?;
     Ok((grid, name, t.elapsed().as_secs_f64(), info))
+}
+
+/// The sweep's A/B knobs, which only the CLI reads from the environment:
+/// `STRATASWEEP_CELL_LOOP=1` (the per-cell lattice loop) and
+/// `STRATASWEEP_PATCH_WIDTH=w` (the chunked loop's patch width).
+fn sweep_options_from_env() -> SweepOptions {
+    SweepOptions {
+        per_cell_loop: std::env::var_os("STRATASWEEP_CELL_LOOP").is_some(),
+        patch_width: std::env::var("STRATASWEEP_PATCH_WIDTH")
+            .ok()
+            .and_then(|w| w.parse().ok()),
+    }
 }
 
 fn spinner(quiet: bool, msg: String) -> ProgressBar {
@@ -889,6 +902,7 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
         threads: a.threads,
         brute_force: a.structure == StructureArg::Bruteforce,
         collect_mesh: a.output.is_some(),
+        sweep: sweep_options_from_env(),
     };
     let inc = |n: usize| pb.inc(n as u64);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -1127,6 +1141,7 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
         threads: a.threads.max(1),
         brute_force: false,
         collect_mesh: false,
+        sweep: sweep_options_from_env(),
     };
     let noop = |_: usize| {};
     let (sweep_s, sr) = timed(a.repeat, || {
@@ -1356,6 +1371,7 @@ fn bench_law(sizes: &[usize], a: &BenchArgs, quiet: bool, make: LawGrid) -> Resu
             threads: 1,
             brute_force: false,
             collect_mesh: false,
+            sweep: sweep_options_from_env(),
         };
         let noop = |_: usize| {};
         let (best, r) = timed(a.repeat, || Ok(slice(&grid, &s, &req, &noop)?))?;

@@ -20,7 +20,7 @@ use crate::grid::{Grid, GridError, Topology};
 use crate::mesh::PolyMesh;
 use crate::scgraph::SCGraph;
 use crate::structure::StructureError;
-use crate::sweep::{CellGraph, LevelStats, Sweeper};
+use crate::sweep::{CellGraph, LevelStats, SweepOptions, Sweeper};
 
 /// Which structure to build (`--structure`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -252,6 +252,8 @@ pub struct SliceRequest {
     pub brute_force: bool,
     /// Gather the output mesh (for writing files).
     pub collect_mesh: bool,
+    /// The sweep's loop choices (defaults choose by themselves).
+    pub sweep: SweepOptions,
 }
 
 /// Timings of one slicing run, seconds.
@@ -665,6 +667,7 @@ fn run_on<G: CellGraph, F: ScalarField>(
         (vec![acc], 0, mesh.capacity_bytes())
     } else {
         let mut sw = Sweeper::new(g, req.threads.max(1));
+        sw.options = req.sweep;
         let t = Instant::now();
         let minima = sw.prepare_minima(f, axis_slot);
         timings.minima = t.elapsed().as_secs_f64();

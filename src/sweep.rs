@@ -241,6 +241,8 @@ pub struct Block {
     lattice: LatticeQueues,
     /// State of the chunked lattice loop.
     chunked: chunks::ChunkQueues,
+    /// The sweeper's loop choices for the current sweep.
+    options: SweepOptions,
 }
 
 /// The lattice loop's queues, kept between sweeps for their capacity.
@@ -378,11 +380,24 @@ impl Block {
     }
 }
 
+/// Choices of the sweep's lattice loops, for A/B benchmarks; the defaults
+/// pick by themselves. The output does not depend on them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SweepOptions {
+    /// Run the per-cell lattice loop instead of the chunked one.
+    pub per_cell_loop: bool,
+    /// Force the chunked loop's patch width (8, 16, 32 or 64; other values
+    /// are ignored) instead of choosing it from φ.
+    pub patch_width: Option<u32>,
+}
+
 /// Runs sweeps over a [`CellGraph`], split into spatial blocks (one per thread).
 pub struct Sweeper<'g, G: CellGraph> {
     graph: &'g G,
     /// Blocks, each swept independently.
     pub blocks: Vec<Block>,
+    /// Loop choices (defaults choose by themselves).
+    pub options: SweepOptions,
 }
 
 impl<'g, G: CellGraph> Sweeper<'g, G> {
@@ -405,9 +420,14 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
                 window: EdgeWindow::default(),
                 lattice: LatticeQueues::default(),
                 chunked: Default::default(),
+                options: SweepOptions::default(),
             })
             .collect();
-        Sweeper { graph, blocks }
+        Sweeper {
+            graph,
+            blocks,
+            options: SweepOptions::default(),
+        }
     }
 
     /// Bytes of sweep state over all blocks.
@@ -453,6 +473,7 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
     {
         let g = self.graph;
         let slot = axis_slot.unwrap_or(0);
+        let options = self.options;
         self.blocks
             .par_iter_mut()
             .map(|b| {
@@ -460,6 +481,7 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
                 let minima = b.minima_cache[slot]
                     .take()
                     .unwrap_or_else(|| block_minima(g, field, b));
+                b.options = options;
                 sweep_block(g, field, b, &minima, levels, ctx, |k, mesh, st| {
                     on_level(&mut acc, k, mesh, st)
                 });
@@ -613,8 +635,7 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
     if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {
-        if std::env::var_os("STRATASWEEP_CELL_LOOP").is_some() || levels.len() > chunks::MAX_LEVELS
-        {
+        if b.options.per_cell_loop || levels.len() > chunks::MAX_LEVELS {
             sweep_block_lattice(&lat, phi, b, minima, levels, ctx, false, on_level);
         } else {
             chunks::sweep_block_chunks(&lat, phi, b, minima, levels, ctx, false, on_level);

@@ -1096,6 +1096,7 @@ fn threads_give_the_single_threaded_output() {
                 threads,
                 brute_force,
                 collect_mesh: true,
+                sweep: Default::default(),
             };
             slice(&g, &s, &req, &|_| {}).unwrap()
         };

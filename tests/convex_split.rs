@@ -186,6 +186,7 @@ fn request(axis: usize, levels: Vec<f64>, brute_force: bool) -> SliceRequest {
         threads: 1,
         brute_force,
         collect_mesh: true,
+        sweep: Default::default(),
     }
 }
 

@@ -23,6 +23,7 @@ fn req(field: FieldSpec, k: usize, threads: usize, mesh: bool) -> SliceRequest {
         threads,
         brute_force: false,
         collect_mesh: mesh,
+        sweep: Default::default(),
     }
 }
 

@@ -36,6 +36,7 @@ fn req(k: usize) -> SliceRequest {
         threads: 1,
         brute_force: false,
         collect_mesh: false,
+        sweep: Default::default(),
     }
 }
 

@@ -53,6 +53,7 @@ fn request(field: FieldSpec, levels: LevelSpec) -> SliceRequest {
         threads: 1,
         brute_force: false,
         collect_mesh: true,
+        sweep: Default::default(),
     }
 }
 

@@ -506,6 +506,7 @@ impl<'c> Renderer<'c> {
                 threads: rayon::current_num_threads(),
                 brute_force: false,
                 collect_mesh: false,
+                sweep: Default::default(),
             };
             let mut p = prepare(grid, s, &req)?;
             // A cell property (no point property of that name) colours

@@ -589,14 +589,16 @@ fn step_masks(rec: &[u8], k: u8) -> StepMasks {
 /// the layer's |Δφ|_k is the same for all) plus `1.25 · height · (|Δφ|_i +
 /// |Δφ|_j)` for the touch. The mean |Δφ| per axis is measured on up to 4096
 /// live cells spread over the block.
-/// `STRATASWEEP_PATCH_WIDTH` (one of [`WIDTHS`]) overrides it, for A/B
-/// benchmarks.
-pub(super) fn patch_width(lat: &Lattice, phi: &[f32], start: u32, len: u32) -> u32 {
-    if let Some(w) = std::env::var("STRATASWEEP_PATCH_WIDTH")
-        .ok()
-        .and_then(|w| w.parse().ok())
-        .filter(|w| WIDTHS.contains(w))
-    {
+/// `forced` (one of [`WIDTHS`]; [`super::SweepOptions::patch_width`])
+/// overrides it, for A/B benchmarks.
+pub(super) fn patch_width(
+    lat: &Lattice,
+    phi: &[f32],
+    start: u32,
+    len: u32,
+    forced: Option<u32>,
+) -> u32 {
+    if let Some(w) = forced.filter(|w| WIDTHS.contains(w)) {
         return w;
     }
     let [di, dj, _] = lat.deltas;
@@ -641,7 +643,13 @@ pub(super) fn sweep_block_chunks(
     hash_weld: bool,
     on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
-    let width = patch_width(lat, phi, b.start, b.stamps.len() as u32);
+    let width = patch_width(
+        lat,
+        phi,
+        b.start,
+        b.stamps.len() as u32,
+        b.options.patch_width,
+    );
     sweep_block_patches(width, lat, phi, b, minima, levels, ctx, hash_weld, on_level);
 }
 

@@ -41,6 +41,7 @@ pub fn axis_request(axis: usize, count: usize) -> SliceRequest {
         threads: 1,
         brute_force: false,
         collect_mesh: false,
+        sweep: Default::default(),
     }
 }
 
