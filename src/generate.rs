@@ -233,11 +233,71 @@ fn quad_key(ids: [u32; 4]) -> u64 {
 /// pyramid centres.
 pub fn zoo(cells: usize, seed: u64) -> Grid {
     let n = ((cells as f64 / ZOO_CELLS_PER_HEX).cbrt().round() as usize).max(2);
+    let mut points = zoo_lattice_points(n, seed);
+    // Per-column and per-hex decisions (stateless hashes).
+    let wedge_column: Vec<Option<bool>> = (0..n * n)
+        .map(|c| {
+            (hash_unit(seed, 11, c as u64) < ZOO_P_WEDGE_COLUMN)
+                .then(|| hash_unit(seed, 12, c as u64) < 0.5)
+        })
+        .collect();
+    let pyramid_split: Vec<bool> = (0..n * n * n)
+        .map(|h| {
+            wedge_column[h % (n * n)].is_none() && hash_unit(seed, 13, h as u64) < ZOO_P_PYRAMIDS
+        })
+        .collect();
+    let np = n + 1;
+    let lattice = |i: usize, j: usize, k: usize| (i + np * (j + np * k)) as u32;
+    let mut out = Cells::default();
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let c = [
+                    lattice(i, j, k),
+                    lattice(i + 1, j, k),
+                    lattice(i + 1, j + 1, k),
+                    lattice(i, j + 1, k),
+                    lattice(i, j, k + 1),
+                    lattice(i + 1, j, k + 1),
+                    lattice(i + 1, j + 1, k + 1),
+                    lattice(i, j + 1, k + 1),
+                ];
+                if let Some(diag02) = wedge_column[i + n * j] {
+                    if diag02 {
+                        out.push(vtk_type::WEDGE, &[c[0], c[1], c[2], c[4], c[5], c[6]]);
+                        out.push(vtk_type::WEDGE, &[c[0], c[2], c[3], c[4], c[6], c[7]]);
+                    } else {
+                        out.push(vtk_type::WEDGE, &[c[0], c[1], c[3], c[4], c[5], c[7]]);
+                        out.push(vtk_type::WEDGE, &[c[1], c[2], c[3], c[5], c[6], c[7]]);
+                    }
+                } else if pyramid_split[i + n * (j + n * k)] {
+                    let hex = ZooHex {
+                        ijk: [i, j, k],
+                        n,
+                        corners: c,
+                        seed,
+                    };
+                    hex.push_pyramids(&pyramid_split, &mut points, &mut out);
+                } else {
+                    out.push(vtk_type::HEXAHEDRON, &c);
+                }
+            }
+        }
+    }
+    let f = zoo_field(&points, seed);
+    Grid {
+        points,
+        topology: Topology::Unstructured(out),
+        point_data: vec![Property::scalar("f", f)],
+        cell_data: Vec::new(),
+    }
+}
+
+/// The `(n+1)³` jittered lattice points of [`zoo`] (I fastest; the
+/// boundary stays on the box).
+fn zoo_lattice_points(n: usize, seed: u64) -> Vec<[f64; 3]> {
     let np = n + 1;
     let h = 2.0 / n as f64;
-    let lattice = |i: usize, j: usize, k: usize| (i + np * (j + np * k)) as u32;
-    let hex_index = |i: usize, j: usize, k: usize| i + n * (j + n * k);
-
     let mut rng = SplitMix64::new(seed, 2);
     let mut points = Vec::with_capacity(np * np * np);
     for k in 0..np {
@@ -257,94 +317,70 @@ pub fn zoo(cells: usize, seed: u64) -> Grid {
             }
         }
     }
+    points
+}
 
-    // Per-column and per-hex decisions (stateless hashes).
-    let wedge_column: Vec<Option<bool>> = (0..n * n)
-        .map(|c| {
-            (hash_unit(seed, 11, c as u64) < ZOO_P_WEDGE_COLUMN)
-                .then(|| hash_unit(seed, 12, c as u64) < 0.5)
-        })
-        .collect();
-    let pyramid_split: Vec<bool> = (0..n * n * n)
-        .map(|h| {
-            wedge_column[h % (n * n)].is_none() && hash_unit(seed, 13, h as u64) < ZOO_P_PYRAMIDS
-        })
-        .collect();
+/// One hexahedron of [`zoo`] split into six pyramids around its centre.
+struct ZooHex {
+    ijk: [usize; 3],
+    n: usize,
+    corners: [u32; 8],
+    seed: u64,
+}
 
-    let mut out = Cells::default();
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let c = [
-                    lattice(i, j, k),
-                    lattice(i + 1, j, k),
-                    lattice(i + 1, j + 1, k),
-                    lattice(i, j + 1, k),
-                    lattice(i, j, k + 1),
-                    lattice(i + 1, j, k + 1),
-                    lattice(i + 1, j + 1, k + 1),
-                    lattice(i, j + 1, k + 1),
-                ];
-                let hx = hex_index(i, j, k);
-                if let Some(diag02) = wedge_column[i + n * j] {
-                    if diag02 {
-                        out.push(vtk_type::WEDGE, &[c[0], c[1], c[2], c[4], c[5], c[6]]);
-                        out.push(vtk_type::WEDGE, &[c[0], c[2], c[3], c[4], c[6], c[7]]);
-                    } else {
-                        out.push(vtk_type::WEDGE, &[c[0], c[1], c[3], c[4], c[5], c[7]]);
-                        out.push(vtk_type::WEDGE, &[c[1], c[2], c[3], c[5], c[6], c[7]]);
-                    }
-                } else if pyramid_split[hx] {
-                    let apex = points.len() as u32;
-                    let centre = c.iter().fold([0.0; 3], |acc, &v| {
-                        let p = points[v as usize];
-                        [
-                            acc[0] + p[0] / 8.0,
-                            acc[1] + p[1] / 8.0,
-                            acc[2] + p[2] / 8.0,
-                        ]
-                    });
-                    points.push(centre);
-                    for (face, off) in HEX_FACES {
-                        // Base = the outward face reversed: normal toward the apex.
-                        let base = [c[face[0]], c[face[3]], c[face[2]], c[face[1]]];
-                        let ni = i as isize + off[0];
-                        let nj = j as isize + off[1];
-                        let nk = k as isize + off[2];
-                        let inside = [ni, nj, nk].iter().all(|&v| v >= 0 && v < n as isize);
-                        let eligible = !inside
-                            || pyramid_split[hex_index(ni as usize, nj as usize, nk as usize)];
-                        if eligible && hash_unit(seed, 14, quad_key(base)) < ZOO_P_TETS {
-                            let [a, b, cc, d] = base;
-                            let smallest = *base.iter().min().expect("4 ids");
-                            if smallest == a || smallest == cc {
-                                out.push(vtk_type::TETRA, &[a, b, cc, apex]);
-                                out.push(vtk_type::TETRA, &[a, cc, d, apex]);
-                            } else {
-                                out.push(vtk_type::TETRA, &[a, b, d, apex]);
-                                out.push(vtk_type::TETRA, &[b, cc, d, apex]);
-                            }
-                        } else {
-                            out.push(
-                                vtk_type::PYRAMID,
-                                &[base[0], base[1], base[2], base[3], apex],
-                            );
-                        }
-                    }
+impl ZooHex {
+    /// Adds the centre to `points` and the six pyramids (or, on faces whose
+    /// other side is split too or the boundary, a pair of tetrahedra) to `out`.
+    fn push_pyramids(&self, pyramid_split: &[bool], points: &mut Vec<[f64; 3]>, out: &mut Cells) {
+        let (c, n, [i, j, k]) = (self.corners, self.n, self.ijk);
+        let apex = points.len() as u32;
+        let centre = c.iter().fold([0.0; 3], |acc, &v| {
+            let p = points[v as usize];
+            [
+                acc[0] + p[0] / 8.0,
+                acc[1] + p[1] / 8.0,
+                acc[2] + p[2] / 8.0,
+            ]
+        });
+        points.push(centre);
+        for (face, off) in HEX_FACES {
+            // Base = the outward face reversed: normal toward the apex.
+            let base = [c[face[0]], c[face[3]], c[face[2]], c[face[1]]];
+            let ni = i as isize + off[0];
+            let nj = j as isize + off[1];
+            let nk = k as isize + off[2];
+            let inside = [ni, nj, nk].iter().all(|&v| v >= 0 && v < n as isize);
+            let eligible =
+                !inside || pyramid_split[ni as usize + n * (nj as usize + n * nk as usize)];
+            if eligible && hash_unit(self.seed, 14, quad_key(base)) < ZOO_P_TETS {
+                let [a, b, cc, d] = base;
+                let smallest = *base.iter().min().expect("4 ids");
+                if smallest == a || smallest == cc {
+                    out.push(vtk_type::TETRA, &[a, b, cc, apex]);
+                    out.push(vtk_type::TETRA, &[a, cc, d, apex]);
                 } else {
-                    out.push(vtk_type::HEXAHEDRON, &c);
+                    out.push(vtk_type::TETRA, &[a, b, d, apex]);
+                    out.push(vtk_type::TETRA, &[b, cc, d, apex]);
                 }
+            } else {
+                out.push(
+                    vtk_type::PYRAMID,
+                    &[base[0], base[1], base[2], base[3], apex],
+                );
             }
         }
     }
+}
 
+/// The zoo grid's point property `f`: a smooth sin/cos field plus noise.
+fn zoo_field(points: &[[f64; 3]], seed: u64) -> Vec<f64> {
     let mut frng = SplitMix64::new(seed, 3);
     let ph = [
         frng.range(0.0, 2.0 * PI),
         frng.range(0.0, 2.0 * PI),
         frng.range(0.0, 2.0 * PI),
     ];
-    let f = points
+    points
         .iter()
         .map(|&[x, y, z]| {
             let smooth = 0.5
@@ -352,13 +388,7 @@ pub fn zoo(cells: usize, seed: u64) -> Grid {
                 + 0.2 * (2.9 * z + 1.1 * x + ph[2]).sin();
             smooth + 0.3 * unit_of(frng.next_u64())
         })
-        .collect();
-    Grid {
-        points,
-        topology: Topology::Unstructured(out),
-        point_data: vec![Property::scalar("f", f)],
-        cell_data: Vec::new(),
-    }
+        .collect()
 }
 
 /// A synthetic faulted corner-point reservoir of `dims` cells (NI, NJ, NK):
@@ -407,159 +437,11 @@ pub fn faulted_with_dip(
         dip.is_none_or(|d| (MIN_FAULT_DIP..=90.0).contains(&d)),
         "fault dip must be in [{MIN_FAULT_DIP}, 90] degrees"
     );
-    let mut rng = SplitMix64::new(seed, 0xFA17);
-    let (dx, dy) = (50.0, 50.0);
-    let (lx, ly) = (nx as f64 * dx, ny as f64 * dy);
-    // Pillars: tops at depth 1500, bottoms at 2500, tilted a little.
-    let tilt = [rng.range(-40.0, 40.0), rng.range(-40.0, 40.0)];
-    // Folding and thickness fields as functions of the pillar position.
-    let (ax, ay) = (rng.range(0.6, 1.6), rng.range(0.6, 1.6));
-    let (phx, phy) = (
-        rng.range(0.0, std::f64::consts::TAU),
-        rng.range(0.0, std::f64::consts::TAU),
-    );
-    let amp = rng.range(20.0, 60.0);
-    let total = 120.0 + 0.5 * nz as f64;
-    let base_t = total / nz as f64;
-    let layer_q: Vec<f64> = (0..nz).map(|_| rng.range(0.0, 1.0)).collect();
-    let layer_f: Vec<[f64; 3]> = (0..nz)
-        .map(|_| {
-            [
-                rng.range(0.5, 3.0),
-                rng.range(0.5, 3.0),
-                rng.range(0.0, std::f64::consts::TAU),
-            ]
-        })
-        .collect();
-    let fold = |x: f64, y: f64| {
-        amp * (std::f64::consts::TAU * ax * x / lx + phx).sin()
-            * (std::f64::consts::TAU * ay * y / ly + phy).cos()
-            + 0.01 * x
-    };
-    // Thickness of layer k at (x, y): may go negative → pinched (0).
-    let thick = |k: usize, x: f64, y: f64| {
-        let [fx, fy, ph] = layer_f[k];
-        let w = (std::f64::consts::TAU * (fx * x / lx + fy * y / ly) + ph).sin();
-        (base_t * (1.0 + 1.3 * w)).max(0.0)
-    };
-    // Faults: lines in pillar-index space; cells on the positive side drop.
-    let flines: Vec<([f64; 3], f64)> = (0..faults)
-        .map(|_| {
-            let ang = rng.range(0.0, std::f64::consts::PI);
-            let (a, b) = (ang.cos(), ang.sin());
-            let (cx, cy) = (
-                rng.range(0.15, 0.85) * nx as f64,
-                rng.range(0.15, 0.85) * ny as f64,
-            );
-            ([a, b, a * cx + b * cy], rng.sign() * rng.range(5.0, 40.0))
-        })
-        .collect();
-    // Horizontal lean per unit depth (cot dip) of each fault's pillars.
-    let lean: Vec<f64> = (0..faults)
-        .map(|f| {
-            let d = dip.unwrap_or(if f == 0 {
-                90.0
-            } else {
-                50.0 + 30.0 * hash_unit(seed, 0xD1B, f as u64)
-            });
-            if d >= 90.0 {
-                0.0
-            } else {
-                1.0 / d.to_radians().tan()
-            }
-        })
-        .collect();
-    let throw_of = |i: usize, j: usize| -> f64 {
-        flines
-            .iter()
-            .filter(|(l, _)| l[0] * (i as f64 + 0.5) + l[1] * (j as f64 + 0.5) > l[2])
-            .map(|(_, t)| *t)
-            .sum()
-    };
-    // Horizon depths per pillar: h[k][p], k = 0..=nz.
-    let npx = nx + 1;
-    let np = npx * (ny + 1);
-    let mut h = vec![0.0f64; np * (nz + 1)];
-    for p in 0..np {
-        let (x, y) = ((p % npx) as f64 * dx, (p / npx) as f64 * dy);
-        let mut d = 1600.0 + fold(x, y);
-        h[p] = d;
-        for k in 0..nz {
-            d += thick(k, x, y);
-            h[(k + 1) * np + p] = d;
-        }
-    }
-    // Pillars: the global tilt, plus the faults' lean anchored at the
-    // reservoir's mid depth `d0`. The lean fades over `fade` metres from a
-    // fault trace, so that two neighbouring pillars drift apart by at most
-    // a quarter cell within `span` (horizons and throws) of `d0`.
-    let (dmin, dmax) = h
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(a, b), &d| (a.min(d), b.max(d)));
-    let d0 = 0.5 * (dmin + dmax);
-    let span = 0.5 * (dmax - dmin) + flines.iter().map(|f| f.1.abs()).sum::<f64>();
-    let fade = (4.0 * span * lean.iter().sum::<f64>()).max(6.0 * dx);
-    let max_lean = lean.iter().cloned().fold(0.0, f64::max);
-    let mut coord = Vec::with_capacity(6 * (nx + 1) * (ny + 1));
-    for pj in 0..=ny {
-        for pi in 0..=nx {
-            let (x, y) = (pi as f64 * dx, pj as f64 * dy);
-            let s = 0.5 * ((x / lx) + (y / ly));
-            // Sum of the faded leans, clipped to the steepest lean (the
-            // clip keeps the drift bound, and a fault's own lean on its
-            // trace where others add to it).
-            let mut l = [0.0f64; 2];
-            for ((f, t), &c) in flines.iter().zip(&lean) {
-                let dist = (f[0] * pi as f64 + f[1] * pj as f64 - f[2]).abs() * dx;
-                let w = (1.0 - dist / fade).max(0.0) * c * t.signum();
-                l[0] += w * f[0];
-                l[1] += w * f[1];
-            }
-            let norm = l[0].hypot(l[1]);
-            let l = if norm > max_lean {
-                l.map(|v| v * max_lean / norm)
-            } else {
-                l
-            };
-            let (up, down) = (d0 - 1500.0, 2500.0 - d0);
-            coord.extend_from_slice(&[x - l[0] * up, y - l[1] * up, 1500.0]);
-            coord.extend_from_slice(&[
-                x + tilt[0] * s + l[0] * down,
-                y + tilt[1] * s + l[1] * down,
-                2500.0,
-            ]);
-        }
-    }
+    let m = FaultedModel::new(dims, faults, dip, seed);
+    let h = m.horizons();
+    let coord = m.pillars(&h);
+    let (zcorn, actnum, poro) = m.cells(&h);
     let round = |v: f64| (v * 1000.0).round() / 1000.0;
-    let mut zcorn = vec![0.0; 8 * nx * ny * nz];
-    let mut actnum = vec![1u8; nx * ny * nz];
-    let mut poro = vec![0.0; nx * ny * nz];
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                let t = throw_of(i, j);
-                let c = i + nx * (j + ny * k);
-                let mut pinched = true;
-                for corner in 0..8 {
-                    let (ii, jj, kk) = (corner & 1, corner >> 1 & 1, corner >> 2);
-                    let p = (i + ii) + npx * (j + jj);
-                    let z = (2 * k + kk) * 4 * nx * ny + (2 * j + jj) * 2 * nx + 2 * i + ii;
-                    zcorn[z] = round(h[(k + kk) * np + p] + t);
-                    if kk == 1 && zcorn[z] != zcorn[z - 4 * nx * ny] {
-                        pinched = false;
-                    }
-                }
-                let r = hash_unit(seed, 0xAC7, c as u64);
-                if pinched || r < 0.02 || (i < nx / 8 && j < ny / 8) {
-                    actnum[c] = 0;
-                }
-                let trend = 0.05 * ((i as f64 / nx as f64) - (j as f64 / ny as f64));
-                let noise = 0.02 * (hash_unit(seed, 0x9090, c as u64) - 0.5);
-                poro[c] = (0.08 + 0.22 * layer_q[k] + trend + noise).clamp(0.01, 0.4);
-                poro[c] = (poro[c] * 1e4).round() / 1e4;
-            }
-        }
-    }
     crate::cornerpoint::CornerPointGrid {
         dims,
         coord: coord.into_iter().map(round).collect(),
@@ -576,5 +458,237 @@ pub fn faulted_with_dip(
         mapunits: Some("METRES".into()),
         gridunit: Some("METRES".into()),
         properties: vec![Property::scalar("PORO", poro)],
+    }
+}
+
+/// The random choices of [`faulted_with_dip`], drawn once in a fixed order
+/// (so the model is deterministic in its arguments).
+struct FaultedModel {
+    dims: [usize; 3],
+    seed: u64,
+    /// Cell size along x and y.
+    dx: f64,
+    dy: f64,
+    /// Pillar bottoms' horizontal tilt across the grid.
+    tilt: [f64; 2],
+    /// Fold frequencies, phases and amplitude.
+    ax: f64,
+    ay: f64,
+    phx: f64,
+    phy: f64,
+    amp: f64,
+    /// Mean layer thickness.
+    base_t: f64,
+    /// Per layer: porosity quantile and thickness wave (fx, fy, phase).
+    layer_q: Vec<f64>,
+    layer_f: Vec<[f64; 3]>,
+    /// Faults: lines `a·i + b·j = c` in pillar-index space and their throws.
+    flines: Vec<([f64; 3], f64)>,
+    /// Horizontal lean per unit depth (cot dip) of each fault's pillars.
+    lean: Vec<f64>,
+}
+
+impl FaultedModel {
+    fn new(dims: [usize; 3], faults: usize, dip: Option<f64>, seed: u64) -> Self {
+        let [nx, ny, nz] = dims;
+        let mut rng = SplitMix64::new(seed, 0xFA17);
+        // Pillars: tops at depth 1500, bottoms at 2500, tilted a little.
+        let tilt = [rng.range(-40.0, 40.0), rng.range(-40.0, 40.0)];
+        // Folding and thickness fields as functions of the pillar position.
+        let (ax, ay) = (rng.range(0.6, 1.6), rng.range(0.6, 1.6));
+        let (phx, phy) = (
+            rng.range(0.0, std::f64::consts::TAU),
+            rng.range(0.0, std::f64::consts::TAU),
+        );
+        let amp = rng.range(20.0, 60.0);
+        let total = 120.0 + 0.5 * nz as f64;
+        let layer_q: Vec<f64> = (0..nz).map(|_| rng.range(0.0, 1.0)).collect();
+        let layer_f: Vec<[f64; 3]> = (0..nz)
+            .map(|_| {
+                [
+                    rng.range(0.5, 3.0),
+                    rng.range(0.5, 3.0),
+                    rng.range(0.0, std::f64::consts::TAU),
+                ]
+            })
+            .collect();
+        // Faults: lines in pillar-index space; cells on the positive side drop.
+        let flines: Vec<([f64; 3], f64)> = (0..faults)
+            .map(|_| {
+                let ang = rng.range(0.0, std::f64::consts::PI);
+                let (a, b) = (ang.cos(), ang.sin());
+                let (cx, cy) = (
+                    rng.range(0.15, 0.85) * nx as f64,
+                    rng.range(0.15, 0.85) * ny as f64,
+                );
+                ([a, b, a * cx + b * cy], rng.sign() * rng.range(5.0, 40.0))
+            })
+            .collect();
+        let lean: Vec<f64> = (0..faults)
+            .map(|f| {
+                let d = dip.unwrap_or(if f == 0 {
+                    90.0
+                } else {
+                    50.0 + 30.0 * hash_unit(seed, 0xD1B, f as u64)
+                });
+                if d >= 90.0 {
+                    0.0
+                } else {
+                    1.0 / d.to_radians().tan()
+                }
+            })
+            .collect();
+        FaultedModel {
+            dims,
+            seed,
+            dx: 50.0,
+            dy: 50.0,
+            tilt,
+            ax,
+            ay,
+            phx,
+            phy,
+            amp,
+            base_t: total / nz as f64,
+            layer_q,
+            layer_f,
+            flines,
+            lean,
+        }
+    }
+
+    /// Horizontal extent along x and y.
+    fn extent(&self) -> (f64, f64) {
+        (self.dims[0] as f64 * self.dx, self.dims[1] as f64 * self.dy)
+    }
+
+    /// The fold's depth offset at (x, y).
+    fn fold(&self, x: f64, y: f64) -> f64 {
+        let (lx, ly) = self.extent();
+        self.amp
+            * (std::f64::consts::TAU * self.ax * x / lx + self.phx).sin()
+            * (std::f64::consts::TAU * self.ay * y / ly + self.phy).cos()
+            + 0.01 * x
+    }
+
+    /// Thickness of layer k at (x, y): 0 where the wave goes negative (pinched).
+    fn thick(&self, k: usize, x: f64, y: f64) -> f64 {
+        let (lx, ly) = self.extent();
+        let [fx, fy, ph] = self.layer_f[k];
+        let w = (std::f64::consts::TAU * (fx * x / lx + fy * y / ly) + ph).sin();
+        (self.base_t * (1.0 + 1.3 * w)).max(0.0)
+    }
+
+    /// Summed throw of the faults whose positive side holds cell (i, j).
+    fn throw_of(&self, i: usize, j: usize) -> f64 {
+        self.flines
+            .iter()
+            .filter(|(l, _)| l[0] * (i as f64 + 0.5) + l[1] * (j as f64 + 0.5) > l[2])
+            .map(|(_, t)| *t)
+            .sum()
+    }
+
+    /// Horizon depths per pillar: `h[k · np + p]`, k = 0..=nz.
+    fn horizons(&self) -> Vec<f64> {
+        let [nx, ny, nz] = self.dims;
+        let npx = nx + 1;
+        let np = npx * (ny + 1);
+        let mut h = vec![0.0f64; np * (nz + 1)];
+        for p in 0..np {
+            let (x, y) = ((p % npx) as f64 * self.dx, (p / npx) as f64 * self.dy);
+            let mut d = 1600.0 + self.fold(x, y);
+            h[p] = d;
+            for k in 0..nz {
+                d += self.thick(k, x, y);
+                h[(k + 1) * np + p] = d;
+            }
+        }
+        h
+    }
+
+    /// COORD (unrounded): the global tilt, plus the faults' lean anchored at
+    /// the reservoir's mid depth `d0`. The lean fades over `fade` metres from
+    /// a fault trace, so that two neighbouring pillars drift apart by at most
+    /// a quarter cell within `span` (horizons and throws) of `d0`.
+    fn pillars(&self, h: &[f64]) -> Vec<f64> {
+        let [nx, ny, _] = self.dims;
+        let (lx, ly) = self.extent();
+        let (dmin, dmax) = h
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), &d| (a.min(d), b.max(d)));
+        let d0 = 0.5 * (dmin + dmax);
+        let span = 0.5 * (dmax - dmin) + self.flines.iter().map(|f| f.1.abs()).sum::<f64>();
+        let fade = (4.0 * span * self.lean.iter().sum::<f64>()).max(6.0 * self.dx);
+        let max_lean = self.lean.iter().cloned().fold(0.0, f64::max);
+        let mut coord = Vec::with_capacity(6 * (nx + 1) * (ny + 1));
+        for pj in 0..=ny {
+            for pi in 0..=nx {
+                let (x, y) = (pi as f64 * self.dx, pj as f64 * self.dy);
+                let s = 0.5 * ((x / lx) + (y / ly));
+                // Sum of the faded leans, clipped to the steepest lean (the
+                // clip keeps the drift bound, and a fault's own lean on its
+                // trace where others add to it).
+                let mut l = [0.0f64; 2];
+                for ((f, t), &c) in self.flines.iter().zip(&self.lean) {
+                    let dist = (f[0] * pi as f64 + f[1] * pj as f64 - f[2]).abs() * self.dx;
+                    let w = (1.0 - dist / fade).max(0.0) * c * t.signum();
+                    l[0] += w * f[0];
+                    l[1] += w * f[1];
+                }
+                let norm = l[0].hypot(l[1]);
+                let l = if norm > max_lean {
+                    l.map(|v| v * max_lean / norm)
+                } else {
+                    l
+                };
+                let (up, down) = (d0 - 1500.0, 2500.0 - d0);
+                coord.extend_from_slice(&[x - l[0] * up, y - l[1] * up, 1500.0]);
+                coord.extend_from_slice(&[
+                    x + self.tilt[0] * s + l[0] * down,
+                    y + self.tilt[1] * s + l[1] * down,
+                    2500.0,
+                ]);
+            }
+        }
+        coord
+    }
+
+    /// ZCORN (mm-rounded horizons plus throws), ACTNUM (pinched, random
+    /// and one corner region inactive) and PORO.
+    fn cells(&self, h: &[f64]) -> (Vec<f64>, Vec<u8>, Vec<f64>) {
+        let [nx, ny, nz] = self.dims;
+        let (npx, np) = (nx + 1, (nx + 1) * (ny + 1));
+        let seed = self.seed;
+        let round = |v: f64| (v * 1000.0).round() / 1000.0;
+        let mut zcorn = vec![0.0; 8 * nx * ny * nz];
+        let mut actnum = vec![1u8; nx * ny * nz];
+        let mut poro = vec![0.0; nx * ny * nz];
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let t = self.throw_of(i, j);
+                    let c = i + nx * (j + ny * k);
+                    let mut pinched = true;
+                    for corner in 0..8 {
+                        let (ii, jj, kk) = (corner & 1, corner >> 1 & 1, corner >> 2);
+                        let p = (i + ii) + npx * (j + jj);
+                        let z = (2 * k + kk) * 4 * nx * ny + (2 * j + jj) * 2 * nx + 2 * i + ii;
+                        zcorn[z] = round(h[(k + kk) * np + p] + t);
+                        if kk == 1 && zcorn[z] != zcorn[z - 4 * nx * ny] {
+                            pinched = false;
+                        }
+                    }
+                    let r = hash_unit(seed, 0xAC7, c as u64);
+                    if pinched || r < 0.02 || (i < nx / 8 && j < ny / 8) {
+                        actnum[c] = 0;
+                    }
+                    let trend = 0.05 * ((i as f64 / nx as f64) - (j as f64 / ny as f64));
+                    let noise = 0.02 * (hash_unit(seed, 0x9090, c as u64) - 0.5);
+                    poro[c] = (0.08 + 0.22 * self.layer_q[k] + trend + noise).clamp(0.01, 0.4);
+                    poro[c] = (poro[c] * 1e4).round() / 1e4;
+                }
+            }
+        }
+        (zcorn, actnum, poro)
     }
 }

@@ -108,50 +108,7 @@ impl MetaCell {
         if nv > MAX_META_VERTICES {
             return Err(MetaCellError::TooManyVertices { nv });
         }
-        // Edges and their directed uses.
-        let mut directed: HashMap<(u8, u8), usize> = HashMap::new();
-        let mut used = vec![false; nv];
-        for (fi, f) in faces.iter().enumerate() {
-            if f.len() < 3 {
-                return Err(MetaCellError::BadFace {
-                    face: fi,
-                    why: "fewer than 3 vertices",
-                });
-            }
-            let mut s = f.clone();
-            s.sort_unstable();
-            if s.windows(2).any(|w| w[0] == w[1]) {
-                return Err(MetaCellError::BadFace {
-                    face: fi,
-                    why: "repeated vertex",
-                });
-            }
-            for i in 0..f.len() {
-                let (a, b) = (f[i], f[(i + 1) % f.len()]);
-                if a as usize >= nv || b as usize >= nv {
-                    return Err(MetaCellError::BadFace {
-                        face: fi,
-                        why: "vertex id out of range",
-                    });
-                }
-                used[a as usize] = true;
-                *directed.entry((a, b)).or_default() += 1;
-            }
-        }
-        if let Some(v) = used.iter().position(|u| !u) {
-            return Err(MetaCellError::UnusedVertex(v));
-        }
-        for (&(a, b), &n) in &directed {
-            if n != 1 || directed.get(&(b, a)) != Some(&1) {
-                return Err(MetaCellError::NotClosed { a, b, count: n });
-            }
-        }
-        let mut edges: Vec<[u8; 2]> = directed
-            .keys()
-            .filter(|(a, b)| a < b)
-            .map(|&(a, b)| [a, b])
-            .collect();
-        edges.sort_unstable();
+        let edges = closed_surface_edges(nv, &faces)?;
         let edge_id = |a: u8, b: u8| -> u8 {
             let k = if a < b { [a, b] } else { [b, a] };
             edges.binary_search(&k).expect("edge derived from faces") as u8
@@ -195,58 +152,71 @@ impl MetaCell {
         };
         let mut next = vec![u8::MAX; mc.edges.len()];
         for code in 0..ncodes {
-            let above = |v: u8| code >> v & 1 == 1;
-            let mut mask = 0u32;
-            for (fi, s) in sides.iter().enumerate() {
-                if s.iter().filter(|&&(_, a, b)| above(a) != above(b)).count() > 2 {
-                    mask |= 1 << fi;
-                }
-            }
-            if mask.count_ones() > MAX_AMBIGUOUS_FACES {
-                return Err(MetaCellError::TooAmbiguous(mask.count_ones()));
-            }
-            mc.ambiguous_faces.push(mask);
-            mc.variant_base.push(mc.variant_loops.len() as u32 - 1);
-            for outcome in 0..1u32 << mask.count_ones() {
-                next.fill(u8::MAX);
-                let mut bit = 0;
-                for (fi, s) in sides.iter().enumerate() {
-                    let above_connected = if mask >> fi & 1 == 1 {
-                        bit += 1;
-                        outcome >> (bit - 1) & 1 == 1
-                    } else {
-                        false
-                    };
-                    pair_face_sides(s, &above, above_connected, &mut next);
-                }
-                // Cycles of `next`, started from the smallest unused edge.
-                for start in 0..next.len() {
-                    if next[start] == u8::MAX {
-                        continue;
-                    }
-                    let mut e = start;
-                    let mut len = 0u8;
-                    let at = mc.config.len();
-                    while next[e] != u8::MAX {
-                        mc.config.push(e as u8);
-                        len += 1;
-                        let n = next[e] as usize;
-                        next[e] = u8::MAX;
-                        e = n;
-                    }
-                    if len < 3 {
-                        // Two faces sharing two edges (a pinched corner-point
-                        // cell): the loop is a doubled segment with no area.
-                        mc.config.truncate(at);
-                        continue;
-                    }
-                    mc.config_size.push(len);
-                    mc.loop_start.push(mc.config.len() as u32);
-                }
-                mc.variant_loops.push(mc.config_size.len() as u32);
-            }
+            mc.add_code(code, &sides, &mut next)?;
         }
         Ok(mc)
+    }
+
+    /// Appends the tables of one configuration code: its ambiguous-face mask
+    /// and, per face-decider outcome, the loops of cut edges (`next` is
+    /// scratch, one entry per edge).
+    fn add_code(
+        &mut self,
+        code: usize,
+        sides: &[Vec<(u8, u8, u8)>],
+        next: &mut [u8],
+    ) -> Result<(), MetaCellError> {
+        let above = |v: u8| code >> v & 1 == 1;
+        let mut mask = 0u32;
+        for (fi, s) in sides.iter().enumerate() {
+            if s.iter().filter(|&&(_, a, b)| above(a) != above(b)).count() > 2 {
+                mask |= 1 << fi;
+            }
+        }
+        if mask.count_ones() > MAX_AMBIGUOUS_FACES {
+            return Err(MetaCellError::TooAmbiguous(mask.count_ones()));
+        }
+        self.ambiguous_faces.push(mask);
+        self.variant_base.push(self.variant_loops.len() as u32 - 1);
+        for outcome in 0..1u32 << mask.count_ones() {
+            next.fill(u8::MAX);
+            let mut bit = 0;
+            for (fi, s) in sides.iter().enumerate() {
+                let above_connected = if mask >> fi & 1 == 1 {
+                    bit += 1;
+                    outcome >> (bit - 1) & 1 == 1
+                } else {
+                    false
+                };
+                pair_face_sides(s, &above, above_connected, next);
+            }
+            // Cycles of `next`, started from the smallest unused edge.
+            for start in 0..next.len() {
+                if next[start] == u8::MAX {
+                    continue;
+                }
+                let mut e = start;
+                let mut len = 0u8;
+                let at = self.config.len();
+                while next[e] != u8::MAX {
+                    self.config.push(e as u8);
+                    len += 1;
+                    let n = next[e] as usize;
+                    next[e] = u8::MAX;
+                    e = n;
+                }
+                if len < 3 {
+                    // Two faces sharing two edges (a pinched corner-point
+                    // cell): the loop is a doubled segment with no area.
+                    self.config.truncate(at);
+                    continue;
+                }
+                self.config_size.push(len);
+                self.loop_start.push(self.config.len() as u32);
+            }
+            self.variant_loops.push(self.config_size.len() as u32);
+        }
+        Ok(())
     }
 
     /// Number of configuration codes (2^nv).
@@ -281,6 +251,56 @@ impl MetaCell {
             + self.loop_start.len() * 4
             + self.config.len()
     }
+}
+
+/// Checks that `faces` (loops of local vertex ids below `nv`) form a closed
+/// oriented surface using every vertex (each directed edge once, its
+/// reverse once) and returns its edges, sorted, each as `[a, b]` with a < b.
+fn closed_surface_edges(nv: usize, faces: &[Vec<u8>]) -> Result<Vec<[u8; 2]>, MetaCellError> {
+    let mut directed: HashMap<(u8, u8), usize> = HashMap::new();
+    let mut used = vec![false; nv];
+    for (fi, f) in faces.iter().enumerate() {
+        if f.len() < 3 {
+            return Err(MetaCellError::BadFace {
+                face: fi,
+                why: "fewer than 3 vertices",
+            });
+        }
+        let mut s = f.clone();
+        s.sort_unstable();
+        if s.windows(2).any(|w| w[0] == w[1]) {
+            return Err(MetaCellError::BadFace {
+                face: fi,
+                why: "repeated vertex",
+            });
+        }
+        for i in 0..f.len() {
+            let (a, b) = (f[i], f[(i + 1) % f.len()]);
+            if a as usize >= nv || b as usize >= nv {
+                return Err(MetaCellError::BadFace {
+                    face: fi,
+                    why: "vertex id out of range",
+                });
+            }
+            used[a as usize] = true;
+            *directed.entry((a, b)).or_default() += 1;
+        }
+    }
+    if let Some(v) = used.iter().position(|u| !u) {
+        return Err(MetaCellError::UnusedVertex(v));
+    }
+    for (&(a, b), &n) in &directed {
+        if n != 1 || directed.get(&(b, a)) != Some(&1) {
+            return Err(MetaCellError::NotClosed { a, b, count: n });
+        }
+    }
+    let mut edges: Vec<[u8; 2]> = directed
+        .keys()
+        .filter(|(a, b)| a < b)
+        .map(|&(a, b)| [a, b])
+        .collect();
+    edges.sort_unstable();
+    Ok(edges)
 }
 
 /// Pairs the crossings of one face: for each down side, the up side that
