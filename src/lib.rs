@@ -26,6 +26,7 @@ pub mod mesh;
 pub mod metacell;
 pub mod pipeline;
 pub mod properties;
+pub mod report;
 pub mod scgraph;
 pub mod structure;
 pub mod sweep;
