@@ -211,13 +211,23 @@ impl PyGrid {
     /// Names of the point (vertex) properties.
     #[getter]
     fn point_properties(&self) -> Vec<String> {
-        self.data.grid.point_data.iter().map(|p| p.name.clone()).collect()
+        self.data
+            .grid
+            .point_data
+            .iter()
+            .map(|p| p.name.clone())
+            .collect()
     }
 
     /// Names of the cell properties.
     #[getter]
     fn cell_properties(&self) -> Vec<String> {
-        self.data.grid.cell_data.iter().map(|p| p.name.clone()).collect()
+        self.data
+            .grid
+            .cell_data
+            .iter()
+            .map(|p| p.name.clone())
+            .collect()
     }
 
     /// `(xmin, xmax, ymin, ymax, zmin, zmax)`, as PyVista's `bounds`.
@@ -249,7 +259,6 @@ impl PyGrid {
     /// Slices or contours the grid with the incremental sweep.
     #[pyo3(signature = (axis=None, normal=None, property=None, count=None, values=None,
                         attribute=None, at="vertices", threads=None, structure="auto", mesh=true))]
-    #[allow(clippy::too_many_arguments)]
     fn slice(
         &self,
         py: Python<'_>,
@@ -275,7 +284,10 @@ impl PyGrid {
             "vertices" => None,
             "cells" => {
                 let name = attribute.clone().or(property.clone());
-                match name.as_deref().and_then(|n| self.data.grid.cell_property(n)) {
+                match name
+                    .as_deref()
+                    .and_then(|n| self.data.grid.cell_property(n))
+                {
                     Some(p) => Some((0..p.len()).map(|i| p.scalar_at(i)).collect::<Vec<f64>>()),
                     None => {
                         return Err(PyValueError::new_err(
@@ -309,10 +321,16 @@ impl PyGrid {
                 let noop = |_: usize| {};
                 let r = pool
                     .install(|| slice(&d.grid, &b.structure, &req, &noop))
-                    .map_err(|e| {
-                        PyValueError::new_err(format!("cannot slice {}: {e}", d.name))
-                    })?;
-                let stats = stats_json(&r, &b.structure, &d.grid, d.load_s, b.build_s, &d.name, &field);
+                    .map_err(|e| PyValueError::new_err(format!("cannot slice {}: {e}", d.name)))?;
+                let stats = stats_json(
+                    &r,
+                    &b.structure,
+                    &d.grid,
+                    d.load_s,
+                    b.build_s,
+                    &d.name,
+                    &field,
+                );
                 let mut m = r.mesh.unwrap_or_default();
                 if let Some(vals) = &flat {
                     m = flatten_by_cell(&m, vals);
@@ -333,7 +351,6 @@ impl PyGrid {
                         projection="ortho", transfer=None, unit_distance=None,
                         background=None, size=(800, 600), mode="volume", iso=None,
                         adapter=None, device="auto"))]
-    #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
         py: Python<'py>,
@@ -381,9 +398,7 @@ impl PyGrid {
         }
         let d = self.data.clone();
         py.detach(|| {
-            guard(|| {
-                crate::io::writers::write_vtk_xml_grid(&path, &d.grid).map_err(write_error)
-            })
+            guard(|| crate::io::writers::write_vtk_xml_grid(&path, &d.grid).map_err(write_error))
         })
     }
 

@@ -12,9 +12,7 @@ mod slices;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use numpy::{
-    PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
-};
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -268,7 +266,11 @@ fn faulted_corners<'py>(
     faults: usize,
     fault_dip: Option<f64>,
     seed: u64,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<u8>>, Bound<'py, PyDict>)> {
+) -> PyResult<(
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<u8>>,
+    Bound<'py, PyDict>,
+)> {
     let cp = faulted_cp(dims, faults, fault_dip, seed)?;
     let [ni, nj, nk] = dims;
     let (corners, actnum) = py.detach(|| {

@@ -142,10 +142,23 @@ fn adapter_for(device: &str, adapter: Option<String>) -> PyResult<Option<String>
         Some(a) => Ok(Some(a.name.clone())),
         None => Err(PyRuntimeError::new_err(format!(
             "device='{device}': no {} adapter{} among [{}]; device='auto' takes any adapter{}",
-            if want_software { "software (CPU)" } else { "hardware GPU" },
-            adapter.map(|w| format!(" matching '{w}'")).unwrap_or_default(),
-            all.iter().map(|a| format!("{} [{}]", a.name, a.device_type)).collect::<Vec<_>>().join(", "),
-            if want_software { " (install Mesa's software Vulkan: apt install mesa-vulkan-drivers)" } else { "" },
+            if want_software {
+                "software (CPU)"
+            } else {
+                "hardware GPU"
+            },
+            adapter
+                .map(|w| format!(" matching '{w}'"))
+                .unwrap_or_default(),
+            all.iter()
+                .map(|a| format!("{} [{}]", a.name, a.device_type))
+                .collect::<Vec<_>>()
+                .join(", "),
+            if want_software {
+                " (install Mesa's software Vulkan: apt install mesa-vulkan-drivers)"
+            } else {
+                ""
+            },
         ))),
     }
 }

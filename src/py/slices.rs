@@ -98,7 +98,11 @@ impl PySlices {
     fn level_values<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         let v: Vec<f64> = self.data.stats["slices"]
             .as_array()
-            .map(|a| a.iter().map(|s| s["value"].as_f64().unwrap_or(f64::NAN)).collect())
+            .map(|a| {
+                a.iter()
+                    .map(|s| s["value"].as_f64().unwrap_or(f64::NAN))
+                    .collect()
+            })
             .unwrap_or_default();
         PyArray1::from_vec(py, v)
     }
@@ -106,7 +110,10 @@ impl PySlices {
     /// Name of the interpolated attribute carried in `values`.
     #[getter]
     fn attribute(&self) -> String {
-        self.data.stats["attribute"].as_str().unwrap_or("").to_string()
+        self.data.stats["attribute"]
+            .as_str()
+            .unwrap_or("")
+            .to_string()
     }
 
     /// Number of polygons.
@@ -124,7 +131,10 @@ impl PySlices {
     /// Writes the polygons: `.ply` (binary) or `.vtp` (VTK XML PolyData).
     fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
         let m = self.mesh()?;
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
         let ply = match ext.as_deref() {
             Some("ply") => true,
             Some("vtp") => false,

@@ -42,13 +42,16 @@ pub fn grid_from_arrays(
         msg,
     };
     // Padded layout to offsets + compact connectivity.
-    let mut offsets = Vec::with_capacity(n + 1);
+    let mut offsets: Vec<usize> = Vec::with_capacity(n + 1);
     let mut conn: Vec<i64> = Vec::with_capacity(a.cells.len().saturating_sub(n));
     offsets.push(0usize);
     let mut pos = 0usize;
     for c in 0..n {
         let Some(&k) = a.cells.get(pos) else {
-            return Err(bad(c, format!("the cell array ends before cell {c} of {n}")));
+            return Err(bad(
+                c,
+                format!("the cell array ends before cell {c} of {n}"),
+            ));
         };
         let k = usize::try_from(k).map_err(|_| bad(c, format!("negative point count {k}")))?;
         let ids = a.cells.get(pos + 1..pos + 1 + k).ok_or_else(|| {
@@ -91,7 +94,6 @@ pub fn grid_from_arrays(
     let mut points = a.points.to_vec();
     let mut cell_data = cell_data;
     let mut types = a.celltypes.to_vec();
-    let mut offsets = offsets;
     if merge_points {
         let (p, remap) = weld(&points);
         points = p;
@@ -176,7 +178,11 @@ const HEX_FACES: [[usize; 4]; 6] = [
 /// Hexahedra with repeated corners become polyhedra of their faces (each
 /// face's repeats dropped, faces of fewer than three corners dropped), or
 /// are flagged to hide when fewer than four corners or four faces remain.
-fn fix_collapsed_hexes(types: &mut [i64], offsets: &mut Vec<usize>, conn: &mut Vec<i64>) -> Vec<bool> {
+fn fix_collapsed_hexes(
+    types: &mut [i64],
+    offsets: &mut Vec<usize>,
+    conn: &mut Vec<i64>,
+) -> Vec<bool> {
     let n = types.len();
     let mut hidden = vec![false; n];
     if !types.iter().any(|&t| t == i64::from(vtk_type::HEXAHEDRON)) {
