@@ -26,6 +26,9 @@ pub mod mesh;
 pub mod metacell;
 pub mod pipeline;
 pub mod properties;
+#[cfg(feature = "python")]
+pub mod py;
+pub mod report;
 pub mod scgraph;
 pub mod structure;
 pub mod sweep;

@@ -11,11 +11,11 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 
 use stratasweep::field::{FieldSpec, levels_by_range};
-use stratasweep::grid::{Grid, Topology, vtk_type};
+use stratasweep::grid::{Grid, Topology};
 use stratasweep::pipeline::{
     LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice, slice,
 };
-use stratasweep::structure::CELL_CLASS_NAMES;
+use stratasweep::report::{flatten_by_cell, memory_json, stats_json};
 use stratasweep::sweep::SweepOptions;
 use stratasweep::{generate, io};
 
@@ -160,36 +160,6 @@ struct SliceArgs {
 enum AtArg {
     Vertices,
     Cells,
-}
-
-/// One value per polygon from its source cell: every polygon gets its own
-/// copies of its vertices, all carrying the cell's value.
-fn flatten_by_cell(
-    m: &stratasweep::mesh::PolyMesh,
-    cell_values: &[f64],
-) -> stratasweep::mesh::PolyMesh {
-    let mut out = stratasweep::mesh::PolyMesh {
-        origin: m.origin,
-        property_name: m.property_name.clone(),
-        poly_level: m.poly_level.clone(),
-        level_values: m.level_values.clone(),
-        poly_cell: m.poly_cell.clone(),
-        ..Default::default()
-    };
-    out.poly_offsets.push(0);
-    for p in 0..m.polygon_count() {
-        let v = cell_values
-            .get(m.poly_cell[p] as usize)
-            .copied()
-            .unwrap_or(f64::NAN) as f32;
-        for &i in m.polygon(p) {
-            out.poly_indices.push(out.positions.len() as u32);
-            out.positions.push(m.positions[i as usize]);
-            out.values.push(v);
-        }
-        out.poly_offsets.push(out.poly_indices.len() as u32);
-    }
-    out
 }
 
 #[derive(Subcommand)]
@@ -467,53 +437,6 @@ fn bar(quiet: bool, len: u64, msg: &str) -> ProgressBar {
     pb
 }
 
-fn type_name(t: u8) -> &'static str {
-    match t {
-        vtk_type::TETRA => "tetrahedron",
-        vtk_type::VOXEL => "voxel",
-        vtk_type::HEXAHEDRON => "hexahedron",
-        vtk_type::WEDGE => "wedge",
-        vtk_type::PYRAMID => "pyramid",
-        vtk_type::PENTAGONAL_PRISM => "pentagonal_prism",
-        vtk_type::HEXAGONAL_PRISM => "hexagonal_prism",
-        vtk_type::POLYHEDRON => "polyhedron",
-        1 => "vertex",
-        2 => "poly_vertex",
-        3 => "line",
-        4 => "poly_line",
-        5 => "triangle",
-        6 => "triangle_strip",
-        7 => "polygon",
-        8 => "pixel",
-        9 => "quad",
-        _ => "other",
-    }
-}
-
-fn memory_json(s: &Structure, grid: &Grid) -> (Value, usize) {
-    let mut m = serde_json::Map::new();
-    let mut total = 0;
-    for (k, v) in s.bytes() {
-        m.insert(k.to_string(), json!(v));
-        total += v;
-    }
-    // One f32 property per vertex, as the sweep holds it.
-    let prop = grid.points.len() * 4;
-    m.insert("property_f32".into(), json!(prop));
-    total += prop;
-    // Step stamps (u16 per slot; CIEL: u32 per cell), allocated per sweep.
-    let stamps = s.slot_count()
-        * if matches!(s, Structure::Ciel(_)) {
-            4
-        } else {
-            2
-        };
-    m.insert("stamps".into(), json!(stamps));
-    total += stamps;
-    m.insert("total".into(), json!(total));
-    (Value::Object(m), total)
-}
-
 fn cmd_info(a: InfoArgs) -> Result<()> {
     let cpu0 = process_cpu_ns();
     let (grid, name, load_s, cp) = load_with_info(&a.input, true)?;
@@ -527,112 +450,23 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         (Some(a), Some(b)) => Some(b.saturating_sub(a) as f64 * 1e-9),
         _ => None,
     };
-    let bulk_volume = match &cp {
-        Some(i) => i["bulk_volume"].as_f64().unwrap_or(0.0),
-        None => live_volume(&s),
-    };
-    let mut types = serde_json::Map::new();
-    match &grid.topology {
-        Topology::Structured { .. } => {
-            types.insert("hexahedron".into(), json!(grid.cell_count()));
-        }
-        Topology::Unstructured(c) => {
-            let mut counts = std::collections::BTreeMap::new();
-            for &t in &c.types {
-                *counts.entry(type_name(t)).or_insert(0usize) += 1;
-            }
-            for (k, v) in counts {
-                types.insert(k.into(), json!(v));
-            }
-        }
-    }
-    let (classes, catalog, hidden) = match &s {
-        Structure::SCGraph(g) => (
-            g.class_counts,
-            catalog_json(
-                stratasweep::sweep::CellGraph::catalog(g),
-                &hex_only(grid.cell_count()),
-            ),
-            grid.hidden_cells()
-                .map_or(0, |h| h.iter().filter(|&&x| x).count()),
-        ),
-        Structure::CGraph(g) => (
-            g.class_counts,
-            catalog_json(&g.catalog, &g.meta_counts),
-            g.hidden_count,
-        ),
-        Structure::Ciel(g) => (g.counts.class_counts, json!([]), g.counts.hidden),
-    };
-    let ciel = match &s {
-        Structure::Ciel(g) => json!({
-            "half_edges": g.half_edge_count(),
-            "bytes_per_half_edge": stratasweep::ciel::BYTES_PER_HALF_EDGE,
-            // With the vertex cycles (CSR of representatives) counted in.
-            "bytes_per_half_edge_with_vertex_cycles": g.bytes().iter()
-                .filter(|(k, _)| *k == "half_edges" || *k == "vertex_edges")
-                .map(|(_, v)| *v).sum::<usize>() as f64 / g.half_edge_count() as f64,
-            "edges": g.counts.edges,
-            "faces": g.counts.faces,
-            "border_half_edges": g.counts.border_half_edges,
-            "flipped_faces": g.counts.flipped_faces,
-            "non_convex_cells": g.counts.non_convex,
-            "convexity_tolerance": stratasweep::ciel::CONVEXITY_TOLERANCE,
-        }),
-        _ => Value::Null,
-    };
-    let (mem, total) = memory_json(&s, &grid);
-    let nv = grid.points.len();
-    let nc = grid.cell_count();
-    // The paper's split: per-vertex arrays (positions, one f32 property)
-    // against everything held per cell (connectivity, stamps, tables).
-    let vertex_part = ["positions", "property_f32"]
-        .iter()
-        .map(|k| mem[*k].as_u64().unwrap_or(0) as usize)
-        .sum::<usize>();
-    let cell_part = total - vertex_part;
-    let (lo, hi) = grid.bounds();
-    let out = json!({
-        "file": name,
-        "structure": s.name(),
-        "vertices": nv,
-        "cells": nc,
-        "live_cells": s.live_cells(),
-        "hidden_cells": hidden,
-        "cell_types": types,
-        "cell_classes": CELL_CLASS_NAMES.iter().zip(classes).map(|(k, v)| (k.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
-        "meta_cells": catalog,
-        "bounds": {"min": lo, "max": hi},
-        "point_properties": grid.point_data.iter().map(|p| &p.name).collect::<Vec<_>>(),
-        "cell_properties": grid.cell_data.iter().map(|p| &p.name).collect::<Vec<_>>(),
-        "memory_bytes": mem,
-        "bytes_per_vertex": total as f64 / nv as f64,
-        "bytes_per_cell": total as f64 / nc as f64,
-        "bytes_split": {
-            "per_vertex": vertex_part as f64 / nv as f64,
-            "per_cell": cell_part as f64 / nc as f64,
+    let out = stratasweep::report::info_json(
+        &grid,
+        &s,
+        &stratasweep::report::InfoContext {
+            name: name.clone(),
+            cornerpoint: cp.clone(),
+            load_s,
+            build_s,
+            load_cpu_s: cpu_s(cpu0, cpu1),
+            build_cpu_s: cpu_s(cpu1, cpu2),
         },
-        "timings_s": {"load": load_s, "build": build_s},
-        "cpu_s": {"load": cpu_s(cpu0, cpu1), "build": cpu_s(cpu1, cpu2)},
-        "bulk_volume": bulk_volume,
-        "cornerpoint": cp,
-    });
-    let mut out = out;
-    if let Structure::Ciel(g) = &s {
-        out["half_edges"] = json!(g.half_edge_count());
-        out["ciel"] = ciel;
-    }
-    // Non-convex polyhedra split into convex pieces before building.
-    out["convex_split"] = s.split().map_or(Value::Null, |m| {
-        let r = &m.report;
-        json!({
-            "non_convex_cells": r.non_convex,
-            "pieces": r.pieces,
-            "triangulated_faces": r.triangulated_faces,
-            "kept_faces": r.kept_faces,
-            "new_vertices": r.new_vertices,
-            "vertex_pulled": r.vertex_pulled,
-        })
-    });
+    );
+    let (nv, nc) = (grid.points.len(), grid.cell_count());
+    let (hidden, bulk_volume) = (&out["hidden_cells"], &out["bulk_volume"]);
+    let (lo, hi) = grid.bounds();
+    let total = out["memory_bytes"]["total"].as_f64().unwrap_or(0.0);
+    let split = &out["bytes_split"];
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
@@ -676,10 +510,10 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     println!(
         "  structure     {} ({:.1} B/vertex, {:.1} B/cell in all; split {:.1} B/vertex + {:.1} B/cell)",
         s.name(),
-        total as f64 / nv as f64,
-        total as f64 / nc as f64,
-        vertex_part as f64 / nv as f64,
-        cell_part as f64 / nc as f64
+        total / nv as f64,
+        total / nc as f64,
+        split["per_vertex"].as_f64().unwrap_or(0.0),
+        split["per_cell"].as_f64().unwrap_or(0.0)
     );
     for (k, v) in out["memory_bytes"].as_object().unwrap() {
         println!("    {k:<30} {v}");
@@ -691,72 +525,6 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         println!("  convex split  {}", out["convex_split"]);
     }
     Ok(())
-}
-
-/// Sum of |volume| of the live cells, from their meta-cells (exact for
-/// planar faces), in world units³.
-fn live_volume(s: &Structure) -> f64 {
-    use stratasweep::sweep::CellGraph;
-    fn sum<G: CellGraph>(g: &G) -> f64 {
-        let pos = g.positions();
-        let mut ids = [0u32; stratasweep::metacell::MAX_META_VERTICES];
-        let mut v = 0.0;
-        for c in 0..g.slot_count() as u32 {
-            if g.is_live(c) {
-                let (m, _) = g.cell(c, &mut ids);
-                let p0 = pos[ids[0] as usize];
-                v += g
-                    .catalog()
-                    .get(m)
-                    .signed_volume(&|k| {
-                        let p = pos[ids[k] as usize];
-                        [0, 1, 2].map(|a| (p[a] - p0[a]) as f64)
-                    })
-                    .abs();
-            }
-        }
-        v
-    }
-    match s {
-        Structure::SCGraph(g) => sum(g),
-        Structure::CGraph(g) => sum(g),
-        Structure::Ciel(g) => (0..g.cell_count() as u32)
-            .filter(|&c| g.is_live(c))
-            .map(|c| g.cell_volume(c).abs())
-            .sum(),
-    }
-}
-
-/// Cells per meta-cell id for a grid of `n` hexahedra (S-CGraph).
-fn hex_only(n: usize) -> Vec<usize> {
-    let mut v = vec![0; stratasweep::metacell::builtin::HEXAHEDRON as usize + 1];
-    v[stratasweep::metacell::builtin::HEXAHEDRON as usize] = n;
-    v
-}
-
-/// The catalog's meta-cells that have cells, with their tables and counts.
-fn catalog_json(c: &stratasweep::metacell::Catalog, counts: &[usize]) -> Value {
-    let used = |i: usize| counts.get(i).is_some_and(|&n| n > 0);
-    Value::Array(
-        c.metas
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| used(*i))
-            .map(|(i, m)| {
-                json!({
-                    "name": m.name,
-                    "vertices": m.nv,
-                    "faces": m.faces.len(),
-                    "edges": m.edges.len(),
-                    "codes": m.code_count(),
-                    "ambiguous_codes": (0..m.code_count()).filter(|&c| m.config_is_ambiguous(c)).count(),
-                    "loops": m.config_size.len(),
-                    "table_bytes": m.table_bytes(),
-                    "cells": counts[i],
-                })
-            })
-            .collect(),
-    )
 }
 
 fn parse_triplet(s: &str, what: &str) -> Result<[f64; 3]> {
@@ -823,49 +591,6 @@ fn level_spec(l: &LevelArgs) -> Result<LevelSpec> {
         bail!("--values '{s}' gives {} levels; that is too many", v.len());
     }
     Ok(LevelSpec::Values(v))
-}
-
-fn stats_json(
-    r: &SliceResult,
-    s: &Structure,
-    grid: &Grid,
-    load: f64,
-    build: f64,
-    file: &str,
-    field: &FieldSpec,
-) -> Value {
-    let slices: Vec<Value> = r
-        .stats
-        .iter()
-        .enumerate()
-        .map(|(k, st)| {
-            json!({"index": k, "value": r.level_values[k], "cells": st.cells, "visited": st.visited,
-                   "polygons": st.polygons, "triangles": st.triangles, "area": st.area})
-        })
-        .collect();
-    let sum =
-        |f: &dyn Fn(&stratasweep::sweep::LevelStats) -> f64| r.stats.iter().map(f).sum::<f64>();
-    let (mut mem, _) = memory_json(s, grid);
-    let total = mem["total"].as_u64().unwrap_or(0) + r.sweep_state_bytes as u64;
-    mem["sweep_state"] = json!(r.sweep_state_bytes);
-    mem["total"] = json!(total);
-    json!({
-        "file": file,
-        "structure": s.name(),
-        "field": format!("{field:?}"),
-        "attribute": r.attribute_name,
-        "vertices": grid.points.len(),
-        "cells": grid.cell_count(),
-        "minima": r.minima,
-        "slices": slices,
-        "totals": {
-            "cells": sum(&|s| s.cells as f64) as u64, "visited": sum(&|s| s.visited as f64) as u64,
-            "polygons": sum(&|s| s.polygons as f64) as u64, "triangles": sum(&|s| s.triangles as f64) as u64,
-            "area": sum(&|s| s.area),
-        },
-        "memory_bytes": mem,
-        "timings_s": {"load": load, "build": build, "field": r.timings.field, "minima": r.timings.minima, "sweep": r.timings.sweep},
-    })
 }
 
 fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {

@@ -32,9 +32,12 @@
 //! [`crate::grid::Cells::push_polyhedron`], the sorted unique point ids of their
 //! faces as connectivity.
 
+mod arrays;
 mod common;
 mod legacy;
 mod xml;
+
+pub use arrays::{UnstructuredArrays, grid_from_arrays, grid_from_structured};
 
 use crate::grid::{Grid, GridError};
 use std::path::Path;

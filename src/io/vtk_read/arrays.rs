@@ -1,0 +1,257 @@
+//! Grids from in-memory arrays in VTK's layout (what PyVista holds): an
+//! unstructured grid's padded cell array (`n, id0, …, n, …`, a polyhedron's
+//! entry being its legacy face stream `nf, n0, ids…, n1, ids…`) with one
+//! VTK type per cell, or a structured grid's point dims. Checked as the
+//! file readers check (ids in range, counts, finite points); errors name
+//! `what` (e.g. `from_arrays`) in place of a file.
+
+use std::collections::HashMap;
+
+use super::VtkReadError;
+use super::common::{PolyFaces, build_cells, finish};
+use crate::grid::{GHOST_HIDDEN_CELL, Grid, Property, Topology, vtk_type};
+
+/// An unstructured grid in VTK's arrays.
+#[derive(Clone, Copy, Debug)]
+pub struct UnstructuredArrays<'a> {
+    /// Points, `x y z` each.
+    pub points: &'a [[f64; 3]],
+    /// Padded cells: per cell its count, then its ids (or face stream).
+    pub cells: &'a [i64],
+    /// VTK type per cell.
+    pub celltypes: &'a [i64],
+}
+
+/// Builds an unstructured grid from VTK's arrays with its properties. With
+/// `merge_points`, exactly coincident points become one (grids whose cells
+/// each own their corners, as an explicit structured grid's), and a
+/// hexahedron whose corners then repeat is hidden (`vtkGhostType`) when
+/// its faces do not enclose a polyhedron of four or more distinct corners,
+/// else turned into that polyhedron.
+pub fn grid_from_arrays(
+    a: UnstructuredArrays<'_>,
+    point_data: Vec<Property>,
+    cell_data: Vec<Property>,
+    merge_points: bool,
+    what: &str,
+) -> Result<Grid, VtkReadError> {
+    let n = a.celltypes.len();
+    let bad = |cell: usize, msg: String| VtkReadError::Cell {
+        file: what.to_string(),
+        cell,
+        msg,
+    };
+    // Padded layout to offsets + compact connectivity.
+    let mut offsets: Vec<usize> = Vec::with_capacity(n + 1);
+    let mut conn: Vec<i64> = Vec::with_capacity(a.cells.len().saturating_sub(n));
+    offsets.push(0usize);
+    let mut pos = 0usize;
+    for c in 0..n {
+        let Some(&k) = a.cells.get(pos) else {
+            return Err(bad(
+                c,
+                format!("the cell array ends before cell {c} of {n}"),
+            ));
+        };
+        let k = usize::try_from(k).map_err(|_| bad(c, format!("negative point count {k}")))?;
+        let ids = a.cells.get(pos + 1..pos + 1 + k).ok_or_else(|| {
+            bad(
+                c,
+                format!("point count {k} runs past the end of the cell array"),
+            )
+        })?;
+        conn.extend_from_slice(ids);
+        offsets.push(conn.len());
+        pos += 1 + k;
+    }
+    if pos != a.cells.len() {
+        return Err(VtkReadError::Cell {
+            file: what.to_string(),
+            cell: n,
+            msg: format!(
+                "{} values left in the cell array after {n} cells (celltypes has {n} entries)",
+                a.cells.len() - pos
+            ),
+        });
+    }
+    let np = a.points.len() as i64;
+    if let Some(c) = (0..n).find(|&c| {
+        a.celltypes[c] != i64::from(vtk_type::POLYHEDRON)
+            && conn[offsets[c]..offsets[c + 1]]
+                .iter()
+                .any(|&v| v < 0 || v >= np)
+    }) {
+        let v = conn[offsets[c]..offsets[c + 1]]
+            .iter()
+            .find(|&&v| v < 0 || v >= np)
+            .copied()
+            .unwrap_or(0);
+        return Err(bad(
+            c,
+            format!("point id {v} is out of range ({np} points)"),
+        ));
+    }
+    let mut points = a.points.to_vec();
+    let mut cell_data = cell_data;
+    let mut types = a.celltypes.to_vec();
+    if merge_points {
+        let (p, remap) = weld(&points);
+        points = p;
+        for v in conn.iter_mut() {
+            if let Ok(i) = usize::try_from(*v)
+                && i < remap.len()
+            {
+                *v = i64::from(remap[i]);
+            }
+        }
+        let hidden = fix_collapsed_hexes(&mut types, &mut offsets, &mut conn);
+        if hidden.iter().any(|&h| h) {
+            hide(&mut cell_data, &hidden);
+        }
+    }
+    let cells = build_cells(
+        &types,
+        &offsets,
+        &conn,
+        PolyFaces::<i64>::InConnectivity,
+        what,
+    )?;
+    finish(
+        Grid {
+            points,
+            topology: Topology::Unstructured(cells),
+            point_data,
+            cell_data,
+        },
+        what,
+    )
+}
+
+/// Builds a structured (curvilinear) grid from its point dims and points
+/// (I fastest, then J, then K).
+pub fn grid_from_structured(
+    dims: [usize; 3],
+    points: Vec<[f64; 3]>,
+    point_data: Vec<Property>,
+    cell_data: Vec<Property>,
+    what: &str,
+) -> Result<Grid, VtkReadError> {
+    finish(
+        Grid {
+            points,
+            topology: Topology::Structured { dims },
+            point_data,
+            cell_data,
+        },
+        what,
+    )
+}
+
+/// Exactly coincident points merged, in first-use order: the new points
+/// and the new id of every old point.
+fn weld(points: &[[f64; 3]]) -> (Vec<[f64; 3]>, Vec<u32>) {
+    let key = |p: &[f64; 3]| p.map(|c| if c == 0.0 { 0 } else { c.to_bits() });
+    let mut seen: HashMap<[u64; 3], u32> = HashMap::with_capacity(points.len() / 4);
+    let mut out = Vec::new();
+    let remap = points
+        .iter()
+        .map(|p| {
+            *seen.entry(key(p)).or_insert_with(|| {
+                out.push(*p);
+                (out.len() - 1) as u32
+            })
+        })
+        .collect();
+    (out, remap)
+}
+
+/// VTK hexahedron faces, outward for a positive hexahedron.
+const HEX_FACES: [[usize; 4]; 6] = [
+    [0, 3, 2, 1],
+    [4, 5, 6, 7],
+    [0, 1, 5, 4],
+    [1, 2, 6, 5],
+    [2, 3, 7, 6],
+    [3, 0, 4, 7],
+];
+
+/// Hexahedra with repeated corners become polyhedra of their faces (each
+/// face's repeats dropped, faces of fewer than three corners dropped), or
+/// are flagged to hide when fewer than four corners or four faces remain.
+fn fix_collapsed_hexes(
+    types: &mut [i64],
+    offsets: &mut Vec<usize>,
+    conn: &mut Vec<i64>,
+) -> Vec<bool> {
+    let n = types.len();
+    let mut hidden = vec![false; n];
+    if !types.iter().any(|&t| t == i64::from(vtk_type::HEXAHEDRON)) {
+        return hidden;
+    }
+    let mut new_conn = Vec::with_capacity(conn.len());
+    let mut new_off = Vec::with_capacity(n + 1);
+    new_off.push(0);
+    for c in 0..n {
+        let ids = &conn[offsets[c]..offsets[c + 1]];
+        let mut distinct = ids.to_vec();
+        distinct.sort_unstable();
+        distinct.dedup();
+        if types[c] != i64::from(vtk_type::HEXAHEDRON) || ids.len() != 8 || distinct.len() == 8 {
+            new_conn.extend_from_slice(ids);
+            new_off.push(new_conn.len());
+            continue;
+        }
+        let mut faces: Vec<Vec<i64>> = Vec::new();
+        for f in HEX_FACES {
+            let mut loop_: Vec<i64> = Vec::with_capacity(4);
+            for k in f {
+                let v = ids[k];
+                if loop_.last() != Some(&v) {
+                    loop_.push(v);
+                }
+            }
+            while loop_.len() > 1 && loop_.first() == loop_.last() {
+                loop_.pop();
+            }
+            let mut d = loop_.clone();
+            d.sort_unstable();
+            d.dedup();
+            if d.len() >= 3 && d.len() == loop_.len() {
+                faces.push(loop_);
+            }
+        }
+        if distinct.len() < 4 || faces.len() < 4 {
+            hidden[c] = true;
+            new_conn.extend_from_slice(ids);
+        } else {
+            types[c] = i64::from(vtk_type::POLYHEDRON);
+            new_conn.push(faces.len() as i64);
+            for f in faces {
+                new_conn.push(f.len() as i64);
+                new_conn.extend(f);
+            }
+        }
+        new_off.push(new_conn.len());
+    }
+    *conn = new_conn;
+    *offsets = new_off;
+    hidden
+}
+
+/// Sets the hidden bit of `vtkGhostType` for the flagged cells (adding the
+/// array when there is none).
+fn hide(cell_data: &mut Vec<Property>, hidden: &[bool]) {
+    let i = match cell_data.iter().position(|p| p.name == "vtkGhostType") {
+        Some(i) => i,
+        None => {
+            cell_data.push(Property::scalar("vtkGhostType", vec![0.0; hidden.len()]));
+            cell_data.len() - 1
+        }
+    };
+    let g = &mut cell_data[i];
+    for (c, &h) in hidden.iter().enumerate() {
+        if h && c < g.values.len() {
+            g.values[c] = f64::from(g.values[c] as u8 | GHOST_HIDDEN_CELL);
+        }
+    }
+}

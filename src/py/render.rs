@@ -1,0 +1,245 @@
+//! `Grid.render`: the offscreen renderer on an adapter chosen by `device`
+//! (`auto`: the best adapter, real GPUs before software rasterisers;
+//! `gpu`: a hardware adapter only; `cpu`: a software rasteriser only, e.g.
+//! Mesa's llvmpipe), returning straight RGBA as an `(H, W, 4)` array.
+
+use numpy::IntoPyArray;
+use numpy::ndarray::Array3;
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+
+use crate::gpu::context::{ContextOptions, GpuContext};
+use crate::gpu::render::{Mode, RenderError, RenderOptions, Renderer, Transfer};
+use crate::pipeline::StructureChoice;
+
+use super::errors::{gpu_error, guard, value_error};
+use super::grid::GridData;
+
+/// An adapter as wgpu lists it.
+pub struct AdapterInfo {
+    /// Name with backend, as `GpuContext` names it.
+    pub name: String,
+    /// Backend (`Vulkan`, `Gl`, ...).
+    pub backend: String,
+    /// `DiscreteGpu`, `IntegratedGpu`, `VirtualGpu`, `Cpu` or `Other`.
+    pub device_type: String,
+}
+
+/// Every adapter of the backends `WGPU_BACKEND` allows (default: all).
+pub fn list_adapters() -> Vec<AdapterInfo> {
+    let desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    let backends = desc.backends;
+    let instance = wgpu::Instance::new(desc);
+    pollster::block_on(instance.enumerate_adapters(backends))
+        .iter()
+        .map(|a| {
+            let i = a.get_info();
+            AdapterInfo {
+                name: format!("{} ({:?})", i.name, i.backend),
+                backend: format!("{:?}", i.backend),
+                device_type: format!("{:?}", i.device_type),
+            }
+        })
+        .collect()
+}
+
+/// The arguments of `Grid.render`, as Python gave them.
+pub struct RenderArgs<'a, 'py> {
+    /// Property shown.
+    pub property: Option<String>,
+    /// Slice count.
+    pub slices: usize,
+    /// View direction.
+    pub view_dir: [f64; 3],
+    /// Up vector.
+    pub up: Option<[f64; 3]>,
+    /// `ortho` or `perspective`.
+    pub projection: String,
+    /// Colormap name, JSON file path, or dict `{"points": [...]}`.
+    pub transfer: Option<&'a Bound<'py, PyAny>>,
+    /// Unit distance of the opacities.
+    pub unit_distance: Option<f64>,
+    /// `(r, g, b, a)` in [0, 1] or `"transparent"`.
+    pub background: Option<&'a Bound<'py, PyAny>>,
+    /// `(width, height)`.
+    pub size: (u32, u32),
+    /// `volume`, `slices` or `iso`.
+    pub mode: String,
+    /// Isovalues.
+    pub iso: Vec<f64>,
+    /// Adapter name substring.
+    pub adapter: Option<String>,
+    /// `auto`, `gpu` or `cpu`.
+    pub device: String,
+}
+
+fn transfer_of(t: Option<&Bound<'_, PyAny>>) -> PyResult<(Option<Transfer>, String)> {
+    let Some(t) = t else {
+        return Ok((None, "viridis".into()));
+    };
+    if let Ok(s) = t.extract::<String>() {
+        if s.ends_with(".json") {
+            let text = std::fs::read_to_string(&s).map_err(|e| {
+                super::errors::os_error(format!("cannot read the transfer function {s}: {e}"), &e)
+            })?;
+            let tf = Transfer::from_json(&text)
+                .map_err(|e| PyValueError::new_err(format!("in {s}: {e}")))?;
+            return Ok((Some(tf), String::new()));
+        }
+        return Ok((None, s));
+    }
+    let text: String = t
+        .py()
+        .import("json")?
+        .call_method1("dumps", (t,))?
+        .extract()?;
+    let tf = Transfer::from_json(&text).map_err(|e| value_error(&e))?;
+    Ok((Some(tf), String::new()))
+}
+
+fn background_of(b: Option<&Bound<'_, PyAny>>) -> PyResult<Option<[f32; 4]>> {
+    let Some(b) = b else {
+        return Ok(Some([1.0; 4]));
+    };
+    if let Ok(s) = b.extract::<String>() {
+        if s.eq_ignore_ascii_case("transparent") {
+            return Ok(None);
+        }
+        return Err(PyValueError::new_err(format!(
+            "background '{s}': expected (r, g, b, a) in [0, 1] or 'transparent'"
+        )));
+    }
+    let v: Vec<f32> = b.extract()?;
+    if v.len() != 4 || v.iter().any(|c| !(0.0..=1.0).contains(c)) {
+        return Err(PyValueError::new_err(format!(
+            "background {v:?}: expected four values in [0, 1] (r, g, b, a) or 'transparent'"
+        )));
+    }
+    Ok(Some([v[0], v[1], v[2], v[3]]))
+}
+
+/// The adapter name to ask for: `device` narrows the choice to hardware
+/// (`gpu`) or software (`cpu`) adapters; `auto` leaves it to `GpuContext`.
+fn adapter_for(device: &str, adapter: Option<String>) -> PyResult<Option<String>> {
+    let want_software = match device {
+        "auto" => return Ok(adapter),
+        "gpu" => false,
+        "cpu" => true,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "device '{device}': expected 'auto', 'gpu' or 'cpu'"
+            )));
+        }
+    };
+    let all = list_adapters();
+    let found = all.iter().find(|a| {
+        (a.device_type == "Cpu") == want_software
+            && adapter
+                .as_ref()
+                .is_none_or(|w| a.name.to_lowercase().contains(&w.to_lowercase()))
+    });
+    match found {
+        Some(a) => Ok(Some(a.name.clone())),
+        None => Err(PyRuntimeError::new_err(format!(
+            "device='{device}': no {} adapter{} among [{}]; device='auto' takes any adapter{}",
+            if want_software {
+                "software (CPU)"
+            } else {
+                "hardware GPU"
+            },
+            adapter
+                .map(|w| format!(" matching '{w}'"))
+                .unwrap_or_default(),
+            all.iter()
+                .map(|a| format!("{} [{}]", a.name, a.device_type))
+                .collect::<Vec<_>>()
+                .join(", "),
+            if want_software {
+                " (install Mesa's software Vulkan: apt install mesa-vulkan-drivers)"
+            } else {
+                ""
+            },
+        ))),
+    }
+}
+
+/// Renders on the GPU without the GIL.
+pub fn render<'py>(
+    py: Python<'py>,
+    data: &std::sync::Arc<GridData>,
+    a: RenderArgs<'_, 'py>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let (transfer, colormap) = transfer_of(a.transfer)?;
+    let background = background_of(a.background)?;
+    let mode = match a.mode.as_str() {
+        "volume" => Mode::Volume,
+        "slices" => Mode::Slices,
+        "iso" => Mode::Iso,
+        m => {
+            return Err(PyValueError::new_err(format!(
+                "mode '{m}': expected 'volume', 'slices' or 'iso'"
+            )));
+        }
+    };
+    if mode == Mode::Iso && a.iso.is_empty() {
+        return Err(PyValueError::new_err("mode='iso' needs iso values"));
+    }
+    let perspective = match a.projection.as_str() {
+        "ortho" => false,
+        "perspective" => true,
+        p => {
+            return Err(PyValueError::new_err(format!(
+                "projection '{p}': expected 'ortho' or 'perspective'"
+            )));
+        }
+    };
+    let (w, h) = a.size;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(PyValueError::new_err(format!(
+            "size {:?}: each side must be 1..=16384",
+            a.size
+        )));
+    }
+    let opts = RenderOptions {
+        property: a.property,
+        slices: a.slices,
+        view_dir: a.view_dir,
+        up: a.up,
+        perspective,
+        transfer,
+        colormap,
+        unit_distance: a.unit_distance,
+        background,
+        size: a.size,
+        mode,
+        iso: a.iso,
+    };
+    let adapter = adapter_for(&a.device, a.adapter)?;
+    let d = data.clone();
+    let rgba = py.detach(move || {
+        guard(|| {
+            let b = d.structure(StructureChoice::Auto)?;
+            let ctx = GpuContext::new(&ContextOptions {
+                adapter,
+                limits: None,
+            })
+            .map_err(|e| gpu_error(&e))?;
+            let mut r = Renderer::new(&ctx).map_err(render_error)?;
+            let img = r
+                .render(&d.grid, &b.structure, &opts)
+                .map_err(render_error)?;
+            Ok(img.rgba8())
+        })
+    })?;
+    let arr = Array3::from_shape_vec((h as usize, w as usize, 4), rgba)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    Ok(arr.into_pyarray(py).into_any())
+}
+
+/// Options and pipeline refusals are `ValueError`; GPU faults `RuntimeError`.
+fn render_error(e: RenderError) -> PyErr {
+    match e {
+        RenderError::Gpu(g) => gpu_error(&g),
+        other => value_error(&other),
+    }
+}

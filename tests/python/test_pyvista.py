@@ -1,0 +1,109 @@
+"""PyVista round trips: to_pyvista() areas equal PyVista's own cell sizes;
+from_pyvista on PyVista's example grids slices to the areas of
+pyvista's own slice (VTK's cutter)."""
+
+import numpy as np
+import pytest
+
+import stratasweep
+
+pv = pytest.importorskip("pyvista", reason="SKIP: pyvista is not installed (pip install pyvista)")
+from pyvista import examples  # noqa: E402
+
+
+def level_areas(poly, levels):
+    """Per level, the area of the polygons of that level (PyVista's sizes)."""
+    sizes = poly.compute_cell_sizes(length=False, volume=False)
+    area = np.asarray(sizes.cell_data["Area"])
+    return np.bincount(np.asarray(poly.cell_data["level"]), weights=area, minlength=levels)
+
+
+def test_to_pyvista_areas_equal_compute_cell_sizes():
+    grid = stratasweep.generate.warped((32, 32, 32))
+    s = grid.slice(axis="z", count=25)
+    poly = s.to_pyvista()
+    assert poly.n_points == len(s.points) and poly.n_cells == s.n_polygons
+    np.testing.assert_array_equal(np.asarray(poly.points), s.points)
+    np.testing.assert_array_equal(poly.point_data["f"], s.values)
+    ours = np.array([x["area"] for x in s.stats["slices"]])
+    np.testing.assert_allclose(level_areas(poly, 25), ours, rtol=1e-5)
+    assert ours.sum() > 0
+
+
+def vtk_slice_areas(mesh, normal, values):
+    out = []
+    for v in values:
+        origin = np.zeros(3)
+        n = np.asarray(normal, dtype=float) / np.linalg.norm(normal)
+        origin = n * v
+        cut = mesh.slice(normal=n, origin=origin)
+        if cut.n_cells == 0:
+            out.append(0.0)
+            continue
+        out.append(float(cut.compute_cell_sizes(length=False, volume=False).cell_data["Area"].sum()))
+    return np.array(out)
+
+
+def warped_structured():
+    """A 3D curvilinear PyVista StructuredGrid (PyVista's own structured
+    example is a 2D sheet)."""
+    i, j, k = np.meshgrid(np.linspace(0, 1, 9), np.linspace(0, 2, 11), np.linspace(0, 1, 7), indexing="ij")
+    x = i + 0.1 * np.sin(3 * k)
+    y = j + 0.05 * i * k
+    z = k + 0.1 * np.cos(2 * i + j)
+    g = pv.StructuredGrid(x, y, z)
+    g.point_data["h"] = np.asarray(g.points)[:, 2].copy()
+    return g
+
+
+@pytest.mark.parametrize(
+    "make",
+    [examples.load_hexbeam, warped_structured, examples.load_explicit_structured],
+    ids=["UnstructuredGrid hexbeam", "StructuredGrid", "ExplicitStructuredGrid"],
+)
+def test_from_pyvista_slices_like_pyvista(make):
+    mesh = make()
+    grid = stratasweep.from_pyvista(mesh)
+    assert grid.n_cells == mesh.n_cells
+    for normal, axis in [((0, 0, 1), "z"), ((1, 0, 0), "x")]:
+        s = grid.slice(axis=axis, count=7)
+        ours = np.array([x["area"] for x in s.stats["slices"]])
+        ref = vtk_slice_areas(mesh, normal, s.level_values)
+        assert ours.sum() > 0
+        np.testing.assert_allclose(ours, ref, rtol=1e-5, atol=1e-9)
+
+
+def test_faulted_explicit_structured_grid_slices_like_pyvista():
+    esg = stratasweep.generate.faulted_pyvista((12, 10, 6), faults=2, seed=3)
+    grid = stratasweep.from_pyvista(esg)
+    s = grid.slice(axis="z", count=9)
+    ours = np.array([x["area"] for x in s.stats["slices"]])
+    visible = esg.cast_to_unstructured_grid()
+    ghost = visible.cell_data.get("vtkGhostType")
+    if ghost is not None:
+        visible = visible.extract_cells(np.flatnonzero((np.asarray(ghost) & 32) == 0))
+    ref = vtk_slice_areas(visible, (0, 0, 1), s.level_values)
+    assert ours.sum() > 0
+    # Corner-point cells have warped (non-planar) faces, and pinched ones
+    # become polyhedra: VTK's hexahedron case table and the sweep's convex
+    # pieces cut such cells differently (measured: up to 3.5 % per level on
+    # this model, 0.0001 % on the last level, which crosses flat cells).
+    np.testing.assert_allclose(ours, ref, rtol=0.05)
+    # The same model through the GRDECL path (zoo grid: pinched cells as
+    # wedges): within 0.8 % per level (measured 0.72 %).
+    zoo = stratasweep.generate.faulted((12, 10, 6), faults=2, seed=3)
+    s2 = zoo.slice(values=list(s.level_values), axis="z")
+    np.testing.assert_allclose([x["area"] for x in s2.stats["slices"]], ours, rtol=0.008)
+
+
+def test_from_arrays_layout():
+    # Two tetrahedra sharing a face, with point and cell data.
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], float)
+    cells = np.array([4, 0, 1, 2, 3, 4, 1, 2, 3, 4])
+    grid = stratasweep.from_arrays(pts, cells, [10, 10], point_data={"h": pts[:, 2]},
+                                   cell_data={"id": [0.0, 1.0]})
+    assert grid.n_cells == 2 and grid.point_properties == ["h"] and grid.cell_properties == ["id"]
+    s = grid.slice(property="h", values=[0.5])
+    ug = pv.UnstructuredGrid(cells, np.array([10, 10], np.uint8), pts)
+    ref = ug.slice(normal="z", origin=(0, 0, 0.5)).compute_cell_sizes().cell_data["Area"].sum()
+    assert s.stats["slices"][0]["area"] == pytest.approx(ref, rel=1e-6)
