@@ -5,15 +5,15 @@
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use stratasweep::bruteforce::brute_force;
-use stratasweep::cgraph::CGraph;
 use stratasweep::extract::{EmitContext, LevelMesh};
 use stratasweep::field::{AxisField, levels_by_count};
 use stratasweep::generate;
 use stratasweep::io::egrid::parse_egrid;
 use stratasweep::io::vtk_read::parse_vtk_xml;
 use stratasweep::io::writers::write_vtk_xml_grid;
-use stratasweep::pipeline::{Structure, StructureChoice};
-use stratasweep::scgraph::SCGraph;
+use stratasweep::structures::cgraph::CGraph;
+use stratasweep::structures::scgraph::SCGraph;
+use stratasweep::structures::{Structure, StructureChoice};
 use stratasweep::sweep::{CellGraph, Sweeper};
 
 fn z_levels<G: CellGraph>(g: &G, k: usize) -> Vec<f32> {

@@ -14,9 +14,8 @@ use stratasweep::gpu::emit::GpuEmitter;
 use stratasweep::gpu::render::{Mode, RenderOptions, Renderer, Transfer};
 use stratasweep::gpu::slice::{Emitter, prepare, slice_on};
 use stratasweep::grid::Grid;
-use stratasweep::pipeline::{
-    LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice, slice,
-};
+use stratasweep::pipeline::{LevelSpec, SliceRequest, SliceResult, slice};
+use stratasweep::structures::{Structure, StructureChoice};
 
 use super::{BenchArgs, GridArg, load, parse_axis, parse_triplet};
 

@@ -2,7 +2,7 @@
 //! unstructured zoo of typed / explicitly faced cells) and named properties.
 //!
 //! This module does no I/O: readers in [`crate::io`] fill a [`Grid`], and the
-//! sweep structures ([`crate::cgraph`], [`crate::scgraph`]) are built from it.
+//! sweep structures ([`crate::structures::cgraph`], [`crate::structures::scgraph`]) are built from it.
 
 use thiserror::Error;
 

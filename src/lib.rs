@@ -10,9 +10,6 @@
 )]
 
 pub mod bruteforce;
-pub mod cgraph;
-pub mod ciel;
-pub mod convex_split;
 pub mod cornerpoint;
 pub mod extract;
 pub mod field;
@@ -29,7 +26,6 @@ pub mod properties;
 #[cfg(feature = "python")]
 pub mod py;
 pub mod report;
-pub mod scgraph;
-pub mod structure;
+pub mod structures;
 pub mod sweep;
 pub mod voronoi;

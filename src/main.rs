@@ -12,10 +12,9 @@ use serde_json::{Value, json};
 
 use stratasweep::field::{FieldSpec, levels_by_range};
 use stratasweep::grid::{Grid, Topology};
-use stratasweep::pipeline::{
-    LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice, slice,
-};
+use stratasweep::pipeline::{LevelSpec, SliceRequest, SliceResult, slice};
 use stratasweep::report::{flatten_by_cell, memory_json, stats_json};
+use stratasweep::structures::{Structure, StructureChoice};
 use stratasweep::sweep::SweepOptions;
 use stratasweep::{generate, io};
 

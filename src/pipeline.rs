@@ -8,47 +8,17 @@ use std::time::Instant;
 use thiserror::Error;
 
 use crate::bruteforce::brute_force;
-use crate::cgraph::CGraph;
-use crate::ciel::{Ciel, CielSweeper};
-use crate::convex_split::{Split, SplitError, SplitMap, split_non_convex_cells};
 use crate::extract::{EmitContext, LevelMesh};
 use crate::field::{
     AxisField, FieldSpec, LevelError, PlaneField, ScalarField, VertexField, levels_by_count,
     local_levels, materialise,
 };
-use crate::grid::{Grid, GridError, Topology};
+use crate::grid::{Grid, GridError};
 use crate::mesh::PolyMesh;
-use crate::scgraph::SCGraph;
-use crate::structure::StructureError;
+use crate::structures::ciel::{Ciel, CielSweeper};
+use crate::structures::convex_split::{SplitError, SplitMap};
+use crate::structures::{Structure, StructureError};
 use crate::sweep::{CellGraph, LevelStats, SweepOptions, Sweeper};
-
-/// Which structure to build (`--structure`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StructureChoice {
-    /// S-CGraph for structured input, CGraph when every cell fits the
-    /// meta-cell catalog, CIEL otherwise.
-    Auto,
-    /// The zoo-grid cellular graph.
-    CGraph,
-    /// The structured cellular graph.
-    SCGraph,
-    /// The brute-force reference (on the auto structure's cells).
-    BruteForce,
-    /// CIEL, the half-edge structure for arbitrary polyhedra.
-    Ciel,
-}
-
-/// A built sweep structure. CGraph and CIEL are built on the grid with its
-/// non-convex polyhedra split into convex pieces ([`crate::convex_split`]);
-/// they report input cell ids.
-pub enum Structure {
-    /// S-CGraph.
-    SCGraph(SCGraph),
-    /// CGraph.
-    CGraph(Split<CGraph>),
-    /// CIEL.
-    Ciel(Split<Ciel>),
-}
 
 /// Errors of the pipeline.
 #[derive(Debug, Error)]
@@ -86,145 +56,6 @@ pub enum PipelineError {
     /// A non-convex cell that cannot be split into convex pieces.
     #[error(transparent)]
     Split(#[from] SplitError),
-}
-
-impl Structure {
-    /// Builds the chosen structure (brute force uses the auto structure).
-    pub fn build(grid: &Grid, choice: StructureChoice) -> Result<Self, PipelineError> {
-        grid.validate()?;
-        let hidden = grid.hidden_cells();
-        let structured = matches!(grid.topology, Topology::Structured { .. });
-        let ciel = |g: &Grid, h: Option<&[bool]>| -> Result<Ciel, PipelineError> {
-            Ok(Ciel::build(g, h).map_err(StructureError::from)?)
-        };
-        match choice {
-            StructureChoice::SCGraph => {
-                return Ok(Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?));
-            }
-            StructureChoice::Auto | StructureChoice::BruteForce if structured => {
-                return Ok(Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?));
-            }
-            StructureChoice::Ciel => {}
-            _ => {
-                // CGraph: split non-convex polyhedra first (one pass over the
-                // polyhedra, nothing when there are none), then build once.
-                // The split grid carries no properties (the structures read
-                // points and cells only); its hidden cells come from the map.
-                let (split_grid, map) = match split_non_convex_cells(grid, hidden.as_deref())? {
-                    Some(sp) => (Some(sp.grid), Some(sp.map)),
-                    None => (None, None),
-                };
-                let g = split_grid.as_ref().unwrap_or(grid);
-                let h = match &map {
-                    Some(m) => m.hidden_cells(hidden.as_deref()),
-                    None => hidden,
-                };
-                return match CGraph::build(g, h.as_deref()) {
-                    Ok(inner) => Ok(Structure::CGraph(Split { inner, map })),
-                    // A cell the catalog cannot take (large or odd polyhedra): CIEL.
-                    Err(StructureError::UnsupportedCell { .. })
-                        if choice != StructureChoice::CGraph =>
-                    {
-                        Ok(Structure::Ciel(Split {
-                            inner: ciel(g, h.as_deref())?,
-                            map,
-                        }))
-                    }
-                    Err(e) => Err(e.into()),
-                };
-            }
-        }
-        // CIEL counts non-convex cells while building: split and rebuild only
-        // when there are some (no extra pass for convex grids).
-        let c = ciel(grid, hidden.as_deref())?;
-        if c.counts.non_convex == 0 {
-            return Ok(Structure::Ciel(c.into()));
-        }
-        let Some(split) = split_non_convex_cells(grid, hidden.as_deref())? else {
-            return Ok(Structure::Ciel(c.into()));
-        };
-        let h = split.map.hidden_cells(hidden.as_deref());
-        Ok(Structure::Ciel(Split {
-            inner: ciel(&split.grid, h.as_deref())?,
-            map: Some(split.map),
-        }))
-    }
-
-    /// The split of non-convex polyhedra the structure was built on, if any.
-    pub fn split(&self) -> Option<&SplitMap> {
-        match self {
-            Structure::SCGraph(_) => None,
-            Structure::CGraph(g) => g.map.as_ref(),
-            Structure::Ciel(g) => g.map.as_ref(),
-        }
-    }
-
-    /// Short name (`scgraph` / `cgraph`).
-    pub fn name(&self) -> &'static str {
-        match self {
-            Structure::SCGraph(_) => "scgraph",
-            Structure::CGraph(_) => "cgraph",
-            Structure::Ciel(_) => "ciel",
-        }
-    }
-
-    /// Rebasing origin.
-    pub fn origin(&self) -> [f64; 3] {
-        match self {
-            Structure::SCGraph(s) => s.origin,
-            Structure::CGraph(c) => c.origin,
-            Structure::Ciel(c) => c.origin,
-        }
-    }
-
-    /// Bytes per structure part.
-    pub fn bytes(&self) -> Vec<(&'static str, usize)> {
-        let mut b = match self {
-            Structure::SCGraph(s) => s.bytes(),
-            Structure::CGraph(c) => c.bytes(),
-            Structure::Ciel(c) => c.bytes(),
-        };
-        if let Some(m) = self.split() {
-            b.push(("split_map", m.bytes()));
-        }
-        b
-    }
-
-    /// Live (sweepable) input cells (a split cell counts once).
-    pub fn live_cells(&self) -> usize {
-        let (live, map): (&dyn Fn(u32) -> bool, _) = match self {
-            Structure::SCGraph(s) => return s.live_cells(),
-            Structure::CGraph(c) => (&|x| c.inner.is_live(x), &c.map),
-            Structure::Ciel(c) => (&|x| c.inner.is_live(x), &c.map),
-        };
-        match map {
-            None => match self {
-                Structure::CGraph(c) => c.live_cells(),
-                Structure::Ciel(c) => c.live_cells(),
-                Structure::SCGraph(_) => unreachable!(),
-            },
-            Some(m) => {
-                let mut n = 0;
-                let mut last = u32::MAX;
-                for (x, &src) in m.source.iter().enumerate() {
-                    if src != last && live(x as u32) {
-                        n += 1;
-                        last = src;
-                    }
-                }
-                n
-            }
-        }
-    }
-
-    /// Slot count (stamp array length).
-    pub fn slot_count(&self) -> usize {
-        match self {
-            Structure::SCGraph(s) => s.slot_count(),
-            Structure::CGraph(c) => c.slot_count(),
-            Structure::Ciel(c) => c.cell_count(),
-        }
-    }
 }
 
 /// How levels are placed.
@@ -562,13 +393,13 @@ fn run_ciel<F: ScalarField>(
     let (parts, minima) = if req.brute_force {
         let t = Instant::now();
         let part = run_range(0, k, &mut |mesh, on_level| {
-            crate::ciel::brute_force(g, f, &levels, &ctx, mesh, on_level)
+            crate::structures::ciel::brute_force(g, f, &levels, &ctx, mesh, on_level)
         });
         timings.sweep = t.elapsed().as_secs_f64();
         (vec![(part, 0)], 0)
     } else {
         let t = Instant::now();
-        let minima = crate::ciel::minima(g, f);
+        let minima = crate::structures::ciel::minima(g, f);
         timings.minima = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let n = req.threads.clamp(1, k.max(1));

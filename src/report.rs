@@ -8,8 +8,9 @@ use serde_json::{Value, json};
 use crate::field::FieldSpec;
 use crate::grid::{Grid, Topology, vtk_type};
 use crate::mesh::PolyMesh;
-use crate::pipeline::{SliceResult, Structure};
-use crate::structure::CELL_CLASS_NAMES;
+use crate::pipeline::SliceResult;
+use crate::structures::CELL_CLASS_NAMES;
+use crate::structures::Structure;
 
 /// One value per polygon from its source cell: every polygon gets its own
 /// copies of its vertices, all carrying the cell's value.
@@ -297,7 +298,7 @@ pub fn info_json(grid: &Grid, s: &Structure, c: &InfoContext) -> Value {
         out["half_edges"] = json!(g.half_edge_count());
         out["ciel"] = json!({
             "half_edges": g.half_edge_count(),
-            "bytes_per_half_edge": crate::ciel::BYTES_PER_HALF_EDGE,
+            "bytes_per_half_edge": crate::structures::ciel::BYTES_PER_HALF_EDGE,
             // With the vertex cycles (CSR of representatives) counted in.
             "bytes_per_half_edge_with_vertex_cycles": g.bytes().iter()
                 .filter(|(k, _)| *k == "half_edges" || *k == "vertex_edges")
@@ -307,7 +308,7 @@ pub fn info_json(grid: &Grid, s: &Structure, c: &InfoContext) -> Value {
             "border_half_edges": g.counts.border_half_edges,
             "flipped_faces": g.counts.flipped_faces,
             "non_convex_cells": g.counts.non_convex,
-            "convexity_tolerance": crate::ciel::CONVEXITY_TOLERANCE,
+            "convexity_tolerance": crate::structures::ciel::CONVEXITY_TOLERANCE,
         });
     }
     // Non-convex polyhedra split into convex pieces before building.

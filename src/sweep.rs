@@ -8,7 +8,7 @@ use crate::extract::{EmitContext, HexWriter, LevelMesh, code_of, emit_cell, inte
 use crate::field::ScalarField;
 use crate::lattice::{EdgeOwnership, EdgeWindow, LatticeHexTable};
 use crate::metacell::{Catalog, MAX_META_VERTICES, MetaCell};
-use crate::structure::BitSet;
+use crate::structures::BitSet;
 
 mod chunks;
 
@@ -1184,7 +1184,7 @@ mod tests {
     use super::{Sweeper, block_minima_generic, block_minima_lattice, radix_sort_slots};
     use crate::field::VertexField;
     use crate::grid::{Grid, Property, Topology};
-    use crate::scgraph::SCGraph;
+    use crate::structures::scgraph::SCGraph;
     use crate::sweep::CellGraph;
 
     /// A xorshift32 generator from `seed` (non-zero).

@@ -8,11 +8,11 @@ use common::{Levels, Rng, cells_of, sorted, structured, zoo_from_structured};
 use proptest::prelude::*;
 use std::collections::BTreeMap;
 use stratasweep::bruteforce::brute_force as cgraph_brute;
-use stratasweep::cgraph::CGraph;
-use stratasweep::ciel::{Ciel, CielError, CielSweeper, brute_force, parse_face_stream};
 use stratasweep::extract::{EmitContext, LevelMesh};
 use stratasweep::field::{PlaneField, ScalarField, VertexField, materialise};
 use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
+use stratasweep::structures::cgraph::CGraph;
+use stratasweep::structures::ciel::{Ciel, CielError, CielSweeper, brute_force, parse_face_stream};
 use stratasweep::sweep::CellGraph;
 
 /// Per level: (cell, polygon corner positions), sorted.
@@ -175,7 +175,7 @@ fn fields(c: &Ciel, g: &Grid) -> Vec<(String, Vec<f32>, Vec<f32>)> {
 /// `next_around_vertex` cycle visits exactly its neighbours, once each.
 fn check_links(c: &Ciel, label: &str) {
     use std::collections::{BTreeMap, BTreeSet};
-    use stratasweep::ciel::NONE;
+    use stratasweep::structures::ciel::NONE;
     let n = c.half_edge_count() as u32;
     let mut nbrs: BTreeMap<u32, BTreeSet<u32>> = BTreeMap::new();
     for h in 0..n {
@@ -937,7 +937,7 @@ fn voronoi_grid_is_conforming_and_matches_the_reference() {
     assert_eq!(c.counts.flipped_faces, 0, "faces are written outward");
     // Conforming: every border half-edge lies on the box.
     for h in 0..c.half_edge_count() {
-        if c.mate_cell(h as u32) == stratasweep::ciel::NONE {
+        if c.mate_cell(h as u32) == stratasweep::structures::ciel::NONE {
             let (a, b) = (
                 g.points[c.org(h as u32) as usize],
                 g.points[c.dest(h as u32) as usize],
@@ -955,7 +955,8 @@ fn voronoi_grid_is_conforming_and_matches_the_reference() {
 /// Slice areas of CIEL against VTK's plane cutter (the peer script), when
 /// STRATASWEEP_PEER_PYTHON names its Python.
 fn peer_compare(path: &std::path::Path, g: &Grid, axis: usize, count: usize) {
-    use stratasweep::pipeline::{Structure, StructureChoice, slice};
+    use stratasweep::pipeline::slice;
+    use stratasweep::structures::{Structure, StructureChoice};
     let Some((py, script)) = common::peer::peer("CIEL peer comparison") else {
         return;
     };
@@ -1076,7 +1077,8 @@ fn ciel_areas_match_vtk() {
 #[test]
 fn threads_give_the_single_threaded_output() {
     use stratasweep::field::FieldSpec;
-    use stratasweep::pipeline::{LevelSpec, SliceRequest, Structure, StructureChoice, slice};
+    use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
+    use stratasweep::structures::{Structure, StructureChoice};
     let g = stratasweep::voronoi::voronoi(1500, 4);
     let s = Structure::build(&g, StructureChoice::Ciel).unwrap();
     let fields = [
@@ -1217,7 +1219,7 @@ fn outwardness(points: &[[f64; 3]], f: &[u32], centre: [f64; 3]) -> f64 {
 /// are checked to be the cell's faces, outward.
 fn check_against_reference_build(g: &Grid, c: &Ciel, label: &str) {
     use std::collections::HashMap;
-    use stratasweep::ciel::{FIRST_IN_FACE, LAST_IN_FACE, NONE};
+    use stratasweep::structures::ciel::{FIRST_IN_FACE, LAST_IN_FACE, NONE};
     let Topology::Unstructured(cells) = &g.topology else {
         panic!("unstructured grid expected")
     };
@@ -1321,7 +1323,7 @@ fn check_against_reference_build(g: &Grid, c: &Ciel, label: &str) {
     let n = words.len();
     assert_eq!(c.cell_start, cell_start, "{label}: cell_start");
     assert_eq!(c.half_edge_count(), n, "{label}: half-edges");
-    let org = |h: usize| words[h] & stratasweep::ciel::VERTEX_MASK;
+    let org = |h: usize| words[h] & stratasweep::structures::ciel::VERTEX_MASK;
     let mut next = vec![0usize; n];
     let mut cell_of = vec![0u32; n];
     for (cell, r) in &faces {

@@ -5,12 +5,11 @@
 mod common;
 use common::Rng;
 use std::collections::BTreeSet;
-use stratasweep::convex_split::{SplitError, split_non_convex, split_non_convex_cells};
 use stratasweep::field::FieldSpec;
 use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
-use stratasweep::pipeline::{
-    LevelSpec, PipelineError, SliceRequest, SliceResult, Structure, StructureChoice, slice,
-};
+use stratasweep::pipeline::{LevelSpec, PipelineError, SliceRequest, SliceResult, slice};
+use stratasweep::structures::convex_split::{SplitError, split_non_convex, split_non_convex_cells};
+use stratasweep::structures::{Structure, StructureChoice};
 
 type P = [f64; 3];
 

@@ -10,7 +10,8 @@ use common::axis_request;
 
 use stratasweep::cornerpoint::{CornerPointGrid, trilinear_volume};
 use stratasweep::grid::{Property, Topology, vtk_type};
-use stratasweep::pipeline::{SliceRequest, Structure, StructureChoice, slice, vertex_property};
+use stratasweep::pipeline::{SliceRequest, slice, vertex_property};
+use stratasweep::structures::{Structure, StructureChoice};
 
 fn data_dir(test: &str) -> Option<PathBuf> {
     match std::env::var_os("STRATASWEEP_DATA") {
@@ -961,10 +962,10 @@ fn generated_faulted_grids_read_by_xtgeo() {
 /// Per cell, per face (catalog order) the neighbour a brute force expects:
 /// the smallest other live cell with a face of exactly the same vertex set
 /// (`NONE` without one, and for dead cells).
-fn brute_force_neighbours(g: &stratasweep::cgraph::CGraph) -> Vec<Vec<u32>> {
+fn brute_force_neighbours(g: &stratasweep::structures::cgraph::CGraph) -> Vec<Vec<u32>> {
     use std::collections::HashMap;
     use stratasweep::sweep::CellGraph;
-    let none = stratasweep::cgraph::NONE;
+    let none = stratasweep::structures::cgraph::NONE;
     let mut ids = [0u32; 12];
     let faces_of = |c: u32, ids: &mut [u32; 12]| -> Vec<Vec<u32>> {
         let (m, n) = g.cell(c, ids);
@@ -1007,7 +1008,7 @@ fn brute_force_neighbours(g: &stratasweep::cgraph::CGraph) -> Vec<Vec<u32>> {
         .collect()
 }
 
-fn assert_neighbours_brute_force(g: &stratasweep::cgraph::CGraph, what: &str) -> usize {
+fn assert_neighbours_brute_force(g: &stratasweep::structures::cgraph::CGraph, what: &str) -> usize {
     let want = brute_force_neighbours(g);
     let mut sewn = 0;
     for (c, w) in want.iter().enumerate() {
@@ -1015,7 +1016,7 @@ fn assert_neighbours_brute_force(g: &stratasweep::cgraph::CGraph, what: &str) ->
         assert_eq!(&got, w, "{what}: neighbours of cell {c}");
         sewn += w
             .iter()
-            .filter(|&&d| d != stratasweep::cgraph::NONE)
+            .filter(|&&d| d != stratasweep::structures::cgraph::NONE)
             .count();
     }
     assert_eq!(sewn, g.sewn_faces, "{what}: sewn face count");
@@ -1024,7 +1025,7 @@ fn assert_neighbours_brute_force(g: &stratasweep::cgraph::CGraph, what: &str) ->
 
 fn cgraph_of(
     grid: &stratasweep::grid::Grid,
-) -> stratasweep::convex_split::Split<stratasweep::cgraph::CGraph> {
+) -> stratasweep::structures::convex_split::Split<stratasweep::structures::cgraph::CGraph> {
     match Structure::build(grid, StructureChoice::CGraph).unwrap() {
         Structure::CGraph(g) => g,
         _ => panic!("expected a CGraph"),

@@ -13,7 +13,8 @@ use stratasweep::gpu::shared::OutVertex;
 use stratasweep::gpu::slice::{Emitter, prepare, slice_on};
 use stratasweep::gpu::{emit::GpuEmitter, twin};
 use stratasweep::grid::Grid;
-use stratasweep::pipeline::{LevelSpec, SliceRequest, Structure, StructureChoice, slice};
+use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
+use stratasweep::structures::{Structure, StructureChoice};
 
 fn req(field: FieldSpec, k: usize, threads: usize, mesh: bool) -> SliceRequest {
     SliceRequest {

@@ -10,7 +10,8 @@ use stratasweep::generate::warped;
 use stratasweep::gpu::context::{ContextOptions, GpuContext, GpuError};
 use stratasweep::gpu::render::{RenderOptions, Renderer};
 use stratasweep::gpu::slice::{Emitter, GpuSliceError, slice_on};
-use stratasweep::pipeline::{LevelSpec, SliceRequest, Structure, StructureChoice, slice};
+use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
+use stratasweep::structures::{Structure, StructureChoice};
 
 fn lowered(binding: u64) -> Option<GpuContext> {
     let full = gpu_common::gpu("lowered limits")?;

@@ -10,7 +10,7 @@ mod gpu_common;
 use stratasweep::generate::warped;
 use stratasweep::gpu::render::{Mode, RenderOptions, Renderer, Transfer};
 use stratasweep::grid::{Grid, Property, Topology};
-use stratasweep::pipeline::{Structure, StructureChoice};
+use stratasweep::structures::{Structure, StructureChoice};
 
 /// Half thickness of the box along z.
 const H: f64 = 0.5;

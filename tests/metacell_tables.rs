@@ -4,7 +4,7 @@
 
 use stratasweep::grid::vtk_type;
 use stratasweep::metacell::{Catalog, MetaCell, builtin};
-use stratasweep::structure::{CellClass, classify_cell};
+use stratasweep::structures::{CellClass, classify_cell};
 
 fn catalog_with_prisms() -> Catalog {
     let mut c = Catalog::new();

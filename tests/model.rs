@@ -1,13 +1,12 @@
 //! Grid-model behaviour: degenerate and inverted cells, hidden cells,
 //! cell-to-vertex averaging, precision far from the origin.
 
-use stratasweep::cgraph::CGraph;
 use stratasweep::field::FieldSpec;
 use stratasweep::grid::{Cells, Grid, Property, Topology, hex_corner_offsets, vtk_type};
-use stratasweep::pipeline::{
-    LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice, slice, vertex_property,
-};
-use stratasweep::structure::CellClass;
+use stratasweep::pipeline::{LevelSpec, SliceRequest, SliceResult, slice, vertex_property};
+use stratasweep::structures::CellClass;
+use stratasweep::structures::cgraph::CGraph;
+use stratasweep::structures::{Structure, StructureChoice};
 
 /// Two unit hexes side by side along x (x in [0,2]), plus extra cells.
 fn two_hexes(extra: impl FnOnce(&mut Vec<[f64; 3]>, &mut Cells)) -> Grid {
@@ -271,7 +270,7 @@ fn stencil_coded_cgraph_decodes_exactly_and_fits_the_budget() {
     let (g, cells) = build(&order);
     assert!(part(&g, "cell_stencil_ids") > 0 && part(&g, "explicit_cells") > 0);
     use stratasweep::sweep::CellGraph;
-    let none = stratasweep::cgraph::NONE;
+    let none = stratasweep::structures::cgraph::NONE;
     let mut ids = [0u32; 12];
     for c in 0..cells.len() {
         let (_, n) = g.cell(c as u32, &mut ids);

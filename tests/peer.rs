@@ -3,7 +3,8 @@
 
 use std::path::PathBuf;
 
-use stratasweep::pipeline::{Structure, StructureChoice, slice};
+use stratasweep::pipeline::slice;
+use stratasweep::structures::{Structure, StructureChoice};
 
 mod common;
 

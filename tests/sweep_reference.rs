@@ -6,11 +6,11 @@ mod common;
 use common::{Levels, Rng, cells_of, sorted, structured, zoo_from_structured};
 use std::collections::HashMap;
 use stratasweep::bruteforce::brute_force;
-use stratasweep::cgraph::CGraph;
 use stratasweep::extract::{EmitContext, LevelMesh};
 use stratasweep::field::{PlaneField, ScalarField, VertexField, materialise};
 use stratasweep::grid::Grid;
-use stratasweep::scgraph::SCGraph;
+use stratasweep::structures::cgraph::CGraph;
+use stratasweep::structures::scgraph::SCGraph;
 use stratasweep::sweep::{CellGraph, Sweeper};
 
 /// Per level: sorted (source cell, polygon positions) list.

@@ -21,7 +21,8 @@ use thiserror::Error;
 
 use crate::field::FieldSpec;
 use crate::grid::Grid;
-use crate::pipeline::{LevelSpec, PipelineError, SliceRequest, Structure, vertex_property};
+use crate::pipeline::{LevelSpec, PipelineError, SliceRequest, vertex_property};
+use crate::structures::Structure;
 
 use super::context::{GpuContext, GpuError};
 use super::emit::{GpuEmitter, emit_chunked};

@@ -9,8 +9,9 @@ use thiserror::Error;
 
 use crate::field::{AxisField, FieldSpec, PlaneField, ScalarField, VertexField};
 use crate::grid::Grid;
-use crate::pipeline::{PipelineError, SliceRequest, SliceResult, Structure, Timings};
+use crate::pipeline::{PipelineError, SliceRequest, SliceResult, Timings};
 use crate::pipeline::{live_range, place_levels, request_values};
+use crate::structures::Structure;
 use crate::sweep::{CellGraph, LevelStats};
 
 use super::context::{GpuContext, GpuError};

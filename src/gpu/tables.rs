@@ -3,11 +3,11 @@
 //! frame's per-level active cell lists. The GPU passes and the CPU twin
 //! read exactly these vectors.
 
-use crate::cgraph::CGraph;
 use crate::extract::EmitContext;
 use crate::field::ScalarField;
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
-use crate::scgraph::SCGraph;
+use crate::structures::cgraph::CGraph;
+use crate::structures::scgraph::SCGraph;
 use crate::sweep::{CellGraph, LevelStats, Sweeper};
 
 use super::shared::{

@@ -11,8 +11,9 @@ use serde_json::Value;
 
 use crate::field::FieldSpec;
 use crate::grid::{Grid, Topology};
-use crate::pipeline::{LevelSpec, SliceRequest, Structure, StructureChoice, slice};
+use crate::pipeline::{LevelSpec, SliceRequest, slice};
 use crate::report::{InfoContext, flatten_by_cell, info_json, stats_json};
+use crate::structures::{Structure, StructureChoice};
 
 use super::errors::{guard, value_error, write_error};
 use super::slices::{PySlices, SliceData};

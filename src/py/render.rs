@@ -10,7 +10,7 @@ use pyo3::prelude::*;
 
 use crate::gpu::context::{ContextOptions, GpuContext};
 use crate::gpu::render::{Mode, RenderError, RenderOptions, Renderer, Transfer};
-use crate::pipeline::StructureChoice;
+use crate::structures::StructureChoice;
 
 use super::errors::{gpu_error, guard, value_error};
 use super::grid::GridData;

@@ -3,7 +3,7 @@
 
 use super::VtkReadError;
 use crate::grid::{Cells, Grid, Topology, vtk_type};
-use crate::structure::split_lengths;
+use crate::structures::common::split_lengths;
 
 /// A VTK scalar type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

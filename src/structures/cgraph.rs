@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 use crate::grid::{Cells, Grid, Topology, hex_corner_offsets, is_lower_dimensional, vtk_type};
 use crate::metacell::{Catalog, MAX_META_VERTICES, VOXEL_TO_HEX, builtin};
-use crate::structure::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
+use crate::structures::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
 use crate::sweep::CellGraph;
 
 /// "No neighbour" marker.
@@ -41,7 +41,7 @@ pub struct CGraph {
     /// Meta id, vertex ids and neighbours of every cell.
     cells: CellStore,
     live: BitSet,
-    /// Counts of cell classes (see [`crate::structure::CELL_CLASS_NAMES`]).
+    /// Counts of cell classes (see [`crate::structures::CELL_CLASS_NAMES`]).
     pub class_counts: [usize; 5],
     /// Cells per meta-cell id.
     pub meta_counts: Vec<usize>,

@@ -42,12 +42,12 @@ use std::ops::Deref;
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::ciel::{CONVEXITY_TOLERANCE, polyhedron_faces};
 use crate::extract::EmitContext;
 use crate::field::ScalarField;
 use crate::grid::{Cells, Grid, Property, Topology, is_lower_dimensional, vtk_type};
 use crate::metacell::{Catalog, MAX_META_VERTICES};
-use crate::structure::is_sweepable;
+use crate::structures::ciel::{CONVEXITY_TOLERANCE, polyhedron_faces};
+use crate::structures::is_sweepable;
 use crate::sweep::{CellGraph, Lattice};
 
 /// A cell that cannot be split into convex pieces.

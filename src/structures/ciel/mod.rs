@@ -57,7 +57,7 @@ use thiserror::Error;
 use crate::extract::{EmitContext, LevelMesh, face_above_connected, prefetch};
 use crate::field::ScalarField;
 use crate::grid::{Cells, hex_corner_offsets, vtk_type};
-use crate::structure::StructureError;
+use crate::structures::StructureError;
 
 mod build;
 mod sweep;
@@ -210,7 +210,7 @@ pub struct CielCounts {
     pub border_half_edges: usize,
     /// Edges (fans), i.e. representatives in the vertex cycles / 2.
     pub edges: usize,
-    /// Counts of cell classes (see [`crate::structure::CELL_CLASS_NAMES`]).
+    /// Counts of cell classes (see [`crate::structures::CELL_CLASS_NAMES`]).
     pub class_counts: [usize; 5],
     /// Hidden cells excluded.
     pub hidden: usize,

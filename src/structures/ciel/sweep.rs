@@ -5,7 +5,7 @@ use rayon::prelude::*;
 use super::{Ciel, DrawScratch, NONE};
 use crate::extract::{EmitContext, LevelMesh, intersects};
 use crate::field::ScalarField;
-use crate::structure::BitSet;
+use crate::structures::BitSet;
 use crate::sweep::LevelStats;
 
 /// Is vertex `a`'s key `(φ, id)` below `b`'s?

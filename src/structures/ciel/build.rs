@@ -28,7 +28,7 @@ use super::{
 };
 use crate::grid::{Cells, Grid, Topology, is_lower_dimensional, vtk_type};
 use crate::metacell::{Catalog, VOXEL_TO_HEX, builtin};
-use crate::structure::{CellClass, classify_cell, is_sweepable, split_lengths};
+use crate::structures::common::{CellClass, classify_cell, is_sweepable, split_lengths};
 
 /// Cells per parallel task of the per-cell phase.
 const CHUNK_CELLS: usize = 1024;
@@ -589,7 +589,7 @@ fn orient(cell: usize, s: &mut Scratch) -> Result<usize, CielError> {
 
 /// One polyhedron's checked, outward face loops (global vertex ids) and
 /// its class, exactly as the build sees them (shared with
-/// [`crate::convex_split`]).
+/// [`crate::structures::convex_split`]).
 pub(crate) struct CellFaces {
     /// Face loops, concatenated.
     pub(crate) ids: Vec<u32>,

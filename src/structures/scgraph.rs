@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use crate::extract::{EmitContext, prefetch};
 use crate::field::ScalarField;
 use crate::lattice::LatticeHexTable;
-use crate::structure::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
+use crate::structures::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
 use crate::sweep::{CellGraph, Lattice};
 
 /// The structured cellular graph.
@@ -31,7 +31,7 @@ pub struct SCGraph {
     /// Per slot: live, and so are its 18 face and edge neighbours (the
     /// lattice emitter then needs no per-neighbour check to weld).
     surrounded: BitSet,
-    /// Counts of cell classes (see [`crate::structure::CELL_CLASS_NAMES`]).
+    /// Counts of cell classes (see [`crate::structures::CELL_CLASS_NAMES`]).
     pub class_counts: [usize; 5],
     /// The IJK frame is left-handed; cells are read with K reversed.
     pub left_handed: bool,
