@@ -17,7 +17,6 @@ pub mod generate;
 pub mod gpu;
 pub mod grid;
 pub mod io;
-pub mod lattice;
 pub mod mem;
 pub mod mesh;
 pub mod metacell;

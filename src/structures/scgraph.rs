@@ -12,8 +12,8 @@ use rayon::prelude::*;
 
 use crate::extract::{EmitContext, prefetch};
 use crate::field::ScalarField;
-use crate::lattice::LatticeHexTable;
 use crate::structures::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
+use crate::sweep::lattice::weld::LatticeHexTable;
 use crate::sweep::{CellGraph, Lattice};
 
 /// The structured cellular graph.

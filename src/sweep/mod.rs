@@ -4,13 +4,15 @@
 
 use rayon::prelude::*;
 
-use crate::extract::{EmitContext, HexWriter, LevelMesh, code_of, emit_cell, intersects, prefetch};
+use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects, prefetch};
 use crate::field::ScalarField;
-use crate::lattice::{EdgeOwnership, EdgeWindow, LatticeHexTable};
-use crate::metacell::{Catalog, MAX_META_VERTICES, MetaCell};
-use crate::structures::BitSet;
+use crate::metacell::{Catalog, MAX_META_VERTICES};
+use lattice::weld::EdgeWindow;
 
-mod chunks;
+pub mod lattice;
+
+pub use lattice::Lattice;
+use lattice::{LatticeQueues, block_minima_lattice, chunks, sweep_block_lattice};
 
 /// Per-cell step stamp. 16 bits keep the S-CGraph within 20 bytes per
 /// vertex; the stamps are reset once every 65 534 levels.
@@ -146,31 +148,8 @@ pub fn cell_lo<G: CellGraph + ?Sized, F: ScalarField>(g: &G, f: &F, slot: u32) -
     lo
 }
 
-/// An implicit hexahedral lattice, for the specialised sweep loop: cell
-/// `slot` has first vertex `v0 = slot - base`, vertices
-/// `v0 + {0, di} + {0, dj} + {0, dk}` (`deltas = [di, dj, dk]`, with
-/// `di = 1`) and face neighbours `slot ± deltas[axis]`. Neighbour slots
-/// outside the grid are dead (never-sweep) slots, so no bounds checks.
-#[derive(Clone, Copy, Debug)]
-pub struct Lattice<'a> {
-    /// Vertex count: every live cell's vertex ids are below it.
-    pub vertices: usize,
-    /// Slot of the cell whose first vertex is 0.
-    pub base: u32,
-    /// Slot (and vertex id) steps along i, j, k.
-    pub deltas: [u32; 3],
-    /// Per slot: live (the never-sweep slots are the others).
-    pub live: &'a BitSet,
-    /// Per slot: live, and so are its 18 face and edge neighbours.
-    pub surrounded: &'a BitSet,
-    /// The hexahedron's meta-cell.
-    pub meta: &'a MetaCell,
-    /// Its tables flattened for the lattice's offsets.
-    pub table: &'a LatticeHexTable,
-}
-
 /// How many work-queue entries ahead [`CellGraph::prefetch_cell`] is issued.
-const PREFETCH_AHEAD: usize = 2;
+pub(crate) const PREFETCH_AHEAD: usize = 2;
 
 /// A minimum: a cell with no predecessor, with its `lo`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -243,67 +222,6 @@ pub struct Block {
     chunked: chunks::ChunkQueues,
     /// The sweeper's loop choices for the current sweep.
     options: SweepOptions,
-}
-
-/// The lattice loop's queues, kept between sweeps for their capacity.
-#[derive(Debug, Default)]
-struct LatticeQueues {
-    /// Per level k: the cells that enter at step k (`t_{k-1} <= lo < t_k`),
-    /// in the order they were found.
-    entering: Vec<Vec<u32>>,
-    /// `A_k` in slot order, each cell packed with the last level that cuts
-    /// it ([`pack_active`]).
-    active: Vec<u64>,
-    /// The cells entering at this step that the level cuts, packed.
-    fresh: Vec<u64>,
-    /// Scratch for sorting `fresh` and merging it into `active`.
-    scratch: Vec<u64>,
-    /// Per block slot, one bit: dead (never swept), or found in this
-    /// sweep. Reset from the lattice's live bits when a sweep starts. One
-    /// bit per slot instead of the u16 stamps keeps a level's neighbour
-    /// tests in cache.
-    seen: Vec<u64>,
-}
-
-impl LatticeQueues {
-    /// Bytes held.
-    fn bytes(&self) -> usize {
-        self.entering
-            .iter()
-            .map(|q| q.capacity() * 4)
-            .sum::<usize>()
-            + (self.active.capacity()
-                + self.fresh.capacity()
-                + self.scratch.capacity()
-                + self.seen.capacity())
-                * 8
-    }
-
-    /// Starts a sweep over the block of `len` slots from `start`: every
-    /// slot is unseen but the dead ones (the complement of `live`).
-    fn begin_sweep(&mut self, live: &BitSet, start: u32, len: usize) {
-        self.seen.clear();
-        self.seen
-            .extend((0..len.div_ceil(64)).map(|w| !live.word_at(start as i64 + 64 * w as i64)));
-    }
-}
-
-/// Sets bit `j` of `bits`; returns whether it was clear.
-#[inline(always)]
-fn set_bit(bits: &mut [u64], j: u32) -> bool {
-    let w = &mut bits[j as usize / 64];
-    let m = 1u64 << (j % 64);
-    let was_clear = *w & m == 0;
-    *w |= m;
-    was_clear
-}
-
-/// A cell of the lattice loop's active queue: its slot in the high half
-/// (so sorting by value sorts by slot), the last level index that cuts it
-/// in the low half.
-#[inline(always)]
-fn pack_active(slot: u32, last: usize) -> u64 {
-    (slot as u64) << 32 | last as u64
 }
 
 impl Block {
@@ -542,88 +460,6 @@ fn block_minima_generic<G: CellGraph, F: ScalarField>(g: &G, f: &F, b: &Block) -
     out
 }
 
-/// [`block_minima`] on a hexahedral [`Lattice`] with φ per vertex: the same
-/// minima (a cell is one when no live in-block face neighbour has a smaller
-/// `(lo, slot)`), with each cell's `lo` taken from two per-layer tables of
-/// 2×2 vertex minima instead of an 8-vertex gather per cell, one k-slab at
-/// a time (three slabs of `lo` and two of vertex minima live at once).
-fn block_minima_lattice(lat: &Lattice, phi: &[f32], b: &Block) -> Vec<Minimum> {
-    let npi = lat.deltas[1] as usize;
-    let slab = lat.deltas[2] as usize;
-    let layers = lat.vertices / slab;
-    let start = b.start as usize;
-    let (first, count) = (start / slab, b.stamps.len() / slab);
-    debug_assert!(start.is_multiple_of(slab) && b.stamps.len().is_multiple_of(slab));
-    // Dead and out-of-block slots hold NaN: every comparison with NaN is
-    // false, so they are never predecessors.
-    let nan = f32::NAN;
-    // Vertex layer `kk`: per vertex, the min over its 2×2 (i, j) square
-    // (only where that square is a cell's face; other entries are unused).
-    let quad = |kk: usize, q: &mut Vec<f32>| {
-        q.clear();
-        q.resize(slab, nan);
-        if kk < layers && slab > npi + 1 {
-            let p = &phi[kk * slab..(kk + 1) * slab];
-            for x in 0..slab - npi - 1 {
-                q[x] = fmin(fmin(p[x], p[x + 1]), fmin(p[x + npi], p[x + npi + 1]));
-            }
-        }
-    };
-    // lo of every slot of slot-slab `z` (its cells lie on vertex layers
-    // z - 1 and z, whose square minima are `below` and `above`).
-    let lo_of = |z: usize, below: &[f32], above: &[f32], out: &mut Vec<f32>| {
-        out.clear();
-        out.resize(slab, nan);
-        if z < first || z >= first + count {
-            return;
-        }
-        let st = &b.stamps[(z - first) * slab..(z - first + 1) * slab];
-        for x in 0..slab {
-            if st[x] != NEVER {
-                out[x] = fmin(below[x], above[x]);
-            }
-        }
-    };
-    let (mut q_below, mut q_above) = (Vec::new(), Vec::new());
-    let (mut prev, mut cur, mut next) = (Vec::new(), Vec::new(), Vec::new());
-    // Slot-slab z's cells sit on vertex layer z - 1 (the slot of the cell
-    // with first vertex v is v + slab).
-    quad(first.wrapping_sub(1), &mut q_below);
-    quad(first, &mut q_above);
-    lo_of(first.wrapping_sub(1), &[], &[], &mut prev);
-    lo_of(first, &q_below, &q_above, &mut cur);
-    let mut out = Vec::new();
-    for z in first..first + count {
-        std::mem::swap(&mut q_below, &mut q_above);
-        quad(z + 1, &mut q_above);
-        lo_of(z + 1, &q_below, &q_above, &mut next);
-        let st = &b.stamps[(z - first) * slab..(z - first + 1) * slab];
-        for x in 0..slab {
-            if st[x] == NEVER {
-                continue;
-            }
-            let l = cur[x];
-            // Lower slots win ties (<=), higher ones need a strictly smaller lo.
-            let pred = (x > 0 && cur[x - 1] <= l)
-                | (x + 1 < slab && cur[x + 1] < l)
-                | (x >= npi && cur[x - npi] <= l)
-                | (x + npi < slab && cur[x + npi] < l)
-                | (prev[x] <= l)
-                | (next[x] < l);
-            if !pred {
-                out.push(Minimum {
-                    lo: l,
-                    slot: (z * slab + x) as u32,
-                });
-            }
-        }
-        std::mem::swap(&mut prev, &mut cur);
-        std::mem::swap(&mut cur, &mut next);
-    }
-    out.sort_unstable_by(|a, b| a.lo.total_cmp(&b.lo).then(a.slot.cmp(&b.slot)));
-    out
-}
-
 #[inline(never)]
 fn sweep_block<G: CellGraph, F: ScalarField>(
     g: &G,
@@ -715,381 +551,9 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     }
 }
 
-/// φ of the lattice cell with first vertex `v0` in geometric order
-/// (`g = i + 2j + 4k`): four (i, i+1) pairs, rows `dj` and layers `dk` apart.
-///
-/// # Safety
-/// `v0 + dj + dk + 1` must be a vertex (< `phi.len()`).
-#[inline(always)]
-unsafe fn load8(phi: &[f32], v0: u32, dj: u32, dk: u32) -> [f32; 8] {
-    let p = phi.as_ptr();
-    let pair = |v: u32| {
-        // SAFETY: the caller guarantees v + 1 < phi.len().
-        unsafe { [*p.add(v as usize), *p.add(v as usize + 1)] }
-    };
-    let [a, b, c, d] = [pair(v0), pair(v0 + dj), pair(v0 + dk), pair(v0 + dj + dk)];
-    [a[0], a[1], b[0], b[1], c[0], c[1], d[0], d[1]]
-}
-
-/// [`sweep_block`] specialised for a hexahedral [`Lattice`] with φ stored
-/// per vertex: the same cut cells `A_k` and output (tests compare it with
-/// the generic loop and the brute force), but each cell is read once, at
-/// its entry level, and stays in `A` until the last level below its `hi`
-/// (see [`LatticeQueues`]). Polygons are welded by edge ownership
-/// ([`crate::lattice`]), or by the mesh's hash map when `hash_weld` is set
-/// or the lattice's layers are too large for the weld window. Cells are
-/// read in geometric vertex order (`g = i + 2j + 4k`, see
-/// [`LatticeHexTable`]), so faces, neighbours and far vertices are
-/// constants of the lattice.
-#[inline(never)]
-fn sweep_block_lattice(
-    lat: &Lattice,
-    phi: &[f32],
-    b: &mut Block,
-    minima: &[Minimum],
-    levels: &[f32],
-    ctx: &EmitContext,
-    hash_weld: bool,
-    mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
-) {
-    let start = b.start;
-    let [di, dj, dk] = lat.deltas;
-    debug_assert_eq!(
-        lat.table.geometric_offsets(),
-        [0, di, dj, dj + di, dk, dk + di, dk + dj, dk + dj + di]
-    );
-    // Every live cell's vertices, and those of its live neighbours, are
-    // below `lat.vertices`: this one check makes the unchecked φ reads
-    // below sound.
-    assert!(
-        phi.len() >= lat.vertices,
-        "φ has {} values for {} vertices",
-        phi.len(),
-        lat.vertices
-    );
-    // SAFETY (for `at` and `cell`): callers pass vertex ids of a live cell,
-    // or of a live neighbour (not in `seen`, so not a never-sweep slot),
-    // all < lat.vertices.
-    let at = |v: u32| unsafe { *phi.get_unchecked(v as usize) };
-    let cell = |c: u32| unsafe { load8(phi, c - lat.base, dj, dk) };
-    let owner = EdgeOwnership::new(dj, dk / dj);
-    let own_weld = owner.fits && !hash_weld;
-    if own_weld {
-        b.window.fit(&owner);
-    }
-    let n = levels.len();
-    let Block {
-        stamps,
-        mesh,
-        window,
-        lattice: q,
-        sort_scratch,
-        ..
-    } = b;
-    let len = stamps.len() as u32;
-    q.begin_sweep(lat.live, start, len as usize);
-    let LatticeQueues {
-        entering,
-        active,
-        fresh,
-        scratch,
-        seen,
-        ..
-    } = q;
-    if entering.len() < n {
-        entering.resize_with(n, Vec::new);
-    }
-    for e in &mut entering[..n] {
-        e.clear();
-    }
-    active.clear();
-    // Each cell is queued once, at the step where the level first passes
-    // its lo: the minima now, every other cell by the first neighbour
-    // that enters (see ARCHITECTURE.md, "entry levels"). A cell is marked
-    // in `seen` when it is queued.
-    for m in minima {
-        let l = levels.partition_point(|&t| t <= m.lo);
-        if l < n && set_bit(seen, m.slot - start) {
-            entering[l].push(m.slot);
-        }
-    }
-    for (k, &t) in levels.iter().enumerate() {
-        mesh.clear();
-        // The cells queued for this step by earlier ones, read in slot
-        // order (warped 256³: 3–5 % faster than in the order found); the
-        // ones found during the step follow.
-        let mut work = std::mem::take(&mut entering[k]);
-        radix_sort_slots(&mut work, sort_scratch, start, len);
-        fresh.clear();
-        let mut i = 0;
-        while i < work.len() {
-            let c = work[i];
-            if let Some(&ahead) = work.get(i + 2 * PREFETCH_AHEAD) {
-                // The four φ rows of the cell four entries ahead, the seen
-                // words of its k neighbours (the i and j ones share or
-                // neighbour its word), and the φ rows of their far faces.
-                let v = ahead - lat.base;
-                for r in [v, v + dj, v + dk, v + dj + dk] {
-                    prefetch(phi, r as usize);
-                }
-                for nb in [ahead - dk, ahead + dk] {
-                    prefetch(seen, nb.wrapping_sub(start) as usize / 64);
-                }
-                for r in [
-                    v.wrapping_sub(dk),
-                    (v + dj).wrapping_sub(dk),
-                    v + 2 * dk,
-                    v + dj + 2 * dk,
-                    v.wrapping_sub(dj),
-                    (v + dk).wrapping_sub(dj),
-                    v + 2 * dj,
-                    v + 2 * dj + dk,
-                ] {
-                    prefetch(phi, r as usize);
-                }
-            }
-            i += 1;
-            let v0 = c - lat.base;
-            let f = cell(c);
-            // Per (i, j) column the min over k; then each face's min.
-            let col = [0, 1, 2, 3].map(|q| fmin(f[q], f[q + 4]));
-            let face = [
-                fmin(col[0], col[2]),
-                fmin(col[1], col[3]),
-                fmin(col[0], col[1]),
-                fmin(col[2], col[3]),
-                fmin(fmin(f[0], f[1]), fmin(f[2], f[3])),
-                fmin(fmin(f[4], f[5]), fmin(f[6], f[7])),
-            ];
-            let hi = max8(&f);
-            debug_assert!(
-                fmin(face[4], face[5]) < t && (k == 0 || fmin(face[4], face[5]) >= levels[k - 1]),
-                "a cell is read at its entry level"
-            );
-            if t <= hi {
-                // Cut from this level through every level up to hi: the
-                // cell stays in A until then without being read again.
-                let mut last = k;
-                while last + 1 < n && levels[last + 1] <= hi {
-                    last += 1;
-                }
-                fresh.push(pack_active(c, last));
-            }
-            // The six neighbours, unrolled. A new one is queued at its
-            // entry level: this step when the shared face dips below t,
-            // else from its lo (the min of the shared face and of its 4
-            // far vertices `far + {0, e1, e2, e1 + e2}`). Its lo is at
-            // least t_{k-1}: every cell with a lower lo was found by the
-            // end of the previous step.
-            macro_rules! visit {
-                ($nb:expr, $face:expr, $far:expr, $e1:expr, $e2:expr) => {{
-                    let nb: u32 = $nb;
-                    let shared = face[$face];
-                    let j = nb.wrapping_sub(start);
-                    if j < len && set_bit(seen, j) {
-                        let far: u32 = $far;
-                        let lo = if shared < t {
-                            shared
-                        } else {
-                            fmin(
-                                shared,
-                                fmin(
-                                    fmin(at(far), at(far + $e1)),
-                                    fmin(at(far + $e2), at(far + $e1 + $e2)),
-                                ),
-                            )
-                        };
-                        if lo < t {
-                            work.push(nb);
-                        } else {
-                            let mut l = k + 1;
-                            while l < n && levels[l] <= lo {
-                                l += 1;
-                            }
-                            if l < n {
-                                entering[l].push(nb);
-                            }
-                        }
-                    }
-                }};
-            }
-            visit!(c - di, 0, v0.wrapping_sub(di), dj, dk);
-            visit!(c + di, 1, v0 + 2 * di, dj, dk);
-            visit!(c - dj, 2, v0.wrapping_sub(dj), di, dk);
-            visit!(c + dj, 3, v0 + 2 * dj, di, dk);
-            visit!(c - dk, 4, v0.wrapping_sub(dk), di, dj);
-            visit!(c + dk, 5, v0 + 2 * dk, di, dj);
-        }
-        let entered = work.len();
-        work.clear();
-        entering[k] = work;
-        // A_k in slot order: the cells of A_{k-1} still cut (already in
-        // order) merged with this step's cut entries (sorted). This level's
-        // polygons are emitted in that order (the weld by ownership needs
-        // it, and consecutive cells share cache lines of φ, positions and
-        // the weld window).
-        radix_sort_by_slot(fresh, scratch, start, len, |x| (x >> 32) as u32);
-        let carried = active.len();
-        merge_active(active, fresh, k, scratch);
-        std::mem::swap(active, scratch);
-        let slot_of = |x: u64| (x >> 32) as u32;
-        let weld = own_weld.then_some(&owner);
-        emit_cut_cells(
-            lat, phi, active, slot_of, start, len, t, ctx, weld, mesh, window,
-        );
-        // Visited: the cells read at this step (entries) and the queue of
-        // A_{k-1} filtered by each cell's last level.
-        let stats = LevelStats::of(mesh, (entered + carried) as u64);
-        on_level(k, mesh, &stats);
-    }
-}
-
-/// Emits level `t`'s polygons of a block's cut cells `cut` (slots
-/// `slot_of(x)`, ascending; the block has `len` slots from `start`) into
-/// `mesh`, welded by edge ownership through `window` when `owner` is given,
-/// else by the mesh's hash map. With [`EmitContext::cells_only`] it records
-/// only the cells.
-#[allow(clippy::too_many_arguments)]
-#[inline(never)]
-fn emit_cut_cells<T: Copy>(
-    lat: &Lattice,
-    phi: &[f32],
-    cut: &[T],
-    slot_of: impl Fn(T) -> u32,
-    start: u32,
-    len: u32,
-    t: f32,
-    ctx: &EmitContext,
-    owner: Option<&EdgeOwnership>,
-    mesh: &mut LevelMesh,
-    window: &mut EdgeWindow,
-) {
-    let [di, dj, dk] = lat.deltas;
-    if ctx.cells_only {
-        mesh.cells.extend(cut.iter().map(|&x| slot_of(x)));
-        mesh.cut_cells = cut.len() as u32;
-        return;
-    }
-    // The vertex rows (φ, positions and attribute) of the cell some
-    // entries ahead of the n-th.
-    let prefetch_ahead = |n: usize| {
-        if let Some(&ahead) = cut.get(n + 4 * PREFETCH_AHEAD) {
-            let v = slot_of(ahead) - lat.base;
-            for r in [v, v + dj, v + dk, v + dj + dk] {
-                prefetch(phi, r as usize);
-                prefetch(ctx.positions, r as usize);
-                if let Some(a) = ctx.attribute {
-                    prefetch(a, r as usize);
-                }
-            }
-        }
-    };
-    // SAFETY (for `load`): `c` is a live cell, whose vertices are <
-    // lat.vertices <= phi.len() (checked by the callers).
-    let load = |c: u32| unsafe { load8(phi, c - lat.base, dj, dk) };
-    let Some(owner) = owner else {
-        for (n, &x) in cut.iter().enumerate() {
-            prefetch_ahead(n);
-            let c = slot_of(x);
-            let f = load(c);
-            lat.table
-                .emit_hashed(lat.meta, c - lat.base, &f, t, c, ctx, mesh);
-        }
-        return;
-    };
-    // The emitter reads the attribute of the cells' vertices unchecked.
-    assert!(
-        ctx.attribute.is_none_or(|a| a.len() >= lat.vertices),
-        "the attribute has fewer values than the lattice has vertices"
-    );
-    // Every lower neighbour is within this many slots.
-    let reach = dk + dj + di;
-    // Which earlier edge neighbours of cell c are live cells of this block
-    // (they own the edges they share with it): all of them for a
-    // surrounded cell away from the block's ends.
-    let live_lower = |c: u32| {
-        let inner = c.wrapping_sub(start).wrapping_sub(reach) < len.saturating_sub(2 * reach);
-        if inner && lat.surrounded.get(c as usize) {
-            511
-        } else {
-            let mut live = 0u32;
-            for (n, &step) in owner.lower_steps.iter().enumerate() {
-                let j = c.wrapping_add(step).wrapping_sub(start);
-                let alive = j < len && lat.live.get(c.wrapping_add(step) as usize);
-                live |= (alive as u32) << n;
-            }
-            live
-        }
-    };
-    // Batches of cells written without capacity checks; a cell with an
-    // ambiguous face ends its batch and is written through the mesh.
-    let mut n = 0;
-    while n < cut.len() {
-        let batch = (cut.len() - n).min(1024);
-        let mut out = HexWriter::new(mesh, batch);
-        let end = n + batch;
-        let mut ambiguous = None;
-        while n < end {
-            prefetch_ahead(n);
-            let c = slot_of(cut[n]);
-            n += 1;
-            let f = load(c);
-            let code = code8(&f, t);
-            let live = live_lower(c);
-            let v0 = c - lat.base;
-            if !lat
-                .table
-                .emit(v0, &f, t, code, owner, live, c, ctx, &mut out, window)
-            {
-                ambiguous = Some((c, f, code, live));
-                break;
-            }
-        }
-        drop(out);
-        if let Some((c, f, code, live)) = ambiguous {
-            lat.table.emit_ambiguous(
-                lat.meta,
-                c - lat.base,
-                &f,
-                t,
-                code,
-                live,
-                owner,
-                c,
-                ctx,
-                mesh,
-                window,
-            );
-        }
-    }
-}
-
-/// Writes into `out` the cells of `carried` (`A_{k-1}`, packed by
-/// [`pack_active`], in slot order) still cut at level `k`, merged in slot
-/// order with `fresh` (sorted; no slot in both).
-fn merge_active(carried: &[u64], fresh: &[u64], k: usize, out: &mut Vec<u64>) {
-    out.clear();
-    out.reserve(carried.len() + fresh.len());
-    let mut f = fresh.iter().copied().peekable();
-    for &a in carried {
-        if (a as u32 as usize) < k {
-            continue;
-        }
-        while let Some(&b) = f.peek() {
-            if b > a {
-                break;
-            }
-            out.push(b);
-            f.next();
-        }
-        out.push(a);
-    }
-    out.extend(f);
-}
-
 /// Sorts `slots` (all in `start..start + len`) ascending with an LSD radix
 /// sort over `slot - start` ([`radix_sort_by_slot`]).
-fn radix_sort_slots(slots: &mut Vec<u32>, scratch: &mut Vec<u32>, start: u32, len: u32) {
+pub(crate) fn radix_sort_slots(slots: &mut Vec<u32>, scratch: &mut Vec<u32>, start: u32, len: u32) {
     radix_sort_by_slot(slots, scratch, start, len, |c| c);
 }
 
@@ -1097,7 +561,7 @@ fn radix_sort_slots(slots: &mut Vec<u32>, scratch: &mut Vec<u32>, start: u32, le
 /// with an LSD radix sort over `slot - start`, in as few passes of at most
 /// 13-bit digits as the key range needs (two for up to 2²⁶ slots);
 /// `scratch` is reused. Short lists take a comparison sort.
-fn radix_sort_by_slot<T: Copy + Default>(
+pub(crate) fn radix_sort_by_slot<T: Copy + Default>(
     items: &mut Vec<T>,
     scratch: &mut Vec<T>,
     start: u32,
@@ -1140,43 +604,6 @@ fn radix_sort_by_slot<T: Copy + Default>(
         std::mem::swap(items, scratch);
         shift += bits;
     }
-}
-
-/// min of two non-NaN values (one `minss`; φ is never NaN).
-#[inline(always)]
-fn fmin(a: f32, b: f32) -> f32 {
-    if a < b { a } else { b }
-}
-
-/// max of eight non-NaN values.
-#[inline(always)]
-fn max8(f: &[f32; 8]) -> f32 {
-    let m = |a: f32, b: f32| if a > b { a } else { b };
-    m(
-        m(m(f[0], f[1]), m(f[2], f[3])),
-        m(m(f[4], f[5]), m(f[6], f[7])),
-    )
-}
-
-/// [`code_of`] for eight values: bit q set iff `f[q] >= t`.
-#[inline(always)]
-fn code8(f: &[f32; 8], t: f32) -> usize {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::*;
-        // SAFETY: SSE is part of the x86_64 baseline; the loads read the
-        // 8 floats of `f` (unaligned loads).
-        unsafe {
-            let tt = _mm_set1_ps(t);
-            let a = _mm_loadu_ps(f.as_ptr());
-            let b = _mm_loadu_ps(f.as_ptr().add(4));
-            let ma = _mm_movemask_ps(_mm_cmpge_ps(a, tt)) as usize;
-            let mb = _mm_movemask_ps(_mm_cmpge_ps(b, tt)) as usize;
-            ma | mb << 4
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    code_of(f, t)
 }
 
 #[cfg(test)]
@@ -1333,7 +760,7 @@ mod tests {
     }
 
     /// The batched, unchecked writes of the lattice emitter
-    /// (`extract::HexWriter`) give, level by level, the hash-welded path's
+    /// (`lattice::emit::HexWriter`) give, level by level, the hash-welded path's
     /// output: the same polygons in the same order, each corner with the
     /// same grid edge, position bits and attribute bits, and running sums
     /// (area, triangles, cut cells) equal to the ones recomputed from the
@@ -1420,7 +847,7 @@ mod tests {
                 cells
                     .iter()
                     .filter(|&&c| {
-                        let f = unsafe { super::load8(&phi, c - lat.base, dj, dk) };
+                        let f = unsafe { super::lattice::load8(&phi, c - lat.base, dj, dk) };
                         faces.iter().any(|q| {
                             let a = q.map(|v| f[v] >= t);
                             a[0] == a[2] && a[1] == a[3] && a[0] != a[1]

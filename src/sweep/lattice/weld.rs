@@ -14,7 +14,8 @@
 //! owner in the same level, and no other edge reaches its window entry
 //! between the owner's write and the last read.
 
-use crate::extract::{EmitContext, HexWriter, LevelMesh, code_of, decide_faces, emit_cell};
+use super::emit::HexWriter;
+use crate::extract::{EmitContext, LevelMesh, code_of, decide_faces, emit_cell};
 use crate::metacell::MetaCell;
 
 /// Largest [`EdgeWindow`] length W per axis (the table holds at most 4W u32s:

@@ -34,8 +34,10 @@
 //! set. Tests compare every level with the per-cell loop, the generic loop
 //! and the brute force.
 
-use super::{Block, EmitContext, Lattice, LevelMesh, LevelStats, Minimum, emit_cut_cells};
-use crate::lattice::EdgeOwnership;
+use super::weld::EdgeOwnership;
+use super::{Lattice, emit_cut_cells};
+use crate::extract::{EmitContext, LevelMesh};
+use crate::sweep::{Block, LevelStats, Minimum};
 
 /// Chunk state: not reached yet.
 const UNTOUCHED: u32 = u32::MAX;
@@ -44,7 +46,7 @@ const DONE: u32 = u32::MAX - 1;
 /// Chunk state: reached, waiting in `pending` to be touched.
 const PENDING: u32 = u32::MAX - 2;
 /// Largest level count the byte-sized levels can hold.
-pub(super) const MAX_LEVELS: usize = 255;
+pub(crate) const MAX_LEVELS: usize = 255;
 
 /// The chunked loop's state, kept between sweeps for its capacity.
 #[derive(Debug, Default)]
@@ -228,7 +230,7 @@ const HAS_DOWN: u8 = 4;
 const HAS_UP: u8 = 8;
 /// The patch widths (cells along i) the loop is built for; the height is
 /// 64 / width.
-pub(super) const WIDTHS: [u32; 4] = [8, 16, 32, 64];
+pub(crate) const WIDTHS: [u32; 4] = [8, 16, 32, 64];
 
 /// Division by a fixed `u32` through one multiplication (Lemire, Kaser and
 /// Kurz, "Faster remainder by direct computation", 2019): `⌊n / d⌋ =
@@ -589,7 +591,7 @@ fn step_masks(rec: &[u8], k: u8) -> StepMasks {
 /// the layer's |Δφ|_k is the same for all) plus `1.25 · height · (|Δφ|_i +
 /// |Δφ|_j)` for the touch. The mean |Δφ| per axis is measured on up to 4096
 /// live cells spread over the block.
-/// `forced` (one of [`WIDTHS`]; [`super::SweepOptions::patch_width`])
+/// `forced` (one of [`WIDTHS`]; [`crate::sweep::SweepOptions::patch_width`])
 /// overrides it, for A/B benchmarks.
 pub(super) fn patch_width(
     lat: &Lattice,
@@ -633,7 +635,7 @@ pub(super) fn patch_width(
 /// emitted in slot order with the same polygons. Needs at most
 /// [`MAX_LEVELS`] levels.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn sweep_block_chunks(
+pub(crate) fn sweep_block_chunks(
     lat: &Lattice,
     phi: &[f32],
     b: &mut Block,
@@ -656,7 +658,7 @@ pub(super) fn sweep_block_chunks(
 /// [`sweep_block_chunks`] with patches `width` cells wide (one of
 /// [`WIDTHS`]).
 #[allow(clippy::too_many_arguments)]
-pub(super) fn sweep_block_patches(
+pub(crate) fn sweep_block_patches(
     width: u32,
     lat: &Lattice,
     phi: &[f32],
