@@ -7,12 +7,11 @@ use rayon::prelude::*;
 use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects, prefetch};
 use crate::field::ScalarField;
 use crate::metacell::{Catalog, MAX_META_VERTICES};
-use lattice::weld::EdgeWindow;
 
 pub mod lattice;
 
 pub use lattice::Lattice;
-use lattice::{LatticeQueues, block_minima_lattice, chunks, sweep_block_lattice};
+use lattice::{LatticeState, block_minima_lattice, chunks, sweep_block_lattice};
 
 /// Per-cell step stamp. 16 bits keep the S-CGraph within 20 bytes per
 /// vertex; the stamps are reset once every 65 534 levels.
@@ -214,12 +213,8 @@ pub struct Block {
     minima_cache: [Option<Vec<Minimum>>; 6],
     /// The block's reusable output buffer.
     pub mesh: LevelMesh,
-    /// Weld table of the lattice loop.
-    window: EdgeWindow,
-    /// Queues of the lattice loop.
-    lattice: LatticeQueues,
-    /// State of the chunked lattice loop.
-    chunked: chunks::ChunkQueues,
+    /// State of the lattice loops (S-CGraph blocks only).
+    lattice: Option<Box<LatticeState>>,
     /// The sweeper's loop choices for the current sweep.
     options: SweepOptions,
 }
@@ -292,9 +287,7 @@ impl Block {
                 .map(|m| m.capacity() * 8)
                 .sum::<usize>()
             + self.mesh.capacity_bytes()
-            + self.window.bytes()
-            + self.lattice.bytes()
-            + self.chunked.bytes()
+            + self.lattice.as_ref().map_or(0, |l| l.bytes())
     }
 }
 
@@ -335,9 +328,7 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
                 sort_scratch: Vec::new(),
                 minima_cache: Default::default(),
                 mesh: LevelMesh::default(),
-                window: EdgeWindow::default(),
-                lattice: LatticeQueues::default(),
-                chunked: Default::default(),
+                lattice: None,
                 options: SweepOptions::default(),
             })
             .collect();

@@ -35,7 +35,7 @@
 //! and the brute force.
 
 use super::weld::EdgeOwnership;
-use super::{Lattice, emit_cut_cells};
+use super::{Lattice, LatticeState, emit_cut_cells};
 use crate::extract::{EmitContext, LevelMesh};
 use crate::sweep::{Block, LevelStats, Minimum};
 
@@ -715,18 +715,21 @@ fn sweep_shaped<const W: usize>(
     );
     let owner = EdgeOwnership::new(dj, dk / dj);
     let own_weld = owner.fits && !hash_weld;
+    let state = b.lattice.get_or_insert_with(Default::default);
     if own_weld {
-        b.window.fit(&owner);
+        state.window.fit(&owner);
     }
     let index = LevelIndex::new(levels);
     let Block {
         stamps,
         mesh,
-        window,
-        chunked: q,
+        lattice,
         work,
         ..
     } = b;
+    let LatticeState {
+        window, chunks: q, ..
+    } = lattice.as_deref_mut().expect("set above");
     let len = stamps.len() as u32;
     let patches = Patches::new(W as u32, lat, start, len);
     let (row_bits, column_bits) = (patches.row_bits(), patches.column_bits());

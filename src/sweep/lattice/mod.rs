@@ -15,6 +15,7 @@ use crate::extract::{EmitContext, LevelMesh, prefetch};
 use crate::metacell::MetaCell;
 use crate::structures::BitSet;
 pub(super) use emit::emit_cut_cells;
+use weld::EdgeWindow;
 use weld::{EdgeOwnership, LatticeHexTable};
 
 /// An implicit hexahedral lattice, for the specialised sweep loop: cell
@@ -38,6 +39,25 @@ pub struct Lattice<'a> {
     pub meta: &'a MetaCell,
     /// Its tables flattened for the lattice's offsets.
     pub table: &'a LatticeHexTable,
+}
+
+/// A block's lattice-loop state, made on the first lattice sweep and kept
+/// between sweeps for its capacity (other structures' blocks have none).
+#[derive(Debug, Default)]
+pub(super) struct LatticeState {
+    /// Weld table of both loops.
+    window: EdgeWindow,
+    /// Queues of the per-cell loop.
+    cells: LatticeQueues,
+    /// State of the chunked loop.
+    chunks: chunks::ChunkQueues,
+}
+
+impl LatticeState {
+    /// Bytes held.
+    pub(super) fn bytes(&self) -> usize {
+        self.window.bytes() + self.cells.bytes() + self.chunks.bytes()
+    }
 }
 
 /// The lattice loop's queues, kept between sweeps for their capacity.
@@ -226,18 +246,21 @@ pub(super) fn sweep_block_lattice(
     let cell = |c: u32| unsafe { load8(phi, c - lat.base, dj, dk) };
     let owner = EdgeOwnership::new(dj, dk / dj);
     let own_weld = owner.fits && !hash_weld;
+    let state = b.lattice.get_or_insert_with(Default::default);
     if own_weld {
-        b.window.fit(&owner);
+        state.window.fit(&owner);
     }
     let n = levels.len();
     let Block {
         stamps,
         mesh,
-        window,
-        lattice: q,
+        lattice,
         sort_scratch,
         ..
     } = b;
+    let LatticeState {
+        window, cells: q, ..
+    } = lattice.as_deref_mut().expect("set above");
     let len = stamps.len() as u32;
     q.begin_sweep(lat.live, start, len as usize);
     let LatticeQueues {
