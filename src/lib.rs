@@ -14,6 +14,7 @@ pub mod cgraph;
 pub mod ciel;
 pub mod convex_split;
 pub mod cornerpoint;
+pub mod cpgraph;
 pub mod extract;
 pub mod field;
 pub mod generate;

@@ -10,6 +10,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 
+use stratasweep::cpgraph::IjkLayout;
 use stratasweep::field::{FieldSpec, levels_by_range};
 use stratasweep::grid::{Grid, Topology, vtk_type};
 use stratasweep::pipeline::{
@@ -67,6 +68,8 @@ enum StructureArg {
     Bruteforce,
     /// CIEL half-edges (any polyhedral grid).
     Ciel,
+    /// The corner-point graph (corner-point input; auto picks it there).
+    Cpgraph,
 }
 
 impl From<StructureArg> for StructureChoice {
@@ -77,6 +80,7 @@ impl From<StructureArg> for StructureChoice {
             StructureArg::Scgraph => StructureChoice::SCGraph,
             StructureArg::Bruteforce => StructureChoice::BruteForce,
             StructureArg::Ciel => StructureChoice::Ciel,
+            StructureArg::Cpgraph => StructureChoice::CpGraph,
         }
     }
 }
@@ -400,13 +404,18 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
-    let (g, n, s, _) = load_with_info(input, quiet)?;
+    let (g, n, s, _, _) = load_with_info(input, quiet)?;
     Ok((g, n, s))
 }
 
-fn load_with_info(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64, Option<Value>)> {
+/// [`load`] with the corner-point report and IJK layout (corner-point input).
+fn load_with_info(
+    input: &GridArg,
+    quiet: bool,
+) -> Result<(Grid, String, f64, Option<Value>, Option<IjkLayout>)> {
     let t = Instant::now();
     let mut info = None;
+    let mut ijk = None;
     let (grid, name) = if input.demo {
         (
             generate::warped(DEMO_DIMS, 1),
@@ -422,13 +431,14 @@ fn load_with_info(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64, Op
         let sp = spinner(quiet, format!("reading {}", path.display()));
         let loaded = io::load(path).with_context(|| format!("cannot load {}", path.display()))?;
         info = loaded.cornerpoint;
+        ijk = loaded.ijk;
         let g = loaded.grid;
         sp.finish_and_clear();
         (g, path.display().to_string())
     };
     grid.validate()
         .with_context(|| format!("invalid grid {name}"))?;
-    Ok((grid, name, t.elapsed().as_secs_f64(), info))
+    Ok((grid, name, t.elapsed().as_secs_f64(), info, ijk))
 }
 
 fn spinner(quiet: bool, msg: String) -> ProgressBar {
@@ -503,10 +513,10 @@ fn memory_json(s: &Structure, grid: &Grid) -> (Value, usize) {
 
 fn cmd_info(a: InfoArgs) -> Result<()> {
     let cpu0 = process_cpu_ns();
-    let (grid, name, load_s, cp) = load_with_info(&a.input, true)?;
+    let (grid, name, load_s, cp, ijk) = load_with_info(&a.input, true)?;
     let cpu1 = process_cpu_ns();
     let t = Instant::now();
-    let s = Structure::build(&grid, a.structure.into())
+    let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let build_s = t.elapsed().as_secs_f64();
     let cpu2 = process_cpu_ns();
@@ -549,6 +559,11 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             g.hidden_count,
         ),
         Structure::Ciel(g) => (g.counts.class_counts, json!([]), g.counts.hidden),
+        Structure::CpGraph(g) => (
+            g.class_counts,
+            catalog_json(&g.catalog, &g.meta_counts),
+            g.hidden_count,
+        ),
     };
     let ciel = match &s {
         Structure::Ciel(g) => json!({
@@ -565,6 +580,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             "non_convex_cells": g.counts.non_convex,
             "convexity_tolerance": stratasweep::ciel::CONVEXITY_TOLERANCE,
         }),
+        Structure::CpGraph(g) => cpgraph_json(g),
         _ => Value::Null,
     };
     let (mem, total) = memory_json(&s, &grid);
@@ -607,6 +623,8 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     if let Structure::Ciel(g) = &s {
         out["half_edges"] = json!(g.half_edge_count());
         out["ciel"] = ciel;
+    } else if matches!(s, Structure::CpGraph(_)) {
+        out["cpgraph"] = ciel;
     }
     // Non-convex polyhedra split into convex pieces before building.
     out["convex_split"] = s.split().map_or(Value::Null, |m| {
@@ -674,10 +692,26 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     if !out["ciel"].is_null() {
         println!("  ciel          {}", out["ciel"]);
     }
+    if !out["cpgraph"].is_null() {
+        println!("  cpgraph       {}", out["cpgraph"]);
+    }
     if !out["convex_split"].is_null() {
         println!("  convex split  {}", out["convex_split"]);
     }
     Ok(())
+}
+
+/// `info`'s figures of the corner-point graph: faces, exceptions, storage.
+fn cpgraph_json(g: &stratasweep::cpgraph::CpGraph) -> Value {
+    let c = &g.counts;
+    json!({
+        "dims": g.dims, "faces": c.faces, "conforming_faces": c.conforming_faces,
+        "exception_faces": c.exception_faces, "linked_exception_faces": c.linked_exceptions,
+        "stencils": c.stencils, "stencil_cells": c.stencil_cells,
+        "explicit_cells": c.explicit_cells, "pieces": c.pieces,
+        "bytes_per_live_cell": g.bytes().iter().map(|b| b.1).sum::<usize>() as f64
+            / c.live_input_cells.max(1) as f64,
+    })
 }
 
 /// Sum of |volume| of the live cells, from their meta-cells (exact for
@@ -707,6 +741,7 @@ fn live_volume(s: &Structure) -> f64 {
     match s {
         Structure::SCGraph(g) => sum(g),
         Structure::CGraph(g) => sum(g),
+        Structure::CpGraph(g) => sum(g),
         Structure::Ciel(g) => (0..g.cell_count() as u32)
             .filter(|&c| g.is_live(c))
             .map(|c| g.cell_volume(c).abs())
@@ -867,9 +902,9 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     if a.threads == 0 {
         bail!("--threads must be at least 1");
     }
-    let (grid, name, load_s) = load(&a.input, quiet)?;
+    let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet)?;
     let t = Instant::now();
-    let s = Structure::build(&grid, a.structure.into())
+    let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let build_s = t.elapsed().as_secs_f64();
     let nlev = match &levels {
@@ -1113,9 +1148,9 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
         return bench_load(&a);
     }
     let field = parse_axis(&a.axis)?;
-    let (grid, name, load_s) = load(&a.input, quiet)?;
+    let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet)?;
     let t = Instant::now();
-    let s = Structure::build(&grid, a.structure.into())?;
+    let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())?;
     let build_s = t.elapsed().as_secs_f64();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.max(1))
@@ -1232,6 +1267,7 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
             .sum::<usize>();
     let cells = cp.cell_count();
     let t = Instant::now();
+    let cells_dims = cp.dims;
     let (grid, rep) = cp.into_grid()?;
     let grid_s = t.elapsed().as_secs_f64();
     let out_arrays = grid_array_bytes(&grid) + rep.source_cell.len() * 4;
@@ -1240,7 +1276,15 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
     let s = if a.skip_build {
         None
     } else {
-        Some(Structure::build(&grid, StructureChoice::Auto)?)
+        let ijk = stratasweep::cpgraph::IjkLayout {
+            dims: cells_dims,
+            source_cell: rep.source_cell.clone(),
+        };
+        Some(Structure::build_with(
+            &grid,
+            StructureChoice::Auto,
+            Some(&ijk),
+        )?)
     };
     let build_s = t.elapsed().as_secs_f64();
     let structure_bytes = s.as_ref().map_or(0, |s| memory_json(s, &grid).1);

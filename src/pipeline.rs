@@ -11,6 +11,7 @@ use crate::bruteforce::brute_force;
 use crate::cgraph::CGraph;
 use crate::ciel::{Ciel, CielSweeper};
 use crate::convex_split::{Split, SplitError, SplitMap, split_non_convex_cells};
+use crate::cpgraph::{CpGraph, IjkLayout};
 use crate::extract::{EmitContext, LevelMesh};
 use crate::field::{
     AxisField, FieldSpec, LevelError, PlaneField, ScalarField, VertexField, levels_by_count,
@@ -36,6 +37,8 @@ pub enum StructureChoice {
     BruteForce,
     /// CIEL, the half-edge structure for arbitrary polyhedra.
     Ciel,
+    /// The corner-point graph (needs the grid's IJK layout).
+    CpGraph,
 }
 
 /// A built sweep structure. CGraph and CIEL are built on the grid with its
@@ -48,6 +51,8 @@ pub enum Structure {
     CGraph(Split<CGraph>),
     /// CIEL.
     Ciel(Split<Ciel>),
+    /// The corner-point graph (holds its own split).
+    CpGraph(CpGraph),
 }
 
 /// Errors of the pipeline.
@@ -91,7 +96,33 @@ pub enum PipelineError {
 impl Structure {
     /// Builds the chosen structure (brute force uses the auto structure).
     pub fn build(grid: &Grid, choice: StructureChoice) -> Result<Self, PipelineError> {
+        Self::build_with(grid, choice, None)
+    }
+
+    /// [`Structure::build`] for a grid whose cells come from an IJK box
+    /// (corner-point input, `layout`): `auto` (and the brute force) then
+    /// take the corner-point graph.
+    pub fn build_with(
+        grid: &Grid,
+        choice: StructureChoice,
+        layout: Option<&IjkLayout>,
+    ) -> Result<Self, PipelineError> {
         grid.validate()?;
+        let cp = match (choice, layout) {
+            (StructureChoice::CpGraph, None) => {
+                return Err(PipelineError::Unsupported(
+                    "the corner-point graph needs corner-point input (GRDECL, EGRID)".into(),
+                ));
+            }
+            (
+                StructureChoice::CpGraph | StructureChoice::Auto | StructureChoice::BruteForce,
+                Some(l),
+            ) if !matches!(grid.topology, Topology::Structured { .. }) => Some(l),
+            _ => None,
+        };
+        if let Some(layout) = cp {
+            return Ok(Structure::CpGraph(build_cpgraph(grid, layout)?));
+        }
         let hidden = grid.hidden_cells();
         let structured = matches!(grid.topology, Topology::Structured { .. });
         let ciel = |g: &Grid, h: Option<&[bool]>| -> Result<Ciel, PipelineError> {
@@ -105,6 +136,7 @@ impl Structure {
                 return Ok(Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?));
             }
             StructureChoice::Ciel => {}
+            StructureChoice::CpGraph => unreachable!("handled above"),
             _ => {
                 // CGraph: split non-convex polyhedra first (one pass over the
                 // polyhedra, nothing when there are none), then build once.
@@ -156,6 +188,7 @@ impl Structure {
             Structure::SCGraph(_) => None,
             Structure::CGraph(g) => g.map.as_ref(),
             Structure::Ciel(g) => g.map.as_ref(),
+            Structure::CpGraph(g) => g.map.as_ref(),
         }
     }
 
@@ -165,6 +198,7 @@ impl Structure {
             Structure::SCGraph(_) => "scgraph",
             Structure::CGraph(_) => "cgraph",
             Structure::Ciel(_) => "ciel",
+            Structure::CpGraph(_) => "cpgraph",
         }
     }
 
@@ -174,6 +208,7 @@ impl Structure {
             Structure::SCGraph(s) => s.origin,
             Structure::CGraph(c) => c.origin,
             Structure::Ciel(c) => c.origin,
+            Structure::CpGraph(c) => c.origin,
         }
     }
 
@@ -183,6 +218,7 @@ impl Structure {
             Structure::SCGraph(s) => s.bytes(),
             Structure::CGraph(c) => c.bytes(),
             Structure::Ciel(c) => c.bytes(),
+            Structure::CpGraph(c) => c.bytes(),
         };
         if let Some(m) = self.split() {
             b.push(("split_map", m.bytes()));
@@ -194,6 +230,7 @@ impl Structure {
     pub fn live_cells(&self) -> usize {
         let (live, map): (&dyn Fn(u32) -> bool, _) = match self {
             Structure::SCGraph(s) => return s.live_cells(),
+            Structure::CpGraph(s) => return s.live_cells(),
             Structure::CGraph(c) => (&|x| c.inner.is_live(x), &c.map),
             Structure::Ciel(c) => (&|x| c.inner.is_live(x), &c.map),
         };
@@ -201,7 +238,7 @@ impl Structure {
             None => match self {
                 Structure::CGraph(c) => c.live_cells(),
                 Structure::Ciel(c) => c.live_cells(),
-                Structure::SCGraph(_) => unreachable!(),
+                Structure::SCGraph(_) | Structure::CpGraph(_) => unreachable!(),
             },
             Some(m) => {
                 let mut n = 0;
@@ -223,8 +260,25 @@ impl Structure {
             Structure::SCGraph(s) => s.slot_count(),
             Structure::CGraph(c) => c.slot_count(),
             Structure::Ciel(c) => c.cell_count(),
+            Structure::CpGraph(c) => c.slot_count(),
         }
     }
+}
+
+/// The corner-point graph of `grid`, built on its split into convex
+/// pieces when it has non-convex polyhedra (as the CGraph is).
+fn build_cpgraph(grid: &Grid, layout: &IjkLayout) -> Result<CpGraph, PipelineError> {
+    let hidden = grid.hidden_cells();
+    let (split_grid, map) = match split_non_convex_cells(grid, hidden.as_deref())? {
+        Some(sp) => (Some(sp.grid), Some(sp.map)),
+        None => (None, None),
+    };
+    let g = split_grid.as_ref().unwrap_or(grid);
+    let h = match &map {
+        Some(m) => m.hidden_cells(hidden.as_deref()),
+        None => hidden,
+    };
+    Ok(CpGraph::build(g, h.as_deref(), map, layout)?)
 }
 
 /// How levels are placed.
@@ -304,6 +358,7 @@ pub fn vertex_property(grid: &Grid, s: &Structure, name: &str) -> Result<Vec<f32
         return Ok(match s {
             Structure::SCGraph(g) => crate::properties::cell_to_vertex(g, &vals, grid.points.len()),
             Structure::CGraph(g) => crate::properties::cell_to_vertex(g, &vals, g.positions.len()),
+            Structure::CpGraph(g) => crate::properties::cell_to_vertex(g, &vals, g.positions.len()),
             Structure::Ciel(g) => match &g.map {
                 Some(m) => g.cell_to_vertex(&m.per_output_cell(&vals)),
                 None => g.cell_to_vertex(&vals),
@@ -384,6 +439,7 @@ pub fn slice(
         Structure::SCGraph(g) => phi_of(g.positions()),
         Structure::CGraph(g) => phi_of(g.positions()),
         Structure::Ciel(g) => phi_of(&g.positions),
+        Structure::CpGraph(g) => phi_of(&g.positions),
     };
     let phi = VertexField {
         values: field_values.as_deref().unwrap_or(&planar_phi),
@@ -406,6 +462,7 @@ pub fn slice(
     let mut r = match s {
         Structure::SCGraph(g) => run!(g),
         Structure::CGraph(g) => run!(g),
+        Structure::CpGraph(g) => run!(g),
         Structure::Ciel(g) => run_ciel(g, &phi, offset, req, attribute, g.map.as_ref(), progress),
     }?;
     r.timings.setup = setup;

@@ -101,6 +101,11 @@ pub trait CellGraph: Sync {
     fn lattice(&self) -> Option<Lattice<'_>> {
         None
     }
+    /// The corner-point graph, when this is one: the sweep then runs its
+    /// own loop (`sweep/cp_loop.rs`).
+    fn cpgraph(&self) -> Option<&crate::cpgraph::CpGraph> {
+        None
+    }
     /// Splits `0..slot_count` into at most `n` contiguous, roughly equal,
     /// spatially coherent ranges for parallel sweeping.
     fn blocks(&self, n: usize) -> Vec<(u32, u32)> {
