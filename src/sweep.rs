@@ -11,6 +11,7 @@ use crate::metacell::{Catalog, MAX_META_VERTICES, MetaCell};
 use crate::structure::BitSet;
 
 mod chunks;
+mod cp_loop;
 
 /// Per-cell step stamp. 16 bits keep the S-CGraph within 20 bytes per
 /// vertex; the stamps are reset once every 65 534 levels.
@@ -617,6 +618,10 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     ctx: &EmitContext,
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
+    if let Some(cp) = g.cpgraph() {
+        cp_loop::sweep_block_cp(cp, f, b, minima, levels, ctx, on_level);
+        return;
+    }
     if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {
         if std::env::var_os("STRATASWEEP_CELL_LOOP").is_some() || levels.len() > chunks::MAX_LEVELS
         {
