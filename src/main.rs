@@ -408,11 +408,12 @@ fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
     Ok((g, n, s))
 }
 
+/// A loaded grid, its name, the load time, and (corner-point input) the
+/// conversion report and the IJK layout.
+type LoadedGrid = (Grid, String, f64, Option<Value>, Option<IjkLayout>);
+
 /// [`load`] with the corner-point report and IJK layout (corner-point input).
-fn load_with_info(
-    input: &GridArg,
-    quiet: bool,
-) -> Result<(Grid, String, f64, Option<Value>, Option<IjkLayout>)> {
+fn load_with_info(input: &GridArg, quiet: bool) -> Result<LoadedGrid> {
     let t = Instant::now();
     let mut info = None;
     let mut ijk = None;
