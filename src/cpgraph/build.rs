@@ -41,6 +41,13 @@ impl Hasher for StencilHasher {
 
 type StencilMap = HashMap<[u32; 8], u16, BuildHasherDefault<StencilHasher>>;
 
+/// The pillar corner (0–3, see `CpGraph::build`) of each local vertex of a
+/// hexahedron with ids numbered pillar by pillar: the two smallest ids are
+/// on corner 0, the next two on corner 1, and so on.
+fn pillar_corners(ids: &[u32]) -> [u8; 8] {
+    std::array::from_fn(|l| (ids.iter().filter(|&&v| v < ids[l]).count() / 2) as u8)
+}
+
 /// A bad layout: not the grid's, or two cells in one IJK slot.
 fn layout_error(cell: usize, why: String) -> StructureError {
     StructureError::UnsupportedCell { cell, why }
@@ -125,6 +132,37 @@ impl CpGraph {
         let mut stencil_ids = StencilMap::default();
         let mut stencils: Vec<[u32; 8]> = Vec::new();
         let mut explicit: Vec<u32> = Vec::new();
+        // Pillar-relative coding: a hexahedron's local vertex l lies on
+        // pillar corner `corner[l]` of its column (0: (i, j), 1: (i+1, j),
+        // 2: (i, j+1), 3: (i+1, j+1)); ids are numbered pillar by pillar, so
+        // the ranks of a cell's ids tell the corners. Each id is coded as
+        // `base[pillar] + anchor + stencil[l]`, so a stencil holds depth
+        // index differences, not pillar sizes (exact for any ids).
+        let home_of = |c: usize| {
+            let ijk = layout.source_cell[source(c)] as usize;
+            let (i, j, k) = (ijk % nx, ijk / nx % ny, ijk / (nx * ny));
+            i + npi * (j + npj * (k + 1))
+        };
+        let hex_ids = |c: usize| -> Option<&[u32]> {
+            let ids = &verts[voff[c] as usize..voff[c + 1] as usize];
+            let ok = metas[c] == builtin::HEXAHEDRON && ids.len() == 8 && !is_split(source(c));
+            ok.then_some(ids)
+        };
+        let corner = (0..n)
+            .find_map(|c| hex_ids(c).map(pillar_corners))
+            .unwrap_or([0, 1, 3, 2, 0, 1, 3, 2]);
+        let pillar_step = [0, 1, npi as u32, npi as u32 + 1];
+        let corner_pillar = corner.map(|q| pillar_step[q as usize]);
+        let mut base = vec![u32::MAX; slab];
+        for c in 0..n {
+            if let Some(ids) = hex_ids(c) {
+                let p = home_of(c) % slab;
+                for l in 0..8 {
+                    let b = &mut base[p + corner_pillar[l] as usize];
+                    *b = (*b).min(ids[l]);
+                }
+            }
+        }
         let mut next_piece = lattice;
         let mut last_live_src = usize::MAX;
         for c in 0..n {
@@ -156,7 +194,12 @@ impl CpGraph {
             }
             let ids = &verts[voff[c] as usize..voff[c + 1] as usize];
             if metas[c] == builtin::HEXAHEDRON && ids.len() == 8 {
-                let rel: [u32; 8] = std::array::from_fn(|l| ids[l].wrapping_sub(ids[0]));
+                let p = slot % slab;
+                let rel: [u32; 8] = std::array::from_fn(|l| {
+                    ids[l].wrapping_sub(base[p + corner_pillar[l] as usize])
+                });
+                let anchor = rel[0];
+                let rel = rel.map(|r| r.wrapping_sub(anchor));
                 let id = match stencil_ids.get(&rel) {
                     Some(&id) => Some(id),
                     None if stencils.len() < EXPLICIT as usize => {
@@ -168,7 +211,7 @@ impl CpGraph {
                     None => None,
                 };
                 if let Some(id) = id {
-                    s.anchor[slot] = ids[0];
+                    s.anchor[slot] = anchor;
                     s.stencil[slot] = id;
                     counts.stencil_cells += 1;
                     continue;
@@ -195,6 +238,9 @@ impl CpGraph {
             anchor: s.anchor,
             stencil: s.stencil,
             stencils,
+            base,
+            corner_pillar,
+            slab_div: super::Divisor::new(slab as u32),
             explicit,
             links: Vec::new(),
             class_counts,
@@ -254,7 +300,7 @@ impl CpGraph {
                             // Each face once, from its lower slot.
                             sums[0] += 1;
                             let conforming =
-                                common == 4 && g.hex_of(slot).is_some() && g.hex_of(nb).is_some();
+                                common == 4 && g.is_stencil_hex(slot) && g.is_stencil_hex(nb);
                             if conforming {
                                 sums[1] += 1;
                             } else {

@@ -37,6 +37,25 @@ pub const NONE: u32 = u32::MAX;
 /// stencils).
 const EXPLICIT: u16 = u16::MAX;
 
+/// Exact division of u32 values by a fixed divisor (Lemire: multiply by
+/// `⌈2⁶⁴ / d⌉`, keep the high 64 bits of the 128-bit product).
+#[derive(Clone, Copy, Debug)]
+struct Divisor {
+    m: u64,
+}
+
+impl Divisor {
+    fn new(d: u32) -> Self {
+        Divisor {
+            m: (u64::MAX / d.max(1) as u64).wrapping_add(1),
+        }
+    }
+    #[inline(always)]
+    fn quotient(self, n: u32) -> u32 {
+        ((self.m as u128 * n as u128) >> 64) as u32
+    }
+}
+
 /// Where the cells of a corner-point grid sit in its IJK box: what
 /// [`crate::cornerpoint::CornerPointGrid::into_grid`] reports.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -92,8 +111,15 @@ pub struct CpGraph {
     anchor: Vec<u32>,
     /// Per slot: stencil id, or [`EXPLICIT`].
     stencil: Vec<u16>,
-    /// Per stencil: the eight vertex ids relative to the first (wrapping).
+    /// Per stencil: the eight vertex ids relative to the first (wrapping),
+    /// each less its pillar's base.
     stencils: Vec<[u32; 8]>,
+    /// Per pillar (`i + npi·j`): the base its vertex ids are coded from.
+    base: Vec<u32>,
+    /// Per local hexahedron vertex: its pillar's offset from the column's.
+    corner_pillar: [u32; 8],
+    /// Division by `npi·npj` (slot → pillar).
+    slab_div: Divisor,
     /// Explicit cells: meta id, vertex count, ids.
     explicit: Vec<u32>,
     /// Per slot, bit `d` (−i, +i, −j, +j, −k, +k): linked to that neighbour.
@@ -125,6 +151,7 @@ impl CpGraph {
             ("slot_stencil_ids", self.stencil.len() * 2),
             ("slot_links", self.links.len()),
             ("stencils", self.stencils.len() * 32),
+            ("pillar_bases", self.base.len() * 4),
             ("explicit_cells", self.explicit.len() * 4),
             ("live_bits", self.live.bytes()),
             ("meta_cell_tables", self.catalog.table_bytes()),
@@ -136,12 +163,10 @@ impl CpGraph {
         self.links[slot as usize]
     }
 
-    /// The slot's hexahedron as (first vertex, stencil), when it is one
-    /// stored through a stencil.
+    /// Whether the slot holds a hexahedron stored through a stencil.
     #[inline(always)]
-    pub(crate) fn hex_of(&self, slot: u32) -> Option<(u32, &[u32; 8])> {
-        let s = self.stencil[slot as usize];
-        (s != EXPLICIT).then(|| (self.anchor[slot as usize], &self.stencils[s as usize]))
+    pub(crate) fn is_stencil_hex(&self, slot: u32) -> bool {
+        self.stencil[slot as usize] != EXPLICIT
     }
 }
 
@@ -165,8 +190,10 @@ impl CellGraph for CpGraph {
         let a = self.anchor[slot as usize];
         if s != EXPLICIT {
             let st = &self.stencils[s as usize];
+            let p = slot - self.slab_div.quotient(slot) * self.deltas[2];
             for l in 0..8 {
-                out[l] = a.wrapping_add(st[l]);
+                let b = self.base[(p + self.corner_pillar[l]) as usize];
+                out[l] = b.wrapping_add(a).wrapping_add(st[l]);
             }
             return (builtin::HEXAHEDRON, 8);
         }
