@@ -8,7 +8,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use rayon::prelude::*;
 
-use super::{CpCounts, CpGraph, EXPLICIT, IjkLayout, NONE};
+use super::{CpCounts, CpGraph, EXPLICIT, IjkLayout};
 use crate::cgraph::{NON_VOLUMETRIC, classify_and_orient, resolve_cells};
 use crate::convex_split::SplitMap;
 use crate::grid::{Grid, Topology};
@@ -48,6 +48,18 @@ fn pillar_corners(ids: &[u32]) -> [u8; 8] {
     std::array::from_fn(|l| (ids.iter().filter(|&&v| v < ids[l]).count() / 2) as u8)
 }
 
+/// Per 64-slot word of `bits` (of `len` bits), the set bits before it.
+fn rank_words(bits: &BitSet, len: usize) -> Vec<u32> {
+    let mut acc = 0u32;
+    (0..len.div_ceil(64))
+        .map(|w| {
+            let r = acc;
+            acc += bits.word_at(64 * w as i64).count_ones();
+            r
+        })
+        .collect()
+}
+
 /// A bad layout: not the grid's, or two cells in one IJK slot.
 fn layout_error(cell: usize, why: String) -> StructureError {
     StructureError::UnsupportedCell { cell, why }
@@ -55,7 +67,8 @@ fn layout_error(cell: usize, why: String) -> StructureError {
 
 /// Per-slot arrays being filled.
 struct Slots {
-    cell_of: Vec<u32>,
+    kept: BitSet,
+    piece_cell: Vec<u32>,
     anchor: Vec<u32>,
     stencil: Vec<u16>,
     live: BitSet,
@@ -120,7 +133,8 @@ impl CpGraph {
             return Err(StructureError::TooLarge { count: total });
         }
         let mut s = Slots {
-            cell_of: vec![NONE; total],
+            kept: BitSet::new(lattice),
+            piece_cell: Vec::with_capacity(pieces),
             anchor: vec![0; total],
             stencil: vec![EXPLICIT; total],
             live: BitSet::new(total),
@@ -171,13 +185,16 @@ impl CpGraph {
             let (i, j, k) = (ijk % nx, ijk / nx % ny, ijk / (nx * ny));
             let home = i + npi * (j + npj * (k + 1));
             let slot = if is_split(src) {
-                s.cell_of[home] = src as u32;
+                s.kept.set(home);
+                s.piece_cell.push(src as u32);
                 next_piece += 1;
                 next_piece - 1
             } else {
                 home
             };
-            s.cell_of[slot] = src as u32;
+            if slot == home {
+                s.kept.set(home);
+            }
             class_counts[class[c] as usize] += 1;
             if metas[c] != NON_VOLUMETRIC {
                 meta_counts[metas[c] as usize] += 1;
@@ -234,7 +251,10 @@ impl CpGraph {
             deltas: [1, npi as u32, slab as u32],
             lattice_slots: lattice as u32,
             live: s.live,
-            cell_of: s.cell_of,
+            kept_rank: rank_words(&s.kept, lattice),
+            kept: s.kept,
+            piece_cell: s.piece_cell,
+            slots: total,
             anchor: s.anchor,
             stencil: s.stencil,
             stencils,
@@ -257,7 +277,7 @@ impl CpGraph {
     /// Links IJK neighbours that share a vertex and counts the faces.
     fn link(&mut self) {
         let lattice = self.lattice_slots as usize;
-        let mut links = vec![0u8; self.cell_of.len()];
+        let mut links = vec![0u8; self.slots];
         let g = &*self;
         let sums = links[..lattice]
             .par_chunks_mut(1 << 14)
@@ -267,7 +287,7 @@ impl CpGraph {
                 let (mut a, mut b) = ([0u32; MAX_META_VERTICES], [0u32; MAX_META_VERTICES]);
                 for (x, o) in out.iter_mut().enumerate() {
                     let slot = ((ch << 14) + x) as u32;
-                    if g.cell_of[slot as usize] == NONE {
+                    if !g.kept.get(slot as usize) {
                         continue;
                     }
                     let live = g.live.get(slot as usize);
@@ -279,7 +299,7 @@ impl CpGraph {
                         } else {
                             slot.wrapping_sub(delta)
                         };
-                        if nb as usize >= lattice || g.cell_of[nb as usize] == NONE {
+                        if nb as usize >= lattice || !g.kept.get(nb as usize) {
                             continue;
                         }
                         let both = live && g.live.get(nb as usize);

@@ -30,9 +30,6 @@ use crate::sweep::CellGraph;
 
 mod build;
 
-/// "No cell" in [`CpGraph`]'s per-slot input cell ids.
-pub const NONE: u32 = u32::MAX;
-
 /// Stencil id of a cell stored explicitly (collapsed cells, pieces, rare
 /// stencils).
 const EXPLICIT: u16 = u16::MAX;
@@ -105,8 +102,16 @@ pub struct CpGraph {
     /// Slots of the lattice (ghost layers included); pieces follow.
     pub lattice_slots: u32,
     live: BitSet,
-    /// Per slot: the input cell (of the grid before any split), or [`NONE`].
-    cell_of: Vec<u32>,
+    /// Per lattice slot: holds an input cell (live or not, split or not).
+    /// The input cell of a lattice slot is its rank here: input cells are
+    /// the kept IJK cells in IJK order, and slots follow IJK order.
+    kept: BitSet,
+    /// Per 64-slot word of `kept`: the set bits before it.
+    kept_rank: Vec<u32>,
+    /// Per piece slot (after the lattice): its input cell.
+    piece_cell: Vec<u32>,
+    /// Slots in all (lattice and pieces).
+    slots: usize,
     /// Per slot: first vertex id (stencil cells) or index into `explicit`.
     anchor: Vec<u32>,
     /// Per slot: stencil id, or [`EXPLICIT`].
@@ -146,7 +151,11 @@ impl CpGraph {
     pub fn bytes(&self) -> Vec<(&'static str, usize)> {
         vec![
             ("positions", self.positions.len() * 12),
-            ("slot_input_cells", self.cell_of.len() * 4),
+            (
+                "kept_bits_and_ranks",
+                self.kept.bytes() + self.kept_rank.len() * 4,
+            ),
+            ("piece_input_cells", self.piece_cell.len() * 4),
             ("slot_anchors", self.anchor.len() * 4),
             ("slot_stencil_ids", self.stencil.len() * 2),
             ("slot_links", self.links.len()),
@@ -172,7 +181,7 @@ impl CpGraph {
 
 impl CellGraph for CpGraph {
     fn slot_count(&self) -> usize {
-        self.cell_of.len()
+        self.slots
     }
     #[inline(always)]
     fn is_live(&self, slot: u32) -> bool {
@@ -217,7 +226,12 @@ impl CellGraph for CpGraph {
         }
     }
     fn source_cell(&self, slot: u32) -> u32 {
-        self.cell_of[slot as usize]
+        if slot >= self.lattice_slots {
+            return self.piece_cell[(slot - self.lattice_slots) as usize];
+        }
+        let w = slot as usize / 64;
+        let below = self.kept.word_at(64 * w as i64) & ((1u64 << (slot % 64)) - 1);
+        self.kept_rank[w] + below.count_ones()
     }
     fn cpgraph(&self) -> Option<&CpGraph> {
         Some(self)
