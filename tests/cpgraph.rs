@@ -287,3 +287,90 @@ fn reek_equals_cgraph() {
     let l = stratasweep::io::load::load(&data.join("reek/2_R001_REEK-0.DATA")).unwrap();
     assert_eq!(l.ijk.as_ref(), Some(&layout));
 }
+
+/// The CLI: `info` on corner-point input reports the corner-point graph
+/// with its exception faces; `--structure cpgraph` on VTK input is a clear
+/// error; `bench` along z cuts the same cells with auto and cgraph.
+#[test]
+fn cli_picks_and_reports_the_corner_point_graph() {
+    let exe = env!("CARGO_BIN_EXE_stratasweep");
+    let dir = std::env::temp_dir().join(format!("cpgraph_cli_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let grdecl = dir.join("f.grdecl");
+    let vts = dir.join("w.vts");
+    let run = |args: &[&str]| std::process::Command::new(exe).args(args).output().unwrap();
+    let g = grdecl.to_str().unwrap();
+    assert!(
+        run(&[
+            "generate", "-q", "faulted", "--dims", "9,8,5", "--faults", "2", "-o", g
+        ])
+        .status
+        .success()
+    );
+    assert!(
+        run(&[
+            "generate",
+            "-q",
+            "warped",
+            "--dims",
+            "4,4,4",
+            "-o",
+            vts.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+    let out = run(&["info", "--json", g]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["structure"], "cpgraph");
+    assert!(
+        j["cpgraph"]["exception_faces"].as_u64().unwrap() > 0,
+        "{}",
+        j["cpgraph"]
+    );
+    assert!(j["cpgraph"]["bytes_per_live_cell"].as_f64().unwrap() > 0.0);
+    let out = run(&[
+        "slice",
+        "--axis",
+        "z",
+        "--count",
+        "5",
+        "--structure",
+        "cpgraph",
+        vts.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("corner-point"), "{err}");
+    let cut = |structure: &str| {
+        let args = [
+            "bench",
+            "--json",
+            "-q",
+            "--no-brute-force",
+            "--repeat",
+            "1",
+            "--count",
+            "17",
+        ];
+        let out = run(&[&args[..], &["--structure", structure, g]].concat());
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        (j["structure"].clone(), j["cut_cells"].clone())
+    };
+    let (a, ca) = cut("auto");
+    let (b, cb) = cut("cgraph");
+    assert_eq!((a.as_str(), b.as_str()), (Some("cpgraph"), Some("cgraph")));
+    assert_eq!(ca, cb);
+    assert!(ca.as_u64().unwrap() > 0);
+    std::fs::remove_dir_all(&dir).ok();
+}
