@@ -742,7 +742,7 @@ fn live_volume(s: &Structure) -> f64 {
     match s {
         Structure::SCGraph(g) => sum(g),
         Structure::CGraph(g) => sum(g),
-        Structure::CpGraph(g) => sum(g),
+        Structure::CpGraph(g) => sum(g.as_ref()),
         Structure::Ciel(g) => (0..g.cell_count() as u32)
             .filter(|&c| g.is_live(c))
             .map(|c| g.cell_volume(c).abs())

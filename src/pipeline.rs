@@ -52,7 +52,7 @@ pub enum Structure {
     /// CIEL.
     Ciel(Split<Ciel>),
     /// The corner-point graph (holds its own split).
-    CpGraph(CpGraph),
+    CpGraph(Box<CpGraph>),
 }
 
 /// Errors of the pipeline.
@@ -121,7 +121,7 @@ impl Structure {
             _ => None,
         };
         if let Some(layout) = cp {
-            return Ok(Structure::CpGraph(build_cpgraph(grid, layout)?));
+            return Ok(Structure::CpGraph(Box::new(build_cpgraph(grid, layout)?)));
         }
         let hidden = grid.hidden_cells();
         let structured = matches!(grid.topology, Topology::Structured { .. });
@@ -358,7 +358,9 @@ pub fn vertex_property(grid: &Grid, s: &Structure, name: &str) -> Result<Vec<f32
         return Ok(match s {
             Structure::SCGraph(g) => crate::properties::cell_to_vertex(g, &vals, grid.points.len()),
             Structure::CGraph(g) => crate::properties::cell_to_vertex(g, &vals, g.positions.len()),
-            Structure::CpGraph(g) => crate::properties::cell_to_vertex(g, &vals, g.positions.len()),
+            Structure::CpGraph(g) => {
+                crate::properties::cell_to_vertex(g.as_ref(), &vals, g.positions.len())
+            }
             Structure::Ciel(g) => match &g.map {
                 Some(m) => g.cell_to_vertex(&m.per_output_cell(&vals)),
                 None => g.cell_to_vertex(&vals),
@@ -462,7 +464,7 @@ pub fn slice(
     let mut r = match s {
         Structure::SCGraph(g) => run!(g),
         Structure::CGraph(g) => run!(g),
-        Structure::CpGraph(g) => run!(g),
+        Structure::CpGraph(g) => run!(g.as_ref()),
         Structure::Ciel(g) => run_ciel(g, &phi, offset, req, attribute, g.map.as_ref(), progress),
     }?;
     r.timings.setup = setup;
