@@ -6,14 +6,17 @@
 //! check. Inactive, dropped and hidden cells are dead slots.
 //!
 //! Vertex ids are the grid's own (welded per pillar by depth, so corners
-//! shared across a conforming face are one vertex): a hexahedron keeps its
-//! first vertex id and the id of its *stencil* (the eight ids relative to
-//! the first); the grid's pillar-major numbering makes a few stencils cover
-//! almost every cell. Collapsed cells (wedges, pyramids, tetrahedra,
-//! polyhedra) and the convex pieces of split non-convex polyhedra keep
-//! their meta-cell and ids explicitly; pieces live in slots after the
-//! lattice, without neighbours (each is its own minimum when nothing
-//! earlier reaches it).
+//! shared across a conforming face are one vertex). A hexahedron keeps an
+//! anchor and a *stencil* id: each id is `base[pillar] + anchor +
+//! stencil[l]`, so a stencil holds depth-index differences (the grid numbers
+//! vertices pillar by pillar), and a few tens of thousands of stencils cover
+//! the hexahedra of a faulted million-cell grid (at most 65 535; further
+//! ones are stored explicitly). Collapsed cells (wedges, pyramids,
+//! tetrahedra, polyhedra) and the convex pieces of split non-convex
+//! polyhedra keep their meta-cell and ids explicitly; pieces live in slots
+//! after the lattice, without neighbours (each is its own minimum when
+//! nothing earlier reaches it). The input cell of a lattice slot is its
+//! rank among the slots that hold one.
 //!
 //! Neighbours come from IJK, not from a vertex → cells map: two live
 //! lattice cells adjacent in IJK are *linked* when they share a vertex (one
