@@ -11,6 +11,7 @@
 
 pub mod bruteforce;
 pub mod cornerpoint;
+
 pub mod extract;
 pub mod field;
 pub mod generate;

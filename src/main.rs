@@ -14,6 +14,7 @@ use stratasweep::field::{FieldSpec, levels_by_range};
 use stratasweep::grid::{Grid, Topology};
 use stratasweep::pipeline::{LevelSpec, SliceRequest, SliceResult, slice};
 use stratasweep::report::{flatten_by_cell, memory_json, stats_json};
+use stratasweep::structures::cpgraph::IjkLayout;
 use stratasweep::structures::{Structure, StructureChoice};
 use stratasweep::sweep::SweepOptions;
 use stratasweep::{generate, io};
@@ -67,6 +68,8 @@ enum StructureArg {
     Bruteforce,
     /// CIEL half-edges (any polyhedral grid).
     Ciel,
+    /// The corner-point graph (corner-point input; auto picks it there).
+    Cpgraph,
 }
 
 impl From<StructureArg> for StructureChoice {
@@ -77,6 +80,7 @@ impl From<StructureArg> for StructureChoice {
             StructureArg::Scgraph => StructureChoice::SCGraph,
             StructureArg::Bruteforce => StructureChoice::BruteForce,
             StructureArg::Ciel => StructureChoice::Ciel,
+            StructureArg::Cpgraph => StructureChoice::CpGraph,
         }
     }
 }
@@ -370,13 +374,19 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
-    let (g, n, s, _) = load_with_info(input, quiet)?;
+    let (g, n, s, _, _) = load_with_info(input, quiet)?;
     Ok((g, n, s))
 }
 
-fn load_with_info(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64, Option<Value>)> {
+/// A loaded grid, its name, the load time, and (corner-point input) the
+/// conversion report and the IJK layout.
+type LoadedGrid = (Grid, String, f64, Option<Value>, Option<IjkLayout>);
+
+/// [`load`] with the corner-point report and IJK layout (corner-point input).
+fn load_with_info(input: &GridArg, quiet: bool) -> Result<LoadedGrid> {
     let t = Instant::now();
     let mut info = None;
+    let mut ijk = None;
     let (grid, name) = if input.demo {
         (
             generate::warped(DEMO_DIMS, 1),
@@ -392,13 +402,14 @@ fn load_with_info(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64, Op
         let sp = spinner(quiet, format!("reading {}", path.display()));
         let loaded = io::load(path).with_context(|| format!("cannot load {}", path.display()))?;
         info = loaded.cornerpoint;
+        ijk = loaded.ijk;
         let g = loaded.grid;
         sp.finish_and_clear();
         (g, path.display().to_string())
     };
     grid.validate()
         .with_context(|| format!("invalid grid {name}"))?;
-    Ok((grid, name, t.elapsed().as_secs_f64(), info))
+    Ok((grid, name, t.elapsed().as_secs_f64(), info, ijk))
 }
 
 /// The sweep's A/B knobs, which only the CLI reads from the environment:
@@ -438,10 +449,10 @@ fn bar(quiet: bool, len: u64, msg: &str) -> ProgressBar {
 
 fn cmd_info(a: InfoArgs) -> Result<()> {
     let cpu0 = process_cpu_ns();
-    let (grid, name, load_s, cp) = load_with_info(&a.input, true)?;
+    let (grid, name, load_s, cp, ijk) = load_with_info(&a.input, true)?;
     let cpu1 = process_cpu_ns();
     let t = Instant::now();
-    let s = Structure::build(&grid, a.structure.into())
+    let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let build_s = t.elapsed().as_secs_f64();
     let cpu2 = process_cpu_ns();
@@ -519,6 +530,9 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     }
     if !out["ciel"].is_null() {
         println!("  ciel          {}", out["ciel"]);
+    }
+    if !out["cpgraph"].is_null() {
+        println!("  cpgraph       {}", out["cpgraph"]);
     }
     if !out["convex_split"].is_null() {
         println!("  convex split  {}", out["convex_split"]);
@@ -604,9 +618,9 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     if a.threads == 0 {
         bail!("--threads must be at least 1");
     }
-    let (grid, name, load_s) = load(&a.input, quiet)?;
+    let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet)?;
     let t = Instant::now();
-    let s = Structure::build(&grid, a.structure.into())
+    let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let build_s = t.elapsed().as_secs_f64();
     let nlev = match &levels {
@@ -851,9 +865,9 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
         return bench_load(&a);
     }
     let field = parse_axis(&a.axis)?;
-    let (grid, name, load_s) = load(&a.input, quiet)?;
+    let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet)?;
     let t = Instant::now();
-    let s = Structure::build(&grid, a.structure.into())?;
+    let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())?;
     let build_s = t.elapsed().as_secs_f64();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.max(1))
@@ -971,6 +985,7 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
             .sum::<usize>();
     let cells = cp.cell_count();
     let t = Instant::now();
+    let cells_dims = cp.dims;
     let (grid, rep) = cp.into_grid()?;
     let grid_s = t.elapsed().as_secs_f64();
     let out_arrays = grid_array_bytes(&grid) + rep.source_cell.len() * 4;
@@ -979,7 +994,15 @@ fn bench_load(a: &BenchArgs) -> Result<()> {
     let s = if a.skip_build {
         None
     } else {
-        Some(Structure::build(&grid, StructureChoice::Auto)?)
+        let ijk = stratasweep::structures::cpgraph::IjkLayout {
+            dims: cells_dims,
+            source_cell: rep.source_cell.clone(),
+        };
+        Some(Structure::build_with(
+            &grid,
+            StructureChoice::Auto,
+            Some(&ijk),
+        )?)
     };
     let build_s = t.elapsed().as_secs_f64();
     let structure_bytes = s.as_ref().map_or(0, |s| memory_json(s, &grid).1);

@@ -137,6 +137,9 @@ pub fn vertex_property(grid: &Grid, s: &Structure, name: &str) -> Result<Vec<f32
         return Ok(match s {
             Structure::SCGraph(g) => crate::properties::cell_to_vertex(g, &vals, grid.points.len()),
             Structure::CGraph(g) => crate::properties::cell_to_vertex(g, &vals, g.positions.len()),
+            Structure::CpGraph(g) => {
+                crate::properties::cell_to_vertex(g.as_ref(), &vals, g.positions.len())
+            }
             Structure::Ciel(g) => match &g.map {
                 Some(m) => g.cell_to_vertex(&m.per_output_cell(&vals)),
                 None => g.cell_to_vertex(&vals),
@@ -216,6 +219,7 @@ pub fn slice(
     let planar_phi = match s {
         Structure::SCGraph(g) => phi_of(g.positions()),
         Structure::CGraph(g) => phi_of(g.positions()),
+        Structure::CpGraph(g) => phi_of(&g.positions),
         Structure::Ciel(g) => phi_of(&g.positions),
     };
     let phi = VertexField {
@@ -239,6 +243,7 @@ pub fn slice(
     let mut r = match s {
         Structure::SCGraph(g) => run!(g),
         Structure::CGraph(g) => run!(g),
+        Structure::CpGraph(g) => run!(g.as_ref()),
         Structure::Ciel(g) => run_ciel(g, &phi, offset, req, attribute, g.map.as_ref(), progress),
     }?;
     r.timings.setup = setup;

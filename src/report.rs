@@ -161,6 +161,7 @@ pub fn live_volume(s: &Structure) -> f64 {
     match s {
         Structure::SCGraph(g) => sum(g),
         Structure::CGraph(g) => sum(g),
+        Structure::CpGraph(g) => sum(g.as_ref()),
         Structure::Ciel(g) => (0..g.cell_count() as u32)
             .filter(|&c| g.is_live(c))
             .map(|c| g.cell_volume(c).abs())
@@ -257,6 +258,11 @@ pub fn info_json(grid: &Grid, s: &Structure, c: &InfoContext) -> Value {
             g.hidden_count,
         ),
         Structure::Ciel(g) => (g.counts.class_counts, json!([]), g.counts.hidden),
+        Structure::CpGraph(g) => (
+            g.class_counts,
+            catalog_json(&g.catalog, &g.meta_counts),
+            g.hidden_count,
+        ),
     };
     let (mem, total) = memory_json(s, grid);
     let nv = grid.points.len();
@@ -311,6 +317,9 @@ pub fn info_json(grid: &Grid, s: &Structure, c: &InfoContext) -> Value {
             "convexity_tolerance": crate::structures::ciel::CONVEXITY_TOLERANCE,
         });
     }
+    if let Structure::CpGraph(g) = s {
+        out["cpgraph"] = cpgraph_json(g);
+    }
     // Non-convex polyhedra split into convex pieces before building.
     out["convex_split"] = s.split().map_or(Value::Null, |m| {
         let r = &m.report;
@@ -324,4 +333,17 @@ pub fn info_json(grid: &Grid, s: &Structure, c: &InfoContext) -> Value {
         })
     });
     out
+}
+
+/// `info`'s figures of the corner-point graph: faces, exceptions, storage.
+fn cpgraph_json(g: &crate::structures::cpgraph::CpGraph) -> Value {
+    let c = &g.counts;
+    json!({
+        "dims": g.dims, "faces": c.faces, "conforming_faces": c.conforming_faces,
+        "exception_faces": c.exception_faces, "linked_exception_faces": c.linked_exceptions,
+        "stencils": c.stencils, "stencil_cells": c.stencil_cells,
+        "explicit_cells": c.explicit_cells, "pieces": c.pieces,
+        "bytes_per_live_cell": g.bytes().iter().map(|b| b.1).sum::<usize>() as f64
+            / c.live_input_cells.max(1) as f64,
+    })
 }

@@ -522,6 +522,7 @@ impl<'c> Renderer<'c> {
                 p.grid.attr = match s {
                     Structure::SCGraph(g) => slot_values(g, v),
                     Structure::CGraph(g) => slot_values(g, v),
+                    Structure::CpGraph(g) => slot_values(g.as_ref(), v),
                     // `prepare` already refused CIEL grids.
                     Structure::Ciel(_) => {
                         return Err(PipelineError::Unsupported(

@@ -90,6 +90,7 @@ pub fn prepare(grid: &Grid, s: &Structure, req: &SliceRequest) -> Result<Prepare
     let mut p = match s {
         Structure::SCGraph(g) => go!(g, GridBuffers::scgraph),
         Structure::CGraph(g) => go!(&g.inner, GridBuffers::cgraph),
+        Structure::CpGraph(g) => go!(g.as_ref(), GridBuffers::cgraph),
         Structure::Ciel(_) => Err(PipelineError::Unsupported(
             "the GPU path takes S-CGraph and CGraph grids; this grid needs CIEL \
              (polyhedra with more than 12 vertices): use --device cpu"

@@ -6,7 +6,6 @@
 use crate::extract::EmitContext;
 use crate::field::ScalarField;
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
-use crate::structures::cgraph::CGraph;
 use crate::structures::scgraph::SCGraph;
 use crate::sweep::{CellGraph, LevelStats, Sweeper};
 
@@ -153,7 +152,7 @@ impl GridBuffers {
     }
 
     /// Buffers of a CGraph: per live slot its meta id and vertex ids.
-    pub fn cgraph<F: ScalarField>(g: &CGraph, f: &F, attr: Option<&[f32]>) -> Self {
+    pub fn cgraph<G: CellGraph, F: ScalarField>(g: &G, f: &F, attr: Option<&[f32]>) -> Self {
         let n = g.slot_count();
         let mut cells = vec![0u32; 2 * n];
         let mut ids = [0u32; MAX_META_VERTICES];

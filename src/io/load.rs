@@ -59,6 +59,9 @@ pub struct Loaded {
     /// vertices, bulk volume, MAPAXES, units, timings and the reader's own
     /// summary under `input`), as `info --json` prints it.
     pub cornerpoint: Option<Value>,
+    /// Corner-point input only: where each cell sits in the IJK box (for
+    /// the corner-point graph).
+    pub ijk: Option<crate::structures::cpgraph::IjkLayout>,
 }
 
 /// Everything that can go wrong in [`load`]. Every message names the file.
@@ -156,14 +159,14 @@ fn by_extension(path: &Path) -> Format {
 /// Loads any grid file the crate reads (see [`detect`]) and validates it.
 pub fn load(path: &Path) -> Result<Loaded, LoadError> {
     let format = detect(path)?;
-    let (grid, inputs, cornerpoint) = match format {
+    let (grid, inputs, cornerpoint, ijk) = match format {
         Format::VtkLegacy | Format::VtkXml => {
             let g = read_vtk_as(path, format == Format::VtkXml)?;
-            (g, vec![path.to_path_buf()], None)
+            (g, vec![path.to_path_buf()], None, None)
         }
         Format::Grdecl | Format::Egrid => {
-            let (g, inputs, info) = load_cornerpoint(path, format)?;
-            (g, inputs, Some(info))
+            let (g, inputs, info, ijk) = load_cornerpoint(path, format)?;
+            (g, inputs, Some(info), Some(ijk))
         }
     };
     grid.validate().map_err(|source| LoadError::Invalid {
@@ -175,12 +178,24 @@ pub fn load(path: &Path) -> Result<Loaded, LoadError> {
         format,
         inputs,
         cornerpoint,
+        ijk,
     })
 }
 
 /// Reads a corner-point grid (GRDECL, .DATA deck, EGRID) into a zoo grid,
 /// with its JSON summary: per-class counts, bulk volume, skipped keywords.
-fn load_cornerpoint(path: &Path, format: Format) -> Result<(Grid, Vec<PathBuf>, Value), LoadError> {
+fn load_cornerpoint(
+    path: &Path,
+    format: Format,
+) -> Result<
+    (
+        Grid,
+        Vec<PathBuf>,
+        Value,
+        crate::structures::cpgraph::IjkLayout,
+    ),
+    LoadError,
+> {
     let t = Instant::now();
     let (cp, inputs, extra): (CornerPointGrid, Vec<PathBuf>, Value) = if format == Format::Egrid {
         let e = read_egrid(path)?;
@@ -213,5 +228,9 @@ fn load_cornerpoint(path: &Path, format: Format) -> Result<(Grid, Vec<PathBuf>, 
         "gridunit": gridunit, "ijk_right_handed_up": rep.ijk_right_handed_up,
         "read_s": read_s, "to_grid_s": t.elapsed().as_secs_f64() - read_s, "input": extra,
     });
-    Ok((grid, inputs, info))
+    let ijk = crate::structures::cpgraph::IjkLayout {
+        dims,
+        source_cell: rep.source_cell,
+    };
+    Ok((grid, inputs, info, ijk))
 }

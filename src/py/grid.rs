@@ -13,6 +13,7 @@ use crate::field::FieldSpec;
 use crate::grid::{Grid, Topology};
 use crate::pipeline::{LevelSpec, SliceRequest, slice};
 use crate::report::{InfoContext, flatten_by_cell, info_json, stats_json};
+use crate::structures::cpgraph::IjkLayout;
 use crate::structures::{Structure, StructureChoice};
 
 use super::errors::{guard, value_error, write_error};
@@ -36,6 +37,9 @@ pub struct GridData {
     pub cornerpoint: Option<Value>,
     /// Seconds to load or make it.
     pub load_s: f64,
+    /// The IJK layout of corner-point input (`auto` then builds the
+    /// corner-point graph, as the CLI does).
+    pub ijk: Option<IjkLayout>,
     /// Structures built so far, by choice name.
     structures: Mutex<HashMap<&'static str, Arc<Built>>>,
 }
@@ -48,8 +52,15 @@ impl GridData {
             name,
             cornerpoint,
             load_s,
+            ijk: None,
             structures: Mutex::default(),
         }
+    }
+
+    /// The same grid with its corner-point IJK layout.
+    pub fn with_layout(mut self, ijk: Option<IjkLayout>) -> Self {
+        self.ijk = ijk;
+        self
     }
 
     /// The structure for `choice` (brute force uses the auto structure),
@@ -60,15 +71,17 @@ impl GridData {
             StructureChoice::CGraph => "cgraph",
             StructureChoice::SCGraph => "scgraph",
             StructureChoice::Ciel => "ciel",
+            StructureChoice::CpGraph => "cpgraph",
         };
         let mut map = self.structures.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(b) = map.get(key) {
             return Ok(b.clone());
         }
         let t = Instant::now();
-        let structure = Structure::build(&self.grid, choice).map_err(|e| {
-            PyValueError::new_err(format!("cannot build a structure for {}: {e}", self.name))
-        })?;
+        let structure =
+            Structure::build_with(&self.grid, choice, self.ijk.as_ref()).map_err(|e| {
+                PyValueError::new_err(format!("cannot build a structure for {}: {e}", self.name))
+            })?;
         let b = Arc::new(Built {
             structure,
             build_s: t.elapsed().as_secs_f64(),
@@ -99,10 +112,11 @@ pub fn structure_choice(s: &str) -> PyResult<StructureChoice> {
         "cgraph" => StructureChoice::CGraph,
         "scgraph" => StructureChoice::SCGraph,
         "ciel" => StructureChoice::Ciel,
+        "cpgraph" => StructureChoice::CpGraph,
         "bruteforce" => StructureChoice::BruteForce,
         _ => {
             return Err(PyValueError::new_err(format!(
-                "structure '{s}': expected auto, cgraph, scgraph, ciel or bruteforce"
+                "structure '{s}': expected auto, cgraph, scgraph, ciel, cpgraph or bruteforce"
             )));
         }
     })

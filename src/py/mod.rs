@@ -36,7 +36,8 @@ fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyGrid> {
                 path.display().to_string(),
                 l.cornerpoint,
                 t.elapsed().as_secs_f64(),
-            ))
+            )
+            .with_layout(l.ijk))
         })
     })?;
     Ok(PyGrid::from(data))

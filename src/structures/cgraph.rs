@@ -27,7 +27,7 @@ use crate::sweep::CellGraph;
 pub const NONE: u32 = u32::MAX;
 
 /// Meta id of skipped 0D/1D/2D cells (no vertices, no faces stored).
-const NON_VOLUMETRIC: u16 = u16::MAX;
+pub(crate) const NON_VOLUMETRIC: u16 = u16::MAX;
 
 /// The cellular graph of a zoo grid.
 #[derive(Clone, Debug)]
@@ -54,7 +54,7 @@ pub struct CGraph {
 /// Resolves each cell to a meta-cell id and its local-order vertex ids
 /// (offsets and ids; borrowed from `cells` when every cell is a typed
 /// volumetric cell other than a voxel, whose ids are already in local order).
-fn resolve_cells<'a>(
+pub(crate) fn resolve_cells<'a>(
     cells: &'a Cells,
     points: &[[f64; 3]],
     catalog: &mut Catalog,
@@ -231,6 +231,54 @@ fn consistently_oriented(faces: &[Vec<u8>]) -> bool {
         .all(|&(a, b)| directed.binary_search(&(b, a)).is_ok())
 }
 
+/// Classifies every cell (see [`classify_cell`]; 0D–2D cells are
+/// [`CellClass::NonVolumetric`]) and orients polyhedra outward: an inverted
+/// polyhedron gets the meta-cell with its faces reversed (and counts as
+/// valid). Shared by the CGraph and the corner-point graph, so both see the
+/// same meta-cells and classes.
+pub(crate) fn classify_and_orient(
+    catalog: &mut Catalog,
+    metas: &mut [u16],
+    voff: &[u32],
+    verts: &[u32],
+    points: &[[f64; 3]],
+) -> Result<Vec<CellClass>, StructureError> {
+    let n = metas.len();
+    let mut class: Vec<CellClass> = (0..n)
+        .into_par_iter()
+        .map(|c| match metas[c] {
+            NON_VOLUMETRIC => CellClass::NonVolumetric,
+            m => classify_cell(
+                catalog.get(m),
+                &verts[voff[c] as usize..voff[c + 1] as usize],
+                points,
+            ),
+        })
+        .collect();
+    for c in 0..n {
+        let mut cl = class[c];
+        if cl == CellClass::Inverted && catalog.get(metas[c]).name.starts_with("polyhedron") {
+            let flipped: Vec<Vec<u8>> = catalog
+                .get(metas[c])
+                .faces
+                .iter()
+                .map(|f| f.iter().rev().copied().collect())
+                .collect();
+            let nv = catalog.get(metas[c]).nv;
+            metas[c] =
+                catalog
+                    .for_faces(nv, &flipped)
+                    .map_err(|e| StructureError::UnsupportedCell {
+                        cell: c,
+                        why: format!("polyhedron: {e}"),
+                    })?;
+            cl = CellClass::Valid;
+        }
+        class[c] = cl;
+    }
+    Ok(class)
+}
+
 impl CGraph {
     /// Builds the CGraph of an unstructured grid (or of a structured grid,
     /// whose cells become hexahedra). `hidden` marks cells to exclude.
@@ -247,38 +295,7 @@ impl CGraph {
         if metas.iter().all(|&m| m == NON_VOLUMETRIC) {
             return Err(StructureError::NoCells);
         }
-        // Orient polyhedra outward: flip their meta-cell if the volume is negative.
-        let mut class: Vec<CellClass> = (0..n)
-            .into_par_iter()
-            .map(|c| match metas[c] {
-                NON_VOLUMETRIC => CellClass::NonVolumetric,
-                m => classify_cell(
-                    catalog.get(m),
-                    &verts[voff[c] as usize..voff[c + 1] as usize],
-                    &grid.points,
-                ),
-            })
-            .collect();
-        for c in 0..n {
-            let mut cl = class[c];
-            if cl == CellClass::Inverted && catalog.get(metas[c]).name.starts_with("polyhedron") {
-                let flipped: Vec<Vec<u8>> = catalog
-                    .get(metas[c])
-                    .faces
-                    .iter()
-                    .map(|f| f.iter().rev().copied().collect())
-                    .collect();
-                let nv = catalog.get(metas[c]).nv;
-                metas[c] = catalog.for_faces(nv, &flipped).map_err(|e| {
-                    StructureError::UnsupportedCell {
-                        cell: c,
-                        why: format!("polyhedron: {e}"),
-                    }
-                })?;
-                cl = CellClass::Valid;
-            }
-            class[c] = cl;
-        }
+        let class = classify_and_orient(&mut catalog, &mut metas, &voff, &verts, &grid.points)?;
         let mut live = BitSet::new(n);
         let mut class_counts = [0usize; 5];
         let mut hidden_count = 0;

@@ -7,6 +7,7 @@ pub mod cgraph;
 pub mod ciel;
 pub mod common;
 pub mod convex_split;
+pub mod cpgraph;
 pub mod scgraph;
 
 pub use common::{
@@ -19,6 +20,7 @@ use crate::sweep::CellGraph;
 use cgraph::CGraph;
 use ciel::Ciel;
 use convex_split::{Split, SplitMap, split_non_convex_cells};
+use cpgraph::{CpGraph, IjkLayout};
 use scgraph::SCGraph;
 
 /// Which structure to build (`--structure`).
@@ -35,6 +37,8 @@ pub enum StructureChoice {
     BruteForce,
     /// CIEL, the half-edge structure for arbitrary polyhedra.
     Ciel,
+    /// The corner-point graph (needs the grid's IJK layout).
+    CpGraph,
 }
 
 /// A built sweep structure. CGraph and CIEL are built on the grid with its
@@ -47,12 +51,48 @@ pub enum Structure {
     CGraph(Split<CGraph>),
     /// CIEL.
     Ciel(Split<Ciel>),
+    /// The corner-point graph (holds its own split).
+    CpGraph(Box<CpGraph>),
 }
 
 impl Structure {
     /// Builds the chosen structure (brute force uses the auto structure).
     pub fn build(grid: &Grid, choice: StructureChoice) -> Result<Self, PipelineError> {
+        Self::build_with(grid, choice, None)
+    }
+
+    /// [`Structure::build`] for a grid whose cells come from an IJK box
+    /// (corner-point input, `layout`): `auto` (and the brute force) then
+    /// take the corner-point graph.
+    pub fn build_with(
+        grid: &Grid,
+        choice: StructureChoice,
+        layout: Option<&IjkLayout>,
+    ) -> Result<Self, PipelineError> {
         grid.validate()?;
+        let cp = match (choice, layout) {
+            (StructureChoice::CpGraph, None) => {
+                return Err(PipelineError::Unsupported(
+                    "the corner-point graph needs corner-point input (GRDECL, EGRID)".into(),
+                ));
+            }
+            (
+                StructureChoice::CpGraph | StructureChoice::Auto | StructureChoice::BruteForce,
+                Some(l),
+            ) if !matches!(grid.topology, Topology::Structured { .. }) => Some(l),
+            _ => None,
+        };
+        if let Some(layout) = cp {
+            let hidden = grid.hidden_cells();
+            let (split_grid, map, h) = split_for_build(grid, hidden)?;
+            let g = split_grid.as_ref().unwrap_or(grid);
+            return Ok(Structure::CpGraph(Box::new(CpGraph::build(
+                g,
+                h.as_deref(),
+                map,
+                layout,
+            )?)));
+        }
         let hidden = grid.hidden_cells();
         let structured = matches!(grid.topology, Topology::Structured { .. });
         let ciel = |g: &Grid, h: Option<&[bool]>| -> Result<Ciel, PipelineError> {
@@ -66,20 +106,11 @@ impl Structure {
                 return Ok(Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?));
             }
             StructureChoice::Ciel => {}
+            StructureChoice::CpGraph => unreachable!("handled above"),
             _ => {
-                // CGraph: split non-convex polyhedra first (one pass over the
-                // polyhedra, nothing when there are none), then build once.
-                // The split grid carries no properties (the structures read
-                // points and cells only); its hidden cells come from the map.
-                let (split_grid, map) = match split_non_convex_cells(grid, hidden.as_deref())? {
-                    Some(sp) => (Some(sp.grid), Some(sp.map)),
-                    None => (None, None),
-                };
+                // CGraph: split non-convex polyhedra first, then build once.
+                let (split_grid, map, h) = split_for_build(grid, hidden)?;
                 let g = split_grid.as_ref().unwrap_or(grid);
-                let h = match &map {
-                    Some(m) => m.hidden_cells(hidden.as_deref()),
-                    None => hidden,
-                };
                 return match CGraph::build(g, h.as_deref()) {
                     Ok(inner) => Ok(Structure::CGraph(Split { inner, map })),
                     // A cell the catalog cannot take (large or odd polyhedra): CIEL.
@@ -117,6 +148,7 @@ impl Structure {
             Structure::SCGraph(_) => None,
             Structure::CGraph(g) => g.map.as_ref(),
             Structure::Ciel(g) => g.map.as_ref(),
+            Structure::CpGraph(g) => g.map.as_ref(),
         }
     }
 
@@ -126,6 +158,7 @@ impl Structure {
             Structure::SCGraph(_) => "scgraph",
             Structure::CGraph(_) => "cgraph",
             Structure::Ciel(_) => "ciel",
+            Structure::CpGraph(_) => "cpgraph",
         }
     }
 
@@ -135,6 +168,7 @@ impl Structure {
             Structure::SCGraph(s) => s.origin,
             Structure::CGraph(c) => c.origin,
             Structure::Ciel(c) => c.origin,
+            Structure::CpGraph(c) => c.origin,
         }
     }
 
@@ -144,6 +178,7 @@ impl Structure {
             Structure::SCGraph(s) => s.bytes(),
             Structure::CGraph(c) => c.bytes(),
             Structure::Ciel(c) => c.bytes(),
+            Structure::CpGraph(c) => c.bytes(),
         };
         if let Some(m) = self.split() {
             b.push(("split_map", m.bytes()));
@@ -155,6 +190,7 @@ impl Structure {
     pub fn live_cells(&self) -> usize {
         let (live, map): (&dyn Fn(u32) -> bool, _) = match self {
             Structure::SCGraph(s) => return s.live_cells(),
+            Structure::CpGraph(s) => return s.live_cells(),
             Structure::CGraph(c) => (&|x| c.inner.is_live(x), &c.map),
             Structure::Ciel(c) => (&|x| c.inner.is_live(x), &c.map),
         };
@@ -162,7 +198,7 @@ impl Structure {
             None => match self {
                 Structure::CGraph(c) => c.live_cells(),
                 Structure::Ciel(c) => c.live_cells(),
-                Structure::SCGraph(_) => unreachable!(),
+                Structure::SCGraph(_) | Structure::CpGraph(_) => unreachable!(),
             },
             Some(m) => {
                 let mut n = 0;
@@ -184,6 +220,23 @@ impl Structure {
             Structure::SCGraph(s) => s.slot_count(),
             Structure::CGraph(c) => c.slot_count(),
             Structure::Ciel(c) => c.cell_count(),
+            Structure::CpGraph(c) => c.slot_count(),
         }
     }
+}
+
+/// Splits the non-convex polyhedra of `grid` into convex pieces (one pass
+/// over the polyhedra, nothing when there are none): the split grid (None:
+/// use `grid`), its map and the hidden cells to build with. The split grid
+/// carries no properties (the structures read points and cells only); its
+/// hidden cells come from the map.
+type SplitForBuild = (Option<Grid>, Option<SplitMap>, Option<Vec<bool>>);
+fn split_for_build(grid: &Grid, hidden: Option<Vec<bool>>) -> Result<SplitForBuild, PipelineError> {
+    Ok(match split_non_convex_cells(grid, hidden.as_deref())? {
+        Some(sp) => {
+            let h = sp.map.hidden_cells(hidden.as_deref());
+            (Some(sp.grid), Some(sp.map), h)
+        }
+        None => (None, None, hidden),
+    })
 }

@@ -8,6 +8,7 @@ use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects, pre
 use crate::field::ScalarField;
 use crate::metacell::{Catalog, MAX_META_VERTICES};
 
+mod cp_loop;
 pub mod lattice;
 
 pub use lattice::Lattice;
@@ -100,6 +101,11 @@ pub trait CellGraph: Sync {
     /// `slot - base + offsets[local]` (the S-CGraph): the sweep then runs a
     /// specialised loop ([`Lattice`]). `None` for general graphs.
     fn lattice(&self) -> Option<Lattice<'_>> {
+        None
+    }
+    /// The corner-point graph, when this is one: the sweep then runs its
+    /// own loop (`sweep/cp_loop.rs`).
+    fn cpgraph(&self) -> Option<&crate::structures::cpgraph::CpGraph> {
         None
     }
     /// Splits `0..slot_count` into at most `n` contiguous, roughly equal,
@@ -461,6 +467,10 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     ctx: &EmitContext,
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
+    if let Some(cp) = g.cpgraph() {
+        cp_loop::sweep_block_cp(cp, f, b, minima, levels, ctx, on_level);
+        return;
+    }
     if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {
         if b.options.per_cell_loop || levels.len() > chunks::MAX_LEVELS {
             sweep_block_lattice(&lat, phi, b, minima, levels, ctx, false, on_level);

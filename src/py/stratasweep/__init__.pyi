@@ -11,7 +11,7 @@ from . import generate as generate
 __version__: str
 
 _Path = Union[str, PathLike[str]]
-_Structure = Literal["auto", "cgraph", "scgraph", "ciel", "bruteforce"]
+_Structure = Literal["auto", "cgraph", "scgraph", "ciel", "cpgraph", "bruteforce"]
 
 class Slices:
     """The polygons of one ``Grid.slice`` call, welded by grid edge."""
@@ -69,7 +69,7 @@ class Grid:
     @property
     def n_points(self) -> int: ...
     @property
-    def structure(self) -> Literal["scgraph", "cgraph", "ciel"]:
+    def structure(self) -> Literal["scgraph", "cgraph", "ciel", "cpgraph"]:
         """The structure ``structure="auto"`` builds."""
     def slice(
         self,

@@ -47,8 +47,8 @@ pub struct Lattice<'a> {
 pub(super) struct LatticeState {
     /// Weld table of both loops.
     window: EdgeWindow,
-    /// Queues of the per-cell loop.
-    cells: LatticeQueues,
+    /// Queues of the per-cell loop (and of the corner-point graph's loop).
+    pub(in crate::sweep) cells: LatticeQueues,
     /// State of the chunked loop.
     chunks: chunks::ChunkQueues,
 }
@@ -62,22 +62,22 @@ impl LatticeState {
 
 /// The lattice loop's queues, kept between sweeps for their capacity.
 #[derive(Debug, Default)]
-pub(super) struct LatticeQueues {
+pub(in crate::sweep) struct LatticeQueues {
     /// Per level k: the cells that enter at step k (`t_{k-1} <= lo < t_k`),
     /// in the order they were found.
-    entering: Vec<Vec<u32>>,
+    pub(in crate::sweep) entering: Vec<Vec<u32>>,
     /// `A_k` in slot order, each cell packed with the last level that cuts
     /// it ([`pack_active`]).
-    active: Vec<u64>,
+    pub(in crate::sweep) active: Vec<u64>,
     /// The cells entering at this step that the level cuts, packed.
-    fresh: Vec<u64>,
+    pub(in crate::sweep) fresh: Vec<u64>,
     /// Scratch for sorting `fresh` and merging it into `active`.
-    scratch: Vec<u64>,
+    pub(in crate::sweep) scratch: Vec<u64>,
     /// Per block slot, one bit: dead (never swept), or found in this
     /// sweep. Reset from the lattice's live bits when a sweep starts. One
     /// bit per slot instead of the u16 stamps keeps a level's neighbour
     /// tests in cache.
-    seen: Vec<u64>,
+    pub(in crate::sweep) seen: Vec<u64>,
 }
 
 impl LatticeQueues {
@@ -105,7 +105,7 @@ impl LatticeQueues {
 
 /// Sets bit `j` of `bits`; returns whether it was clear.
 #[inline(always)]
-pub(super) fn set_bit(bits: &mut [u64], j: u32) -> bool {
+pub(in crate::sweep) fn set_bit(bits: &mut [u64], j: u32) -> bool {
     let w = &mut bits[j as usize / 64];
     let m = 1u64 << (j % 64);
     let was_clear = *w & m == 0;
@@ -117,7 +117,7 @@ pub(super) fn set_bit(bits: &mut [u64], j: u32) -> bool {
 /// (so sorting by value sorts by slot), the last level index that cuts it
 /// in the low half.
 #[inline(always)]
-pub(super) fn pack_active(slot: u32, last: usize) -> u64 {
+pub(in crate::sweep) fn pack_active(slot: u32, last: usize) -> u64 {
     (slot as u64) << 32 | last as u64
 }
 
@@ -422,7 +422,7 @@ pub(super) fn sweep_block_lattice(
 /// Writes into `out` the cells of `carried` (`A_{k-1}`, packed by
 /// [`pack_active`], in slot order) still cut at level `k`, merged in slot
 /// order with `fresh` (sorted; no slot in both).
-pub(super) fn merge_active(carried: &[u64], fresh: &[u64], k: usize, out: &mut Vec<u64>) {
+pub(in crate::sweep) fn merge_active(carried: &[u64], fresh: &[u64], k: usize, out: &mut Vec<u64>) {
     out.clear();
     out.reserve(carried.len() + fresh.len());
     let mut f = fresh.iter().copied().peekable();
