@@ -255,3 +255,84 @@ fn hide(cell_data: &mut Vec<Property>, hidden: &[bool]) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CUBE: [[f64; 3]; 8] = [
+        [0., 0., 0.],
+        [1., 0., 0.],
+        [1., 1., 0.],
+        [0., 1., 0.],
+        [0., 0., 1.],
+        [1., 0., 1.],
+        [1., 1., 1.],
+        [0., 1., 1.],
+    ];
+
+    /// A hexahedron whose cells own their corners: welded, a cube stays a
+    /// hexahedron; one whose top edge collapses (a wedge) becomes a
+    /// five-face polyhedron; a flat one is hidden. Bad arrays name the cell.
+    #[test]
+    fn padded_cells_merge_and_collapse() {
+        // Cell 0: the cube; cell 1: a wedge as a hexahedron with corners 6,7
+        // equal to 5,4 (top face collapsed to an edge); cell 2: flat.
+        let mut pts: Vec<[f64; 3]> = CUBE.to_vec();
+        let wedge = [
+            [2., 0., 0.],
+            [3., 0., 0.],
+            [3., 1., 0.],
+            [2., 1., 0.],
+            [2., 0., 1.],
+            [3., 0., 1.],
+            [3., 0., 1.],
+            [2., 0., 1.],
+        ];
+        pts.extend(wedge);
+        let flat = [[5., 0., 0.], [6., 0., 0.], [6., 1., 0.], [5., 1., 0.]];
+        pts.extend(flat);
+        pts.extend(flat);
+        let mut cells = Vec::new();
+        for c in 0..3i64 {
+            cells.push(8);
+            cells.extend((0..8).map(|k| 8 * c + k));
+        }
+        let types = [12i64; 3];
+        let a = UnstructuredArrays {
+            points: &pts,
+            cells: &cells,
+            celltypes: &types,
+        };
+        let g = grid_from_arrays(a, vec![], vec![], true, "t").unwrap();
+        // 8 + 6 + 4 distinct points.
+        assert_eq!(g.points.len(), 18);
+        let Topology::Unstructured(c) = &g.topology else {
+            panic!("unstructured expected")
+        };
+        assert_eq!(c.types, vec![12, 42, 12]);
+        assert_eq!(c.faces_of(1)[0], 5, "a wedge has five faces");
+        assert_eq!(g.hidden_cells().unwrap(), vec![false, false, true]);
+        // Without merging, the same arrays stay three hexahedra.
+        let g = grid_from_arrays(a, vec![], vec![], false, "t").unwrap();
+        assert_eq!(g.points.len(), 24);
+        assert!(g.hidden_cells().is_none());
+        // Errors name the cell.
+        let short = UnstructuredArrays {
+            points: &pts,
+            cells: &cells[..20],
+            celltypes: &types,
+        };
+        let e = grid_from_arrays(short, vec![], vec![], false, "t").unwrap_err();
+        assert!(e.to_string().contains("runs past the end"), "{e}");
+        let mut bad = cells.clone();
+        bad[3] = 99;
+        let a = UnstructuredArrays {
+            points: &pts,
+            cells: &bad,
+            celltypes: &types,
+        };
+        let e = grid_from_arrays(a, vec![], vec![], false, "t").unwrap_err();
+        assert!(e.to_string().contains("point id 99 is out of range"), "{e}");
+    }
+}

@@ -1,0 +1,98 @@
+"""Timings of the Python package (issue 21), run by hand:
+
+    python benches/python_sweep.py overhead N      # Grid.slice vs `stratasweep bench` on warped N^3, 200 z levels
+    python benches/python_sweep.py pyvista NI NJ NK  # Grid.slice vs a loop of pyvista.slice on a faulted ExplicitStructuredGrid
+
+Prints one JSON object. The CLI is STRATASWEEP_BIN (default target/release/stratasweep).
+"""
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+import stratasweep
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CLI = os.environ.get("STRATASWEEP_BIN", os.path.join(ROOT, "target", "release", "stratasweep"))
+
+
+def best_of(n, f):
+    out = []
+    for _ in range(n):
+        t = time.perf_counter()
+        r = f()
+        out.append((time.perf_counter() - t, r))
+    return min(out, key=lambda x: x[0])
+
+
+def overhead(n):
+    grid = stratasweep.generate.warped((n, n, n))
+    t = time.perf_counter()
+    grid.structure  # build once (kept by the Grid)
+    build = time.perf_counter() - t
+    res = {"grid": f"warped {n}^3", "cells": grid.n_cells, "levels": 200, "build_s": build}
+    for mesh in (False, True):
+        wall, s = best_of(3, lambda: grid.slice(axis="z", count=200, mesh=mesh))
+        t = s.stats["timings_s"]
+        res[f"python_mesh_{mesh}"] = {"wall_s": wall, "sweep_s": t["sweep"], "field_s": t["field"], "minima_s": t["minima"]}
+    del grid
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "w.vts")
+        subprocess.run([CLI, "-q", "generate", "warped", "--dims", f"{n},{n},{n}", "-o", path], check=True)
+        out = subprocess.run([CLI, "-q", "bench", path, "--axis", "z", "--count", "200", "--repeat", "3",
+                              "--no-brute-force", "--json"], check=True, capture_output=True, text=True).stdout
+        b = json.loads(out)
+        res["cli_bench"] = {k: b[k] for k in ("sweep_s", "field_s", "minima_s", "build_s", "cut_cells")}
+        stats = os.path.join(d, "s.json")
+        ply = os.path.join(d, "s.ply")
+        t = time.perf_counter()
+        subprocess.run([CLI, "-q", "slice", path, "--axis", "z", "--count", "200", "-o", ply, "--stats", stats], check=True)
+        st = json.load(open(stats))["timings_s"]
+        res["cli_slice_with_mesh"] = {"process_wall_s": time.perf_counter() - t, **st}
+    res["ratio_python_sweep_over_cli_sweep"] = res["python_mesh_False"]["sweep_s"] / res["cli_bench"]["sweep_s"]
+    py_all = res["python_mesh_False"]
+    cli_all = res["cli_bench"]
+    res["ratio_python_wall_over_cli_field_minima_sweep"] = py_all["wall_s"] / (cli_all["sweep_s"] + cli_all["field_s"] + cli_all["minima_s"])
+    return res
+
+
+def pyvista(ni, nj, nk):
+    t = time.perf_counter()
+    esg = stratasweep.generate.faulted_pyvista((ni, nj, nk), faults=3, seed=1)
+    make = time.perf_counter() - t
+    t = time.perf_counter()
+    grid = stratasweep.from_pyvista(esg)
+    convert = time.perf_counter() - t
+    t = time.perf_counter()
+    grid.structure
+    build = time.perf_counter() - t
+    wall, s = best_of(3, lambda: grid.slice(axis="z", count=200))
+    levels = s.level_values
+    t = time.perf_counter()
+    areas = []
+    for v in levels:
+        cut = esg.slice(normal="z", origin=(0.0, 0.0, float(v)))
+        areas.append(cut.n_cells)
+    pv_wall = time.perf_counter() - t
+    return {
+        "grid": f"faulted ExplicitStructuredGrid {ni}x{nj}x{nk}", "cells": esg.n_cells,
+        "make_esg_s": make, "from_pyvista_s": convert, "build_s": build, "structure": grid.structure,
+        "stratasweep_slice_wall_s": wall, "stratasweep_sweep_s": s.stats["timings_s"]["sweep"],
+        "stratasweep_polygons": s.n_polygons, "pyvista_loop_wall_s": pv_wall,
+        "pyvista_cells_out": int(np.sum(areas)),
+        "ratio_slice_only": pv_wall / wall,
+        "ratio_with_conversion_and_build": pv_wall / (wall + convert + build),
+    }
+
+
+if __name__ == "__main__":
+    what = sys.argv[1]
+    if what == "overhead":
+        print(json.dumps(overhead(int(sys.argv[2])), indent=1))
+    else:
+        print(json.dumps(pyvista(*map(int, sys.argv[2:5])), indent=1))
