@@ -658,6 +658,12 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
         (gpu_cmd::DeviceArg::Auto, _, _) if matches!(s, Structure::Ciel(_)) => {
             gpu_cmd::DeviceArg::Cpu
         }
+        (gpu_cmd::DeviceArg::Gpu, _, _) if matches!(s, Structure::Ciel(_)) => {
+            bail!(
+                "the GPU path takes S-CGraph and CGraph grids; this grid needs CIEL \
+                 (polyhedra with more than 12 vertices): use --device cpu"
+            )
+        }
         (d, None, _) => d,
     };
     let gpu = pool

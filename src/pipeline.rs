@@ -177,6 +177,73 @@ pub fn request_values(
     Ok((attr_name, attribute, field_values))
 }
 
+/// A request bound to a grid and its structure: φ per vertex in the
+/// structure's f32 local frame (materialised once: planes from the
+/// positions by their field function, properties as they are), the
+/// interpolated attribute, and what places the levels. Shared by the CPU
+/// run, the GPU slice and the renderer, so all of them see the same bits.
+pub struct Binding {
+    /// φ per vertex.
+    pub phi: Vec<f32>,
+    /// The interpolated attribute's name (None: the level value).
+    pub attribute_name: Option<String>,
+    /// The attribute per vertex.
+    pub attribute: Option<Vec<f32>>,
+    /// World value of local φ = 0 (n·origin for planes, 0 for properties).
+    pub world_offset: f64,
+    /// The axis direction's slot for cached minima (axis fields only).
+    pub axis_slot: Option<usize>,
+    /// Seconds resolving the properties.
+    pub setup_s: f64,
+    /// Seconds materialising φ.
+    pub field_s: f64,
+}
+
+impl Binding {
+    /// φ as a field the sweeps read.
+    pub fn field(&self) -> VertexField<'_> {
+        VertexField { values: &self.phi }
+    }
+}
+
+/// Binds `req`'s field, attribute and level frame to `s` (see [`Binding`]).
+pub fn bind(grid: &Grid, s: &Structure, req: &SliceRequest) -> Result<Binding, PipelineError> {
+    let t0 = Instant::now();
+    let (attribute_name, attribute, field_values) = request_values(grid, s, req)?;
+    let setup_s = t0.elapsed().as_secs_f64();
+    let t_field = Instant::now();
+    let pos = s.positions();
+    let phi = match (&req.field, field_values) {
+        (FieldSpec::Property(_), Some(v)) => v,
+        (FieldSpec::Axis { axis, negative }, _) => {
+            let sign = if *negative { -1.0 } else { 1.0 };
+            let f = AxisField {
+                axis: *axis,
+                sign,
+                positions: pos,
+            };
+            materialise(&f, pos.len())
+        }
+        _ => {
+            let n = req.field.normal().expect("planar field");
+            let f = PlaneField {
+                normal: n.map(|c| c as f32),
+                positions: pos,
+            };
+            materialise(&f, pos.len())
+        }
+    };
+    Ok(Binding {
+        phi,
+        attribute_name,
+        attribute,
+        world_offset: req.field.world_offset(grid.origin()),
+        axis_slot: req.field.axis_slot(),
+        setup_s,
+        field_s: t_field.elapsed().as_secs_f64(),
+    })
+}
+
 /// Runs one slicing request on a built structure.
 pub fn slice(
     grid: &Grid,
@@ -184,48 +251,9 @@ pub fn slice(
     req: &SliceRequest,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SliceResult, PipelineError> {
-    let t0 = Instant::now();
-    let (attr_name, attribute, field_values) = request_values(grid, s, req)?;
-    let setup = t0.elapsed().as_secs_f64();
-    // World value of local φ = 0 (n·origin for planes, 0 for properties).
-    let offset = req.field.world_offset(grid.origin());
-    let axis_slot = req.field.axis_slot();
-    let attribute = attribute.as_deref();
-    // φ per vertex, materialised once: the sweep and the brute force read
-    // this contiguous array (4 B/vertex) rather than the 12-byte positions.
-    let t_field = Instant::now();
-    let phi_of = |pos: &[[f32; 3]]| -> Vec<f32> {
-        match &req.field {
-            FieldSpec::Property(_) => Vec::new(),
-            FieldSpec::Axis { axis, negative } => {
-                let sign = if *negative { -1.0 } else { 1.0 };
-                let f = AxisField {
-                    axis: *axis,
-                    sign,
-                    positions: pos,
-                };
-                materialise(&f, pos.len())
-            }
-            FieldSpec::Normal(_) => {
-                let n = req.field.normal().expect("planar field");
-                let f = PlaneField {
-                    normal: n.map(|c| c as f32),
-                    positions: pos,
-                };
-                materialise(&f, pos.len())
-            }
-        }
-    };
-    let planar_phi = match s {
-        Structure::SCGraph(g) => phi_of(g.positions()),
-        Structure::CGraph(g) => phi_of(g.positions()),
-        Structure::CpGraph(g) => phi_of(&g.positions),
-        Structure::Ciel(g) => phi_of(&g.positions),
-    };
-    let phi = VertexField {
-        values: field_values.as_deref().unwrap_or(&planar_phi),
-    };
-    let field_s = t_field.elapsed().as_secs_f64();
+    let b = bind(grid, s, req)?;
+    let phi = b.field();
+    let (offset, axis_slot, attribute) = (b.world_offset, b.axis_slot, b.attribute.as_deref());
     macro_rules! run {
         ($g:expr) => {
             run_on(
@@ -246,9 +274,12 @@ pub fn slice(
         Structure::CpGraph(g) => run!(g.as_ref()),
         Structure::Ciel(g) => run_ciel(g, &phi, offset, req, attribute, g.map.as_ref(), progress),
     }?;
-    r.timings.setup = setup;
-    r.timings.field = field_s;
-    r.attribute_name = attr_name.unwrap_or_else(|| "level_value".into());
+    r.timings.setup = b.setup_s;
+    r.timings.field = b.field_s;
+    r.attribute_name = b
+        .attribute_name
+        .clone()
+        .unwrap_or_else(|| "level_value".into());
     if let Some(m) = &mut r.mesh {
         m.property_name = r.attribute_name.clone();
         m.origin = s.origin();

@@ -7,10 +7,10 @@ use std::time::Instant;
 
 use thiserror::Error;
 
-use crate::field::{AxisField, FieldSpec, PlaneField, ScalarField, VertexField};
+use crate::field::ScalarField;
 use crate::grid::Grid;
 use crate::pipeline::{PipelineError, SliceRequest, SliceResult, Timings};
-use crate::pipeline::{live_range, place_levels, request_values};
+use crate::pipeline::{bind, live_range, place_levels};
 use crate::structures::Structure;
 use crate::sweep::{CellGraph, LevelStats};
 
@@ -49,55 +49,44 @@ pub struct Prepared {
 /// Binds the field as [`crate::pipeline::slice`] does, places the levels,
 /// runs the CPU sweep for the active cells and builds the buffers.
 pub fn prepare(grid: &Grid, s: &Structure, req: &SliceRequest) -> Result<Prepared, PipelineError> {
-    let (attr_name, attribute, field_values) = request_values(grid, s, req)?;
-    let offset = req.field.world_offset(grid.origin());
-    let axis_slot = req.field.axis_slot();
-    let attribute = attribute.as_deref();
-    macro_rules! go {
-        ($g:expr, $build:path) => {{
-            let g = $g;
-            let pos = g.positions();
-            match (&req.field, &field_values) {
-                (FieldSpec::Property(_), Some(v)) => finish(
-                    g,
-                    &VertexField { values: v },
-                    None,
-                    offset,
-                    req,
-                    attribute,
-                    $build,
-                ),
-                (FieldSpec::Axis { axis, negative }, _) => {
-                    let sign = if *negative { -1.0 } else { 1.0 };
-                    let f = AxisField {
-                        axis: *axis,
-                        sign,
-                        positions: pos,
-                    };
-                    finish(g, &f, axis_slot, offset, req, attribute, $build)
-                }
-                _ => {
-                    let n = req.field.normal().expect("planar field");
-                    let f = PlaneField {
-                        normal: n.map(|c| c as f32),
-                        positions: pos,
-                    };
-                    finish(g, &f, axis_slot, offset, req, attribute, $build)
-                }
-            }
-        }};
-    }
+    let b = bind(grid, s, req)?;
+    let (f, attribute) = (b.field(), b.attribute.as_deref());
+    let (axis_slot, offset) = (b.axis_slot, b.world_offset);
     let mut p = match s {
-        Structure::SCGraph(g) => go!(g, GridBuffers::scgraph),
-        Structure::CGraph(g) => go!(&g.inner, GridBuffers::cgraph),
-        Structure::CpGraph(g) => go!(g.as_ref(), GridBuffers::cgraph),
+        Structure::SCGraph(g) => finish(
+            g,
+            &f,
+            axis_slot,
+            offset,
+            req,
+            attribute,
+            GridBuffers::scgraph,
+        ),
+        Structure::CGraph(g) => finish(
+            &g.inner,
+            &f,
+            axis_slot,
+            offset,
+            req,
+            attribute,
+            GridBuffers::cgraph,
+        ),
+        Structure::CpGraph(g) => finish(
+            g.as_ref(),
+            &f,
+            axis_slot,
+            offset,
+            req,
+            attribute,
+            GridBuffers::cgraph,
+        ),
         Structure::Ciel(_) => Err(PipelineError::Unsupported(
             "the GPU path takes S-CGraph and CGraph grids; this grid needs CIEL \
-             (polyhedra with more than 12 vertices): use --device cpu"
+             (polyhedra with more than 12 vertices)"
                 .into(),
         )),
     }?;
-    p.attribute_name = attr_name.unwrap_or_else(|| "level_value".into());
+    p.attribute_name = b.attribute_name.unwrap_or_else(|| "level_value".into());
     Ok(p)
 }
 

@@ -162,6 +162,16 @@ impl Structure {
         }
     }
 
+    /// Vertex positions in the structure's f32 local frame.
+    pub fn positions(&self) -> &[[f32; 3]] {
+        match self {
+            Structure::SCGraph(g) => g.positions(),
+            Structure::CGraph(g) => g.positions(),
+            Structure::CpGraph(g) => &g.positions,
+            Structure::Ciel(g) => &g.positions,
+        }
+    }
+
     /// Rebasing origin.
     pub fn origin(&self) -> [f64; 3] {
         match self {
