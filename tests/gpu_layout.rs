@@ -108,7 +108,7 @@ fn rust_layouts() -> Vec<Layout> {
                 spacing_over_unit,
                 perspective,
                 mode,
-                _pad0,
+                z_scale,
                 _pad1,
                 _pad2
             ]

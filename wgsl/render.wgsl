@@ -4,6 +4,8 @@
 // premultiplied for "over" blending. Slices mode: opacity as is. Iso mode
 // (vs_iso): opaque, lit with the field's gradient interpolated along the cut
 // edges by the emit pass (a second vertex buffer), then across the triangle.
+// Vertical exaggeration: view_proj scales z itself; rays, the eye and
+// normals are taken in display space (z × z_scale).
 
 @group(0) @binding(0) var<uniform> rp: RenderParams;
 // Transfer function: LUT_SIZE premultiplied-free RGBA entries over
@@ -53,15 +55,18 @@ fn transfer(v: f32) -> vec4<f32> {
 @fragment
 fn fs(in: VsOut) -> @location(0) vec4<f32> {
     let c = transfer(in.value);
+    // Display space: z exaggerated by z_scale (rays, eye and normals).
+    let disp = vec3<f32>(in.world.xy, in.world.z * rp.z_scale);
     var ray = rp.view_dir.xyz;
     if rp.perspective == 1u {
-        ray = normalize(in.world - rp.eye.xyz);
+        ray = normalize(disp - rp.eye.xyz);
     }
     if rp.mode == 2u {
         // The interpolated gradient; the facet normal where it vanishes.
-        var n = cross(dpdx(in.world), dpdy(in.world));
+        var n = cross(dpdx(disp), dpdy(disp));
         if dot(in.normal, in.normal) > 1e-30 {
-            n = in.normal;
+            // A gradient transforms with the inverse scale.
+            n = vec3<f32>(in.normal.xy, in.normal.z / rp.z_scale);
         }
         n = normalize(n);
         // Two-sided headlight: ambient + diffuse.
