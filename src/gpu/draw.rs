@@ -35,7 +35,11 @@ impl FrameSetup {
         let eye = cam.eye();
         let mut axis_v = [0f32; 4];
         axis_v[self.axis] = 1.0;
-        let zs = if self.axis == 2 { cam.z_scale as f64 } else { 1.0 };
+        let zs = if self.axis == 2 {
+            cam.z_scale as f64
+        } else {
+            1.0
+        };
         let mode = match self.mode {
             Mode::Volume => 0,
             Mode::Slices => 1,
@@ -204,7 +208,8 @@ impl<'c> Renderer<'c> {
         let mut first_level = 0u32;
         for e in chunks {
             let k = e.level_count;
-            let (Some(vb), Some(cb), true) = (e.vertex_buffer(), e.control_buffer(), e.triangles > 0)
+            let (Some(vb), Some(cb), true) =
+                (e.vertex_buffer(), e.control_buffer(), e.triangles > 0)
             else {
                 first_level += k;
                 continue;

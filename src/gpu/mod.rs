@@ -15,6 +15,7 @@ pub mod frame;
 pub mod gradient;
 pub mod present;
 pub mod render;
+pub mod scene;
 pub mod shaders;
 pub mod shared;
 pub mod slice;

@@ -118,7 +118,8 @@ impl Compositor {
             background: [b[0] * b[3], b[1] * b[3], b[2] * b[3], b[3]],
             offset: [0.0; 4],
         };
-        ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
+        ctx.queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
         let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("present"),
             layout: &self.layout,

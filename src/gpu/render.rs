@@ -23,12 +23,12 @@ use crate::field::FieldSpec;
 use crate::grid::Grid;
 use crate::pipeline::{LevelSpec, PipelineError, SliceRequest, Structure, vertex_property};
 
-use super::camera::{Framing, OrbitCamera};
 pub use super::camera::{FRAME_MARGIN, frame_camera};
 use super::context::{GpuContext, GpuError};
 use super::draw::FrameSetup;
 use super::emit::{GpuEmitter, emit_chunked};
 use super::gradient::vertex_gradients;
+use super::scene::fit_camera;
 use super::shaders;
 use super::shared::OutVertex;
 use super::slice::prepare;
@@ -539,11 +539,7 @@ impl<'c> Renderer<'c> {
     /// Caches `set` under `key`, replacing (evicting) every other entry:
     /// one axis cone or property at a time.
     pub fn insert(&mut self, key: &str, set: SliceSet<'c>) {
-        self.evicted_dispatches += self
-            .cache
-            .drain()
-            .map(|(_, c)| c.dispatches())
-            .sum::<u64>();
+        self.evicted_dispatches += self.cache.drain().map(|(_, c)| c.dispatches()).sum::<u64>();
         self.cache.insert(key.to_string(), set);
     }
 
@@ -599,28 +595,7 @@ impl<'c> Renderer<'c> {
         let c = &self.cache[&k.key];
         let transfer = transfer_for(o, c.range)?;
         let unit = unit_distance(grid, o, z_scale)?;
-        let up = match o.up {
-            Some(u) => Vec3::from_array(u.map(|c| c as f32)),
-            None if d.z.abs() > 0.99 => Vec3::Y,
-            None => Vec3::Z,
-        };
-        if up.cross(d).length() < 1e-6 {
-            return Err(RenderError::Options(
-                "--up must not be parallel to --view-dir".into(),
-            ));
-        }
-        let (lo, hi) = grid.bounds();
-        let ext = Vec3::from_array([0, 1, 2].map(|a| (hi[a] - lo[a]) as f32));
-        let cam = OrbitCamera::fit(&Framing {
-            points: &grid.points,
-            origin: grid.origin(),
-            ext,
-            dir: d,
-            up,
-            aspect: w as f32 / h as f32,
-            perspective: o.perspective,
-            z_scale: z_scale as f32,
-        });
+        let cam = fit_camera(grid, o, z_scale)?;
         let frame = FrameSetup {
             camera: cam,
             axis,
