@@ -33,6 +33,7 @@ fn every_wgsl_file_is_used() {
         shaders::EMIT,
         shaders::BIN,
         shaders::RENDER,
+        shaders::PRESENT,
     ];
     for f in files {
         assert!(

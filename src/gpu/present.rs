@@ -4,10 +4,7 @@
 
 use super::context::{GpuContext, GpuError};
 use super::draw::OffscreenTarget;
-use super::shaders;
-
-/// Source of the present pass.
-pub const PRESENT: &str = include_str!("../../wgsl/present.wgsl");
+use super::shaders::{self, PRESENT};
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
