@@ -182,7 +182,7 @@ impl<'c> Renderer<'c> {
                     store: wgpu::StoreOp::Store,
                 },
             })],
-            depth_stencil_attachment: iso.then(|| wgpu::RenderPassDepthStencilAttachment {
+            depth_stencil_attachment: iso.then_some(wgpu::RenderPassDepthStencilAttachment {
                 view: &target.depth,
                 depth_ops: Some(wgpu::Operations {
                     load: wgpu::LoadOp::Clear(1.0),
@@ -241,7 +241,7 @@ impl<'c> Renderer<'c> {
                     (0..k).collect()
                 };
                 for l in order {
-                    if (first_level + l) % lod == 0 {
+                    if (first_level + l).is_multiple_of(lod) {
                         let word = lay.args_fwd() + l * ARGS_WORDS;
                         pass.draw_indirect(cb, word as u64 * 4);
                     }

@@ -253,7 +253,7 @@ impl Panel {
     /// for the current z-scale) divided by the scale.
     fn set_unit(&self, scene: &mut Scene) {
         scene.options.unit_distance = match (self.user_unit, self.opacity) {
-            (None, o) if o == 1.0 => None,
+            (None, 1.0) => None,
             (u, o) => {
                 Some(u.unwrap_or_else(|| mean_cell_size(scene.grid()) * scene.z_scale.cbrt()) / o)
             }
