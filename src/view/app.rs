@@ -15,10 +15,11 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
+use stratasweep::gpu::context::GpuContext;
 use stratasweep::gpu::present::Compositor;
 use stratasweep::gpu::scene::{FrameInfo, Scene};
 
-use super::overlay::Overlay;
+use super::overlay::{Overlay, read_rgba8};
 use super::panel::{Panel, motion_lod};
 
 /// What a scripted run does (`--frames`, `--screenshot`, `--orbit-bench`).
@@ -30,6 +31,8 @@ pub struct Script {
     pub screenshot: Option<PathBuf>,
     /// Views of one full turn about the up axis.
     pub orbit: Option<u32>,
+    /// Where the last frame goes as the window shows it (scene and panel).
+    pub window_shot: Option<PathBuf>,
 }
 
 impl Script {
@@ -202,7 +205,15 @@ impl App {
             }
             _ => return Ok(false),
         };
-        let view = frame.texture.create_view(&Default::default());
+        let last = self.script.total().is_some_and(|n| self.frame + 1 >= n);
+        let shot = match (&self.script.window_shot, last) {
+            (Some(_), true) => Some(offscreen(ctx, &g.config)),
+            _ => None,
+        };
+        let view = match &shot {
+            Some(t) => t.create_view(&Default::default()),
+            None => frame.texture.create_view(&Default::default()),
+        };
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         let info = self.scene.encode(&mut enc, lod)?;
         g.compositor.encode(
@@ -225,6 +236,10 @@ impl App {
         g.window.pre_present_notify();
         ctx.queue.present(frame);
         ctx.wait()?;
+        if let (Some(t), Some(p)) = (&shot, &self.script.window_shot) {
+            let rgba = read_rgba8(ctx, t)?;
+            write_png(p, size, &rgba)?;
+        }
         for a in actions {
             self.panel.apply(a, &mut self.scene)?;
         }
@@ -319,6 +334,35 @@ impl App {
         }
         Ok(())
     }
+}
+
+/// An 8-bit texture like the surface's, readable back (window screenshots).
+fn offscreen(ctx: &GpuContext, config: &wgpu::SurfaceConfiguration) -> wgpu::Texture {
+    ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("window shot"),
+        size: wgpu::Extent3d {
+            width: config.width,
+            height: config.height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: config.format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
+/// Writes straight RGBA bytes as a PNG.
+pub fn write_png(path: &PathBuf, size: (u32, u32), rgba: &[u8]) -> Result<()> {
+    let f =
+        std::fs::File::create(path).with_context(|| format!("cannot write {}", path.display()))?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(f), size.0, size.1);
+    enc.set_color(png::ColorType::Rgba);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.write_header()?.write_image_data(rgba)?;
+    Ok(())
 }
 
 impl ApplicationHandler for App {

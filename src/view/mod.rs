@@ -26,7 +26,7 @@ use stratasweep::pipeline::{Structure, StructureChoice};
 use super::scene_args::SceneArgs;
 use super::{GridArg, load};
 use app::{App, Script, Timeline};
-use overlay::{LEGEND_SIZE, Legend, Overlay, paint_legend};
+use overlay::{LEGEND_SIZE, Legend, Overlay, paint_legend, read_rgba8};
 
 /// `stratasweep view`.
 #[derive(Args)]
@@ -45,6 +45,9 @@ pub struct ViewArgs {
     /// print frame times, re-sweeps and cut cells per frame.
     #[arg(long, conflicts_with = "frames")]
     orbit_bench: Option<u32>,
+    /// With --frames: write the last frame as the window shows it (scene, panel, legend).
+    #[arg(long, requires = "frames")]
+    window_screenshot: Option<PathBuf>,
     /// With --orbit-bench: print JSON.
     #[arg(long, requires = "orbit_bench")]
     json: bool,
@@ -100,6 +103,7 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         frames: a.frames,
         screenshot: a.screenshot.clone(),
         orbit: a.orbit_bench,
+        window_shot: a.window_screenshot.clone(),
     };
     let mut app = App::new(scene, script);
     event_loop
@@ -268,32 +272,11 @@ pub fn legend_onto(
         );
     });
     ctx.queue.submit([enc.finish()]);
-    let bpr = (4 * w).div_ceil(256) * 256;
-    let buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("legend read-back"),
-        size: bpr as u64 * h as u64,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let mut enc = ctx.device.create_command_encoder(&Default::default());
-    enc.copy_texture_to_buffer(
-        tex.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buf,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(bpr),
-                rows_per_image: Some(h),
-            },
-        },
-        extent,
-    );
-    ctx.queue.submit([enc.finish()]);
-    let bytes = ctx.read_buffer(&buf, bpr as u64 * h as u64)?;
+    let bytes = read_rgba8(ctx, &tex)?;
     let mut px = Vec::with_capacity((w * h) as usize);
     for y in 0..h as usize {
         for x in 0..w as usize {
-            let o = y * bpr as usize + 4 * x;
+            let o = (y * w as usize + x) * 4;
             let a = bytes[o + 3] as f32 / 255.0;
             px.push(std::array::from_fn(|i| {
                 if i == 3 {

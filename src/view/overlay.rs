@@ -232,3 +232,45 @@ pub fn paint_outline(p: &Painter, view_proj: Mat4, ext: Vec3, size: Vec2) {
         }
     }
 }
+
+/// Reads an 8-bit RGBA or BGRA texture back as straight RGBA bytes, rows top to bottom.
+pub fn read_rgba8(ctx: &GpuContext, tex: &wgpu::Texture) -> anyhow::Result<Vec<u8>> {
+    let (w, h) = (tex.width(), tex.height());
+    let bpr = (4 * w).div_ceil(256) * 256;
+    let buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("read-back"),
+        size: bpr as u64 * h as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    enc.copy_texture_to_buffer(
+        tex.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buf,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(bpr),
+                rows_per_image: Some(h),
+            },
+        },
+        tex.size(),
+    );
+    ctx.queue.submit([enc.finish()]);
+    let bytes = ctx.read_buffer(&buf, bpr as u64 * h as u64)?;
+    let bgra = matches!(
+        tex.format(),
+        wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
+    );
+    let mut out = Vec::with_capacity((4 * w * h) as usize);
+    for y in 0..h as usize {
+        for px in bytes[y * bpr as usize..][..4 * w as usize].chunks_exact(4) {
+            if bgra {
+                out.extend_from_slice(&[px[2], px[1], px[0], px[3]]);
+            } else {
+                out.extend_from_slice(px);
+            }
+        }
+    }
+    Ok(out)
+}
