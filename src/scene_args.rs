@@ -11,16 +11,23 @@ use stratasweep::grid::Grid;
 
 use super::parse_triplet;
 
+/// `--projection`.
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
 pub enum ProjectionArg {
+    /// Orthographic.
     Ortho,
+    /// Perspective (30° field of view).
     Perspective,
 }
 
+/// `--mode`.
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
 pub enum ModeArg {
+    /// Opacity-corrected slices.
     Volume,
+    /// Slices with the transfer function's opacity as is.
     Slices,
+    /// Opaque lit isosurfaces.
     Iso,
 }
 
@@ -71,6 +78,7 @@ pub struct SceneArgs {
     pub adapter: Option<String>,
 }
 
+/// `--size WxH`.
 pub fn parse_size(s: &str) -> Result<(u32, u32)> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -82,6 +90,7 @@ pub fn parse_size(s: &str) -> Result<(u32, u32)> {
     Ok((w, h))
 }
 
+/// `--background R,G,B,A` or `transparent`.
 pub fn parse_background(s: &str) -> Result<Option<[f32; 4]>> {
     if s.eq_ignore_ascii_case("transparent") {
         return Ok(None);

@@ -113,6 +113,9 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         return Err(e);
     }
     if let Some(n) = a.orbit_bench {
+        // A build still running after the last view is waited for, so that
+        // its duration is counted.
+        app.scene.poll(true)?;
         report_bench(&app, &name, n, a.json)?;
     } else if let (Some(p), false) = (&a.screenshot, quiet) {
         eprintln!("wrote {}", p.display());
