@@ -104,6 +104,7 @@ pub fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let ctx = open(&a.scene.adapter, quiet)?;
     let mut r = Renderer::new(&ctx)?;
+    r.set_preintegrated(a.scene.preintegrated);
     let t = Instant::now();
     let img = r.render_exaggerated(&grid, &s, &o, z_scale)?;
     let img = if a.legend {

@@ -73,6 +73,10 @@ pub struct SceneArgs {
     /// flat reservoirs are readable; the value used is printed).
     #[arg(long)]
     pub z_scale: Option<f64>,
+    /// Volume mode with pre-integrated transfer functions (each slab from its
+    /// front and back value): fewer slices for the same quality.
+    #[arg(long)]
+    pub preintegrated: bool,
     /// Adapter name (substring); `WGPU_BACKEND` picks backends.
     #[arg(long)]
     pub adapter: Option<String>,

@@ -110,7 +110,7 @@ fn rust_layouts() -> Vec<Layout> {
                 perspective,
                 mode,
                 z_scale,
-                _pad1,
+                slab,
                 _pad2
             ]
         ),

@@ -52,7 +52,7 @@ fn scene(
     z: f64,
 ) -> Scene {
     let s = Structure::build(&g, StructureChoice::Auto).unwrap();
-    Scene::new(ctx, Arc::new(g), Arc::new(s), o, z).unwrap()
+    Scene::new(ctx, Arc::new(g), Arc::new(s), o, z, false).unwrap()
 }
 
 fn warped_opts() -> RenderOptions {
@@ -159,5 +159,36 @@ fn motion_lod_and_z_scale_keep_the_analytic_alpha() {
                 "z {z} lod {lod}: {got} vs {want}"
             );
         }
+    }
+}
+
+#[test]
+fn preintegrated_uniform_box_keeps_the_analytic_alpha() {
+    let Some(ctx) = gpu_common::gpu("preintegrated_uniform_box_keeps_the_analytic_alpha") else {
+        return;
+    };
+    let g = box_grid();
+    let s = Structure::build(&g, StructureChoice::Auto).unwrap();
+    let mut r = Renderer::new(ctx).unwrap();
+    r.set_preintegrated(true);
+    for deg in [0.0f64, 40.0] {
+        let t = deg.to_radians();
+        let o = RenderOptions {
+            property: Some("one".into()),
+            slices: 40,
+            view_dir: [t.sin(), 0.0, -t.cos()],
+            up: Some([0.0, 1.0, 0.0]),
+            transfer: Some(flat(0.3)),
+            unit_distance: Some(1.0),
+            background: None,
+            size: (33, 33),
+            mode: Mode::Volume,
+            ..Default::default()
+        };
+        let img = r.render_exaggerated(&g, &s, &o, 1.0).unwrap();
+        // A constant property: every slab's front and back values agree.
+        let want = 1.0 - 0.7f64.powf(2.0 * H / t.cos());
+        let got = img.pixel(16, 16)[3] as f64;
+        assert!((got - want).abs() <= 2.0 / 255.0, "{deg}°: {got} vs {want}");
     }
 }

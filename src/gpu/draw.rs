@@ -8,6 +8,7 @@ use wgpu::util::DeviceExt;
 
 use super::camera::OrbitCamera;
 use super::emit::GpuEmitter;
+use super::preintegrate::{PRE_SIZE, preintegrated_table};
 use super::render::{DEPTH, Image, Mode, RenderError, Renderer, SliceSet, Transfer};
 use super::shared::{ARGS_WORDS, ControlLayout, RenderParams};
 
@@ -25,6 +26,9 @@ pub struct FrameSetup {
     /// Level of detail: draw every `lod`-th slice, opacity corrected for
     /// the `lod` times wider spacing (1: every slice).
     pub lod: u32,
+    /// Volume mode with pre-integrated slabs (the slices must carry the
+    /// attribute's gradient).
+    pub preintegrated: bool,
 }
 
 impl FrameSetup {
@@ -40,6 +44,7 @@ impl FrameSetup {
         } else {
             1.0
         };
+        let slab = set.spacing * zs * self.lod.max(1) as f64;
         let mode = match self.mode {
             Mode::Volume => 0,
             Mode::Slices => 1,
@@ -52,28 +57,58 @@ impl FrameSetup {
             axis: axis_v,
             value_lo: vlo as f32,
             value_hi: vhi as f32,
-            spacing_over_unit: (set.spacing * zs * self.lod.max(1) as f64 / self.unit) as f32,
+            spacing_over_unit: (slab / self.unit) as f32,
             perspective: cam.perspective as u32,
             mode,
             z_scale: cam.z_scale,
+            slab: if self.uses_pre(set) { slab as f32 } else { 0.0 },
             ..Default::default()
         }
     }
 }
 
-/// The uniform parameters and transfer LUT of the render pass, bound once
-/// and rewritten per frame.
+impl FrameSetup {
+    /// Whether this frame draws `set` pre-integrated.
+    pub fn uses_pre(&self, set: &SliceSet) -> bool {
+        self.preintegrated
+            && self.mode == Mode::Volume
+            && set.chunks.first().is_some_and(|e| e.has_normals())
+    }
+}
+
+/// The uniform parameters, transfer LUT and pre-integrated table of the
+/// render pass, bound once and rewritten per frame.
 pub struct DrawBindings {
     params: wgpu::Buffer,
     lut: wgpu::Buffer,
+    pre: wgpu::Buffer,
     group: wgpu::BindGroup,
+    /// The (slab ratio bits, LUT) the table was last built for.
+    pre_for: std::sync::Mutex<Option<(u32, Vec<[f32; 4]>)>>,
 }
 
 impl DrawBindings {
-    /// Writes this frame's parameters and the transfer function's LUT.
-    pub fn write(&self, queue: &wgpu::Queue, params: &RenderParams, lut: &[[f32; 4]]) {
+    /// Writes this frame's parameters and the transfer function's LUT,
+    /// and the pre-integrated table when the frame uses it and its slab
+    /// ratio or transfer changed.
+    pub fn write(
+        &self,
+        queue: &wgpu::Queue,
+        params: &RenderParams,
+        transfer: &Transfer,
+        lut: &[[f32; 4]],
+    ) {
         queue.write_buffer(&self.params, 0, bytemuck::bytes_of(params));
         queue.write_buffer(&self.lut, 0, bytemuck::cast_slice(lut));
+        if params.slab > 0.0 {
+            let key = (params.spacing_over_unit.to_bits(), lut.to_vec());
+            let mut memo = self.pre_for.lock().unwrap_or_else(|p| p.into_inner());
+            if memo.as_ref() != Some(&key) {
+                let t = preintegrated_table(transfer, params.spacing_over_unit as f64);
+                queue.write_buffer(&self.pre, 0, bytemuck::cast_slice(&t));
+                *memo = Some(key);
+            }
+        }
     }
 }
 
@@ -99,12 +134,15 @@ impl<'c> Renderer<'c> {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let zero = vec![0u8; super::render::LUT_SIZE * 16];
-        let lut = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("lut"),
-            contents: &zero,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        });
+        let zeros = |label: &str, bytes: usize| {
+            dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: &vec![0u8; bytes],
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            })
+        };
+        let lut = zeros("lut", super::render::LUT_SIZE * 16);
+        let pre = zeros("pre-integrated table", PRE_SIZE * PRE_SIZE * 16);
         let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("render"),
             layout: &self.layout,
@@ -117,9 +155,19 @@ impl<'c> Renderer<'c> {
                     binding: 1,
                     resource: lut.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: pre.as_entire_binding(),
+                },
             ],
         });
-        DrawBindings { params, lut, group }
+        DrawBindings {
+            params,
+            lut,
+            pre,
+            group,
+            pre_for: Default::default(),
+        }
     }
 
     /// A colour (+ depth) target of `size`, readable back.
@@ -194,7 +242,12 @@ impl<'c> Renderer<'c> {
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.set_pipeline(if iso { &self.iso } else { &self.blend });
+        let pre = frame.uses_pre(set);
+        pass.set_pipeline(match (iso, pre) {
+            (true, _) => &self.iso,
+            (false, true) => &self.pre,
+            (false, false) => &self.blend,
+        });
         pass.set_bind_group(0, &bindings.group, &[]);
         // Levels increase along +axis: looking toward +axis, the far
         // slices are the high ones, so draw in decreasing order.
@@ -215,7 +268,7 @@ impl<'c> Renderer<'c> {
                 continue;
             };
             pass.set_vertex_buffer(0, vb.slice(..));
-            if iso {
+            if iso || pre {
                 match e.normal_buffer() {
                     Some(nb) if e.has_normals() => pass.set_vertex_buffer(1, nb.slice(..)),
                     _ => {
@@ -265,7 +318,7 @@ impl<'c> Renderer<'c> {
         let ctx = self.ctx;
         let (lut, vlo, vhi) = transfer.lut();
         let bindings = self.bindings();
-        bindings.write(&ctx.queue, &frame.params(set, vlo, vhi), &lut);
+        bindings.write(&ctx.queue, &frame.params(set, vlo, vhi), transfer, &lut);
         let target = self.target(size);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.encode_slices(&mut enc, &target, set, &bindings, frame)?;

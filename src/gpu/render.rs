@@ -312,6 +312,19 @@ pub struct SliceKey {
     pub iso: bool,
     /// Slicing axis (volume and slices modes).
     pub axis: usize,
+    /// The attribute's gradient rides along as normals (pre-integration).
+    pub attr_gradient: bool,
+}
+
+impl SliceKey {
+    /// Carries the attribute's gradient (pre-integrated volume mode).
+    pub fn with_attr_gradient(mut self) -> Self {
+        if !self.iso && !self.attr_gradient {
+            self.attr_gradient = true;
+            self.key.push_str(" +gradient");
+        }
+        self
+    }
 }
 
 /// The slicing axis for a display-space view direction: `argmax |d·e_i|`.
@@ -373,6 +386,7 @@ pub fn slice_key(grid: &Grid, o: &RenderOptions, axis: usize) -> Result<SliceKey
         property,
         iso: o.mode == Mode::Iso,
         axis,
+        attr_gradient: false,
     })
 }
 
@@ -383,6 +397,9 @@ pub struct Renderer<'c> {
     pub(super) layout: wgpu::BindGroupLayout,
     pub(super) blend: wgpu::RenderPipeline,
     pub(super) iso: wgpu::RenderPipeline,
+    /// Volume mode with pre-integrated slabs (attribute gradients as normals).
+    pub(super) pre: wgpu::RenderPipeline,
+    preintegrated: bool,
     cache: HashMap<String, SliceSet<'c>>,
     /// Compute dispatches of evicted cache entries.
     evicted_dispatches: u64,
@@ -433,6 +450,17 @@ impl<'c> Renderer<'c> {
                         },
                         count: None,
                     },
+                    // The pre-integrated slab table (front × back value).
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 2,
+                        visibility: wgpu::ShaderStages::FRAGMENT,
+                        ty: wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Storage { read_only: true },
+                            has_dynamic_offset: false,
+                            min_binding_size: None,
+                        },
+                        count: None,
+                    },
                 ],
             });
         let pl = ctx
@@ -457,8 +485,8 @@ impl<'c> Renderer<'c> {
         };
         let slice_buffers = [Some(vertices.clone())];
         let iso_buffers = [Some(vertices), Some(normals)];
-        let make = |blend: Option<wgpu::BlendState>, depth: bool| {
-            let (entry, buffers): (&str, &[Option<wgpu::VertexBufferLayout>]) = if depth {
+        let make = |blend: Option<wgpu::BlendState>, depth: bool, normals: bool, fs: &str| {
+            let (entry, buffers): (&str, &[Option<wgpu::VertexBufferLayout>]) = if normals {
                 ("vs_iso", &iso_buffers)
             } else {
                 ("vs", &slice_buffers)
@@ -484,7 +512,7 @@ impl<'c> Renderer<'c> {
                     multisample: Default::default(),
                     fragment: Some(wgpu::FragmentState {
                         module: &module,
-                        entry_point: Some("fs"),
+                        entry_point: Some(fs),
                         compilation_options: Default::default(),
                         targets: &[Some(wgpu::ColorTargetState {
                             format,
@@ -496,15 +524,19 @@ impl<'c> Renderer<'c> {
                     cache: None,
                 })
         };
-        let blend = make(Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING), false);
-        let iso = make(None, true);
+        let over = Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
+        let blend = make(over, false, false, "fs");
+        let pre = make(over, false, true, "fs_pre");
+        let iso = make(None, true, true, "fs");
         ctx.check()?;
         Ok(Renderer {
             ctx,
             format,
             layout,
             blend,
+            pre,
             iso,
+            preintegrated: false,
             cache: HashMap::new(),
             evicted_dispatches: 0,
         })
@@ -524,6 +556,19 @@ impl<'c> Renderer<'c> {
     /// The colour target format.
     pub fn format(&self) -> wgpu::TextureFormat {
         self.format
+    }
+
+    /// Volume mode with pre-integrated transfer functions: each slab's
+    /// colour and opacity come from a 2D table over its front value (the
+    /// slice's) and back value (extrapolated along the ray with the
+    /// attribute's gradient). Off by default.
+    pub fn set_preintegrated(&mut self, on: bool) {
+        self.preintegrated = on;
+    }
+
+    /// Whether volume mode is pre-integrated.
+    pub fn preintegrated(&self) -> bool {
+        self.preintegrated
     }
 
     /// The device this renderer draws with.
@@ -587,7 +632,10 @@ impl<'c> Renderer<'c> {
             )));
         }
         let axis = slicing_axis(d);
-        let k = slice_key(grid, o, axis)?;
+        let mut k = slice_key(grid, o, axis)?;
+        if self.preintegrated && o.mode == Mode::Volume {
+            k = k.with_attr_gradient();
+        }
         if !self.cache.contains_key(&k.key) {
             let set = build_slices(self.ctx, grid, s, &k)?;
             self.insert(&k.key, set);
@@ -602,6 +650,7 @@ impl<'c> Renderer<'c> {
             unit,
             mode: o.mode,
             lod: 1,
+            preintegrated: self.preintegrated,
         };
         self.draw_image(c, &transfer, &frame, o.size, o.background)
     }
@@ -676,6 +725,16 @@ pub fn build_slices<'c>(
     }
     if k.iso {
         p.grid.grad = vertex_gradients(&p.grid);
+    } else if k.attr_gradient && cell_values.is_none() && !p.grid.attr.is_empty() {
+        // The attribute's gradient: φ's slot holds the attribute meanwhile.
+        let phi: Vec<f32> = p.grid.grid.iter().map(|v| v[3]).collect();
+        for (v, a) in p.grid.grid.iter_mut().zip(&p.grid.attr) {
+            v[3] = *a;
+        }
+        p.grid.grad = vertex_gradients(&p.grid);
+        for (v, f) in p.grid.grid.iter_mut().zip(phi) {
+            v[3] = f;
+        }
     }
     let spacing = match p.level_values.as_slice() {
         [a, b, ..] => b - a,

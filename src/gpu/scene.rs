@@ -75,6 +75,7 @@ pub struct Scene {
     /// Build counters.
     pub stats: SceneStats,
     builds: u32,
+    preintegrated: bool,
 }
 
 impl Scene {
@@ -87,6 +88,7 @@ impl Scene {
         structure: Arc<Structure>,
         options: RenderOptions,
         z_scale: f64,
+        preintegrated: bool,
     ) -> Result<Self, RenderError> {
         if !(z_scale.is_finite() && z_scale > 0.0) {
             return Err(RenderError::Options(format!(
@@ -110,6 +112,7 @@ impl Scene {
             pending: None,
             stats: SceneStats::default(),
             builds: 0,
+            preintegrated,
         };
         scene.request()?;
         scene.poll(true)?;
@@ -168,7 +171,23 @@ impl Scene {
 
     /// The slices the current camera and options want.
     pub fn wanted(&self) -> Result<SliceKey, RenderError> {
-        slice_key(&self.grid, &self.options, slicing_axis(self.camera.dir))
+        let k = slice_key(&self.grid, &self.options, slicing_axis(self.camera.dir))?;
+        Ok(if self.preintegrated && self.options.mode == Mode::Volume {
+            k.with_attr_gradient()
+        } else {
+            k
+        })
+    }
+
+    /// Pre-integrated volume mode on or off (new slices carry the
+    /// attribute's gradient; they build on the worker).
+    pub fn set_preintegrated(&mut self, on: bool) {
+        self.preintegrated = on;
+    }
+
+    /// Whether volume mode is pre-integrated.
+    pub fn preintegrated(&self) -> bool {
+        self.preintegrated
     }
 
     /// Starts a build of the wanted slices on the worker when they are
@@ -275,10 +294,12 @@ impl Scene {
             unit: unit_distance(&self.grid, &self.options, self.z_scale)?,
             mode,
             lod: lod.max(1),
+            preintegrated: k.attr_gradient,
         };
         self.bindings.write(
             &self.renderer.ctx().queue,
             &frame.params(set, vlo, vhi),
+            &transfer,
             &lut,
         );
         self.renderer

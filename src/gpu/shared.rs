@@ -221,8 +221,9 @@ pub struct RenderParams {
     pub mode: u32,
     /// Vertical exaggeration S: display z = S × local z (rays, normals).
     pub z_scale: f32,
-    /// Padding.
-    pub _pad1: u32,
+    /// Pre-integrated volume mode: display-space slab thickness (Δ × LOD
+    /// × the z-scale along z); 0 for the plain mode.
+    pub slab: f32,
     /// Padding.
     pub _pad2: u32,
 }

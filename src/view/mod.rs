@@ -91,7 +91,14 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
     // One device for the whole process: the slice worker borrows it.
     let ctx: &'static GpuContext = Box::leak(Box::new(ctx));
     let t = std::time::Instant::now();
-    let scene = Scene::new(ctx, Arc::new(grid), Arc::new(s), o, z_scale)?;
+    let scene = Scene::new(
+        ctx,
+        Arc::new(grid),
+        Arc::new(s),
+        o,
+        z_scale,
+        a.scene.preintegrated,
+    )?;
     if !quiet {
         eprintln!(
             "{name}: first slices in {:.3} s ({} compute dispatches)",
@@ -211,7 +218,10 @@ pub fn legend_onto(
     img: Image,
 ) -> Result<Image> {
     let d = glam::Vec3::from_array(o.view_dir.map(|c| c as f32)).normalize();
-    let k = slice_key(grid, o, slicing_axis(d))?;
+    let mut k = slice_key(grid, o, slicing_axis(d))?;
+    if r.preintegrated() && o.mode == stratasweep::gpu::render::Mode::Volume {
+        k = k.with_attr_gradient();
+    }
     let set = r
         .slices(&k.key)
         .context("the legend needs the rendered slices")?;

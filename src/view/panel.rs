@@ -32,6 +32,8 @@ pub enum Action {
     View(Vec3, Vec3),
     /// The first camera again.
     Reset,
+    /// Pre-integrated volume mode on or off.
+    Preintegrated(bool),
 }
 
 /// Panel state.
@@ -224,6 +226,10 @@ impl Panel {
             act.push(Action::ZScale(self.z_scale));
         }
         ui.checkbox(&mut self.motion_lod, "fewer slices while moving");
+        let mut pre = scene.preintegrated();
+        if ui.checkbox(&mut pre, "pre-integrated (volume)").changed() {
+            act.push(Action::Preintegrated(pre));
+        }
         ui.horizontal(|ui| {
             let up = Vec3::Z;
             for (name, d, u) in [
@@ -289,6 +295,7 @@ impl Panel {
             Action::Iso(v) => o.iso = v,
             Action::View(d, u) => scene.camera.look_along(d, u),
             Action::Reset => scene.reset_camera()?,
+            Action::Preintegrated(on) => scene.set_preintegrated(on),
         }
         scene.request()?;
         Ok(())

@@ -69,7 +69,7 @@ struct RenderParams {
     perspective: u32,
     mode: u32,
     z_scale: f32,
-    _pad1: u32,
+    slab: f32,
     _pad2: u32,
 }
 
