@@ -192,3 +192,60 @@ fn preintegrated_uniform_box_keeps_the_analytic_alpha() {
         assert!((got - want).abs() <= 2.0 / 255.0, "{deg}°: {got} vs {want}");
     }
 }
+
+#[test]
+fn ijk_clip_draws_the_cut_cells_of_the_box_only() {
+    let Some(ctx) = gpu_common::gpu("ijk_clip_draws_the_cut_cells_of_the_box_only") else {
+        return;
+    };
+    use stratasweep::field::FieldSpec;
+    use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
+    let g = warped([12, 10, 8], 3);
+    let s = Structure::build(&g, StructureChoice::Auto).unwrap();
+    // Reference: the CPU pipeline's polygons, their source cells in the box.
+    let r = slice(
+        &g,
+        &s,
+        &SliceRequest {
+            field: FieldSpec::Axis {
+                axis: 0,
+                negative: false,
+            },
+            levels: LevelSpec::Count(24),
+            attribute: None,
+            threads: 1,
+            brute_force: false,
+            collect_mesh: true,
+        },
+        &|_| {},
+    )
+    .unwrap();
+    let m = r.mesh.unwrap();
+    let clip = [[0usize, 6], [2, 10], [1, 5]];
+    let mut cut: Vec<(u32, u32)> = m
+        .poly_level
+        .iter()
+        .zip(&m.poly_cell)
+        .filter(|(_, c)| {
+            let c = **c as usize;
+            let ijk = [c % 12, (c / 12) % 10, c / 120];
+            (0..3).all(|a| clip[a][0] <= ijk[a] && ijk[a] < clip[a][1])
+        })
+        .map(|(l, c)| (*l, *c))
+        .collect();
+    cut.sort_unstable();
+    cut.dedup();
+    let mut sc = scene(ctx, g, warped_opts(), 1.0);
+    let d0 = sc.dispatches();
+    sc.clip = Some(clip);
+    sc.request().unwrap();
+    assert!(sc.poll(true).unwrap());
+    let ctx2 = sc.ctx();
+    let mut enc = ctx2.device.create_command_encoder(&Default::default());
+    let info = sc.encode(&mut enc, 1).unwrap();
+    ctx2.queue.submit([enc.finish()]);
+    assert_eq!((info.axis, info.stale), (0, false));
+    assert!(sc.dispatches() > d0);
+    assert_eq!(info.cut_cells, cut.len() as u64);
+    assert!(!cut.is_empty() && cut.len() < 24 * 10 * 8);
+}

@@ -314,6 +314,9 @@ pub struct SliceKey {
     pub axis: usize,
     /// The attribute's gradient rides along as normals (pre-integration).
     pub attr_gradient: bool,
+    /// IJK clipping: only cells with `lo ≤ i < hi` (and j, k) are drawn
+    /// (IJK grids).
+    pub clip: Option<[[usize; 2]; 3]>,
 }
 
 impl SliceKey {
@@ -323,6 +326,15 @@ impl SliceKey {
             self.attr_gradient = true;
             self.key.push_str(" +gradient");
         }
+        self
+    }
+
+    /// Draws only the cells of the IJK box `clip` (cell index ranges `lo..hi`).
+    pub fn with_clip(mut self, clip: Option<[[usize; 2]; 3]>) -> Self {
+        if let Some(c) = clip {
+            self.key.push_str(&format!(" clip {c:?}"));
+        }
+        self.clip = clip;
         self
     }
 }
@@ -387,6 +399,7 @@ pub fn slice_key(grid: &Grid, o: &RenderOptions, axis: usize) -> Result<SliceKey
         iso: o.mode == Mode::Iso,
         axis,
         attr_gradient: false,
+        clip: None,
     })
 }
 
@@ -760,6 +773,20 @@ pub fn build_slices<'c>(
             (l[0], l[l.len() - 1])
         }
     };
+    if let Some(c) = k.clip {
+        let Structure::SCGraph(g) = s else {
+            return Err(RenderError::Options(
+                "IJK clipping needs an IJK (structured) grid".into(),
+            ));
+        };
+        // Slot of cell (i, j, k): i + j·npi + (k + 1)·npi·npj (see `scgraph`).
+        let [npi, npj, _] = g.dims;
+        p.frame.entries.retain(|e| {
+            let v = e.slot as usize - npi * npj;
+            let ijk = [v % npi, (v / npi) % npj, v / (npi * npj)];
+            (0..3).all(|a| c[a][0] <= ijk[a] && ijk[a] < c[a][1])
+        });
+    }
     let cut_cells = p.frame.entries.len() as u64;
     let levels = p.level_values.len() as u32;
     let base = GpuEmitter::new(ctx, p.grid)?;

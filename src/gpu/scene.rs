@@ -74,6 +74,8 @@ pub struct Scene {
     pending: Option<Pending>,
     /// Build counters.
     pub stats: SceneStats,
+    /// IJK clipping box (cell index ranges `lo..hi`), IJK grids only.
+    pub clip: Option<[[usize; 2]; 3]>,
     builds: u32,
     preintegrated: bool,
 }
@@ -111,6 +113,7 @@ impl Scene {
             shown: None,
             pending: None,
             stats: SceneStats::default(),
+            clip: None,
             builds: 0,
             preintegrated,
         };
@@ -171,7 +174,8 @@ impl Scene {
 
     /// The slices the current camera and options want.
     pub fn wanted(&self) -> Result<SliceKey, RenderError> {
-        let k = slice_key(&self.grid, &self.options, slicing_axis(self.camera.dir))?;
+        let k = slice_key(&self.grid, &self.options, slicing_axis(self.camera.dir))?
+            .with_clip(self.clip);
         Ok(if self.preintegrated && self.options.mode == Mode::Volume {
             k.with_attr_gradient()
         } else {

@@ -34,6 +34,8 @@ pub enum Action {
     Reset,
     /// Pre-integrated volume mode on or off.
     Preintegrated(bool),
+    /// IJK clipping box (cell ranges `lo..hi`), or none.
+    Clip(Option<[[usize; 2]; 3]>),
 }
 
 /// Panel state.
@@ -53,6 +55,9 @@ pub struct Panel {
     slices: usize,
     z_scale: f64,
     adapter: String,
+    /// Cells along I, J, K of an IJK grid (clipping), else none.
+    cells: Option<[usize; 3]>,
+    clip: [[usize; 2]; 3],
 }
 
 /// Every n-th slice drawn while the camera moves: 4 from 200 slices, 2 from 50.
@@ -92,6 +97,18 @@ impl Panel {
             slices: scene.options.slices,
             z_scale: scene.z_scale,
             adapter: scene.ctx().name.clone(),
+            cells: match g.topology {
+                stratasweep::grid::Topology::Structured { dims } => {
+                    Some(dims.map(|d| d.saturating_sub(1)))
+                }
+                _ => None,
+            },
+            clip: match g.topology {
+                stratasweep::grid::Topology::Structured { dims } => {
+                    dims.map(|d| [0, d.saturating_sub(1)])
+                }
+                _ => [[0, 0]; 3],
+            },
         }
     }
 
@@ -247,11 +264,39 @@ impl Panel {
                 act.push(Action::Reset);
             }
         });
+        if let Some(cells) = self.cells {
+            self.clip_ui(ui, cells, act);
+        }
         ui.label(
             "drag: orbit · right/Shift drag: pan · wheel: zoom · R reset · S screenshot · Q quit",
         );
         if !self.status.is_empty() {
             ui.colored_label(Color32::from_rgb(160, 40, 40), &self.status);
+        }
+    }
+
+    fn clip_ui(&mut self, ui: &mut egui::Ui, cells: [usize; 3], act: &mut Vec<Action>) {
+        let mut changed = false;
+        ui.collapsing("IJK clip", |ui| {
+            for (a, name) in ["I", "J", "K"].iter().enumerate() {
+                ui.horizontal(|ui| {
+                    ui.label(*name);
+                    let [lo, hi] = &mut self.clip[a];
+                    changed |= ui
+                        .add(egui::DragValue::new(lo).range(0..=cells[a] - 1))
+                        .changed();
+                    changed |= ui
+                        .add(egui::DragValue::new(hi).range(1..=cells[a]))
+                        .changed();
+                    if *hi <= *lo {
+                        *hi = *lo + 1;
+                    }
+                });
+            }
+        });
+        if changed {
+            let full = (0..3).all(|a| self.clip[a] == [0, cells[a]]);
+            act.push(Action::Clip((!full).then_some(self.clip)));
         }
     }
 
@@ -296,6 +341,7 @@ impl Panel {
             Action::View(d, u) => scene.camera.look_along(d, u),
             Action::Reset => scene.reset_camera()?,
             Action::Preintegrated(on) => scene.set_preintegrated(on),
+            Action::Clip(c) => scene.clip = c,
         }
         scene.request()?;
         Ok(())
