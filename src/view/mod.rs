@@ -48,6 +48,9 @@ pub struct ViewArgs {
     /// With --frames: write the last frame as the window shows it (scene, panel, legend).
     #[arg(long, requires = "frames")]
     window_screenshot: Option<PathBuf>,
+    /// Draw only the cells of an IJK box: `I0:I1,J0:J1,K0:K1` (cell indices, end exclusive).
+    #[arg(long)]
+    ijk_clip: Option<String>,
     /// With --orbit-bench: print JSON.
     #[arg(long, requires = "orbit_bench")]
     json: bool,
@@ -106,6 +109,15 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
             scene.dispatches()
         );
     }
+    let mut scene = scene;
+    if let Some(c) = &a.ijk_clip {
+        scene.clip = Some(parse_clip(c)?);
+        scene.request()?;
+        scene.poll(true)?;
+        if let Some(e) = scene.stats.last_error.take() {
+            bail!("--ijk-clip {c}: {e}");
+        }
+    }
     let script = Script {
         frames: a.frames,
         screenshot: a.screenshot.clone(),
@@ -128,6 +140,23 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         eprintln!("wrote {}", p.display());
     }
     Ok(())
+}
+
+/// `I0:I1,J0:J1,K0:K1` → cell index ranges.
+fn parse_clip(s: &str) -> Result<[[usize; 2]; 3]> {
+    let bad = || anyhow::anyhow!("--ijk-clip '{s}': expected I0:I1,J0:J1,K0:K1 with I0 < I1 etc.");
+    let r: Vec<[usize; 2]> = s
+        .split(',')
+        .map(|p| {
+            let (a, b) = p.split_once(':').ok_or_else(bad)?;
+            let (a, b): (usize, usize) = (a.trim().parse()?, b.trim().parse()?);
+            if a >= b {
+                return Err(bad());
+            }
+            Ok([a, b])
+        })
+        .collect::<Result<_>>()?;
+    r.try_into().map_err(|_| bad())
 }
 
 /// The p-th percentile (nearest rank) of `v`.

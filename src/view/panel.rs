@@ -103,8 +103,9 @@ impl Panel {
                 }
                 _ => None,
             },
-            clip: match g.topology {
-                stratasweep::grid::Topology::Structured { dims } => {
+            clip: match (scene.clip, &g.topology) {
+                (Some(c), _) => c,
+                (None, stratasweep::grid::Topology::Structured { dims }) => {
                     dims.map(|d| [0, d.saturating_sub(1)])
                 }
                 _ => [[0, 0]; 3],
