@@ -176,6 +176,27 @@ fn view_without_display_suggests_render() {
 }
 
 #[test]
+fn bad_ijk_clip_is_a_clear_error() {
+    if !display("bad_ijk_clip_is_a_clear_error") {
+        return;
+    }
+    let o = bin()
+        .args([
+            "view",
+            "--demo",
+            "--ijk-clip",
+            "5:2,0:1,0:1",
+            "--frames",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("--ijk-clip '5:2,0:1,0:1'"), "{err}");
+}
+
+#[test]
 fn render_legend_draws_in_its_corner_only() {
     if gpu_common::gpu("render_legend_draws_in_its_corner_only").is_none() {
         return;

@@ -76,6 +76,7 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         bail!("--frames and --orbit-bench need at least 1");
     }
     let o = a.scene.options()?;
+    let clip = a.ijk_clip.as_deref().map(parse_clip).transpose()?;
     let (grid, name, _) = load(&a.input, quiet)?;
     let z_scale = a.scene.z_scale(&grid, quiet);
     let s = Structure::build(&grid, StructureChoice::Auto)
@@ -110,12 +111,12 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         );
     }
     let mut scene = scene;
-    if let Some(c) = &a.ijk_clip {
-        scene.clip = Some(parse_clip(c)?);
+    if clip.is_some() {
+        scene.clip = clip;
         scene.request()?;
         scene.poll(true)?;
         if let Some(e) = scene.stats.last_error.take() {
-            bail!("--ijk-clip {c}: {e}");
+            bail!("--ijk-clip: {e}");
         }
     }
     let script = Script {
