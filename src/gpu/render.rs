@@ -438,44 +438,7 @@ impl<'c> Renderer<'c> {
                 label: Some("render.wgsl"),
                 source: wgpu::ShaderSource::Wgsl(src.into()),
             });
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("render"),
-                entries: &[
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 0,
-                        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Uniform,
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 1,
-                        visibility: wgpu::ShaderStages::FRAGMENT,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Storage { read_only: true },
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
-                    // The pre-integrated slab table (front × back value).
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 2,
-                        visibility: wgpu::ShaderStages::FRAGMENT,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Storage { read_only: true },
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
-                ],
-            });
+        let layout = bind_group_layout(&ctx.device);
         let pl = ctx
             .device
             .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -667,6 +630,36 @@ impl<'c> Renderer<'c> {
         };
         self.draw_image(c, &transfer, &frame, o.size, o.background)
     }
+}
+
+/// The render pass's bindings: 0 the uniform parameters, 1 the transfer
+/// LUT, 2 the pre-integrated table (both storage, read only).
+fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let entry = |binding: u32, ty: wgpu::BufferBindingType, stages: wgpu::ShaderStages| {
+        wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: stages,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }
+    };
+    let storage = wgpu::BufferBindingType::Storage { read_only: true };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("render"),
+        entries: &[
+            entry(
+                0,
+                wgpu::BufferBindingType::Uniform,
+                wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ),
+            entry(1, storage, wgpu::ShaderStages::FRAGMENT),
+            entry(2, storage, wgpu::ShaderStages::FRAGMENT),
+        ],
+    })
 }
 
 /// The transfer function of `o` for a property range: `o.transfer`, else

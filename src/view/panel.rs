@@ -248,6 +248,19 @@ impl Panel {
         if ui.checkbox(&mut pre, "pre-integrated (volume)").changed() {
             act.push(Action::Preintegrated(pre));
         }
+        self.view_buttons(ui, act);
+        if let Some(cells) = self.cells {
+            self.clip_ui(ui, cells, act);
+        }
+        ui.label(
+            "drag: orbit · right/Shift drag: pan · wheel: zoom · R reset · S screenshot · Q quit",
+        );
+        if !self.status.is_empty() {
+            ui.colored_label(Color32::from_rgb(160, 40, 40), &self.status);
+        }
+    }
+
+    fn view_buttons(&self, ui: &mut egui::Ui, act: &mut Vec<Action>) {
         ui.horizontal(|ui| {
             let up = Vec3::Z;
             for (name, d, u) in [
@@ -265,15 +278,6 @@ impl Panel {
                 act.push(Action::Reset);
             }
         });
-        if let Some(cells) = self.cells {
-            self.clip_ui(ui, cells, act);
-        }
-        ui.label(
-            "drag: orbit · right/Shift drag: pan · wheel: zoom · R reset · S screenshot · Q quit",
-        );
-        if !self.status.is_empty() {
-            ui.colored_label(Color32::from_rgb(160, 40, 40), &self.status);
-        }
     }
 
     fn clip_ui(&mut self, ui: &mut egui::Ui, cells: [usize; 3], act: &mut Vec<Action>) {
