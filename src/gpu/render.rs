@@ -592,7 +592,7 @@ impl<'c> Renderer<'c> {
         }
         if !(z_scale.is_finite() && z_scale > 0.0) {
             return Err(RenderError::Options(format!(
-                "--z-scale {z_scale} must be positive"
+                "the z-scale {z_scale} must be positive"
             )));
         }
         let d = d.normalize();

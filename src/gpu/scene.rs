@@ -94,7 +94,7 @@ impl Scene {
     ) -> Result<Self, RenderError> {
         if !(z_scale.is_finite() && z_scale > 0.0) {
             return Err(RenderError::Options(format!(
-                "--z-scale {z_scale} must be positive"
+                "the z-scale {z_scale} must be positive"
             )));
         }
         let renderer = Renderer::new(ctx)?;
