@@ -7,17 +7,19 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
+
+use super::scene_args::SceneArgs;
 use serde_json::json;
 
 use stratasweep::gpu::context::{ContextOptions, GpuContext, GpuError};
 use stratasweep::gpu::emit::GpuEmitter;
-use stratasweep::gpu::render::{Mode, RenderOptions, Renderer, Transfer};
+use stratasweep::gpu::render::Renderer;
 use stratasweep::gpu::slice::{Emitter, prepare, slice_on};
 use stratasweep::grid::Grid;
 use stratasweep::pipeline::{LevelSpec, SliceRequest, SliceResult, slice};
 use stratasweep::structures::{Structure, StructureChoice};
 
-use super::{BenchArgs, GridArg, load, parse_axis, parse_triplet};
+use super::{BenchArgs, GridArg, load, parse_axis};
 
 /// Where polygons are generated.
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
@@ -77,19 +79,6 @@ pub fn slice_gpu(
     Ok(Some(r))
 }
 
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
-enum ProjectionArg {
-    Ortho,
-    Perspective,
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
-enum ModeArg {
-    Volume,
-    Slices,
-    Iso,
-}
-
 /// `stratasweep render`.
 #[derive(Args)]
 pub struct RenderArgs {
@@ -98,130 +87,40 @@ pub struct RenderArgs {
     /// Output PNG (straight RGBA).
     #[arg(short, long)]
     output: PathBuf,
-    /// Property to show (default: the first point property).
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Draw the colour legend (property, value range) into the PNG, as the viewer shows it.
     #[arg(long)]
-    property: Option<String>,
-    /// Slices along the axis most parallel to the view direction.
-    #[arg(long, default_value_t = 200)]
-    slices: usize,
-    /// Direction the camera looks along.
-    #[arg(long, default_value = "-1,-0.6,-0.8", allow_hyphen_values = true)]
-    view_dir: String,
-    /// Up vector (default +z, or +y when looking along z).
-    #[arg(long, allow_hyphen_values = true)]
-    up: Option<String>,
-    /// Projection.
-    #[arg(long, value_enum, default_value = "ortho")]
-    projection: ProjectionArg,
-    /// Colormap name (viridis, magma, coolwarm, greys; linear opacity ramp) or a JSON file
-    /// `{"points":[{"value":v,"color":[r,g,b],"opacity":a},...]}`.
-    #[arg(long, default_value = "viridis")]
-    transfer: String,
-    /// Distance U that the opacities are given per (default: the mean cell size).
-    #[arg(long)]
-    unit_distance: Option<f64>,
-    /// Background `R,G,B,A` in [0, 1], or `transparent`.
-    #[arg(long, default_value = "1,1,1,1")]
-    background: String,
-    /// Image size.
-    #[arg(long, default_value = "800x600")]
-    size: String,
-    /// Volume (opacity-corrected slices), slices (opacity as is) or iso (opaque isosurfaces).
-    #[arg(long, value_enum, default_value = "volume")]
-    mode: ModeArg,
-    /// Isovalues for `--mode iso`.
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
-    iso: Vec<f64>,
-    /// Adapter name (substring); `WGPU_BACKEND` picks backends.
-    #[arg(long)]
-    adapter: Option<String>,
-}
-
-fn parse_size(s: &str) -> Result<(u32, u32)> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .with_context(|| format!("--size '{s}': expected WxH, e.g. 800x600"))?;
-    let (w, h): (u32, u32) = (w.trim().parse()?, h.trim().parse()?);
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        bail!("--size '{s}': each side must be 1..=16384");
-    }
-    Ok((w, h))
-}
-
-fn parse_background(s: &str) -> Result<Option<[f32; 4]>> {
-    if s.eq_ignore_ascii_case("transparent") {
-        return Ok(None);
-    }
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--background '{s}': expected R,G,B,A or transparent"))?;
-    if v.len() != 4 || v.iter().any(|c| !(0.0..=1.0).contains(c)) {
-        bail!("--background '{s}': expected four values in [0, 1] (R,G,B,A) or transparent");
-    }
-    Ok(Some([v[0], v[1], v[2], v[3]]))
+    legend: bool,
 }
 
 /// `stratasweep render`.
 pub fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
-    let view = parse_triplet(&a.view_dir, "--view-dir")?;
-    let up =
-        a.up.as_deref()
-            .map(|u| parse_triplet(u, "--up"))
-            .transpose()?;
-    let size = parse_size(&a.size)?;
-    let background = parse_background(&a.background)?;
-    let (transfer, colormap) = if a.transfer.ends_with(".json") {
-        let text = std::fs::read_to_string(&a.transfer)
-            .with_context(|| format!("cannot read the transfer function {}", a.transfer))?;
-        let t = Transfer::from_json(&text).with_context(|| format!("in {}", a.transfer))?;
-        (Some(t), String::new())
-    } else {
-        (None, a.transfer.clone())
-    };
-    let mode = match a.mode {
-        ModeArg::Volume => Mode::Volume,
-        ModeArg::Slices => Mode::Slices,
-        ModeArg::Iso => Mode::Iso,
-    };
-    if mode == Mode::Iso && a.iso.is_empty() {
-        bail!("--mode iso needs --iso VALUES (comma-separated)");
-    }
+    let o = a.scene.options()?;
     let (grid, name, _) = load(&a.input, quiet)?;
+    let z_scale = a.scene.z_scale(&grid, quiet);
     let s = Structure::build(&grid, StructureChoice::Auto)
         .with_context(|| format!("cannot build a structure for {name}"))?;
-    let ctx = open(&a.adapter, quiet)?;
+    let ctx = open(&a.scene.adapter, quiet)?;
     let mut r = Renderer::new(&ctx)?;
+    r.set_preintegrated(a.scene.preintegrated);
     let t = Instant::now();
-    let img = r.render(
-        &grid,
-        &s,
-        &RenderOptions {
-            property: a.property.clone(),
-            slices: a.slices,
-            view_dir: view,
-            up,
-            perspective: a.projection == ProjectionArg::Perspective,
-            transfer,
-            colormap,
-            unit_distance: a.unit_distance,
-            background,
-            size,
-            mode,
-            iso: a.iso.clone(),
-        },
-    )?;
+    let img = r.render_exaggerated(&grid, &s, &o, z_scale)?;
+    let img = if a.legend {
+        crate::view::legend_onto(&ctx, &r, &grid, &o, img)?
+    } else {
+        img
+    };
     let secs = t.elapsed().as_secs_f64();
     std::fs::write(&a.output, img.png()?)
         .with_context(|| format!("cannot write {}", a.output.display()))?;
     if !quiet {
         eprintln!(
             "{name}: {:?} mode, {} slices, {}x{} in {:.3} s ({} compute dispatches); wrote {}",
-            a.mode,
-            a.slices,
-            size.0,
-            size.1,
+            a.scene.mode,
+            o.slices,
+            o.size.0,
+            o.size.1,
             secs,
             r.dispatches(),
             a.output.display()

@@ -1,6 +1,8 @@
-//! The `stratasweep` command line: info, slice, generate, bench, render.
+//! The `stratasweep` command line: info, slice, generate, bench, render, view.
 
 mod gpu_cmd;
+mod scene_args;
+mod view;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -49,6 +51,8 @@ enum Cmd {
     Bench(BenchArgs),
     /// Volume-render (or draw isosurfaces of) a grid on the GPU into a PNG.
     Render(gpu_cmd::RenderArgs),
+    /// Open an interactive window (orbit, pan, zoom; egui panel) on a grid, drawn on the GPU.
+    View(view::ViewArgs),
 }
 
 #[derive(Args)]
@@ -370,6 +374,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Generate(g) => cmd_generate(g, quiet),
         Cmd::Bench(a) => cmd_bench(a, quiet),
         Cmd::Render(a) => gpu_cmd::cmd_render(a, quiet),
+        Cmd::View(a) => view::cmd_view(a, quiet),
     }
 }
 

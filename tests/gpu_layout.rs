@@ -33,6 +33,7 @@ fn every_wgsl_file_is_used() {
         shaders::EMIT,
         shaders::BIN,
         shaders::RENDER,
+        shaders::PRESENT,
     ];
     for f in files {
         assert!(
@@ -108,8 +109,8 @@ fn rust_layouts() -> Vec<Layout> {
                 spacing_over_unit,
                 perspective,
                 mode,
-                _pad0,
-                _pad1,
+                z_scale,
+                slab,
                 _pad2
             ]
         ),

@@ -79,6 +79,8 @@ pub const WAIT_LIMIT: Duration = Duration::from_secs(120);
 
 /// A headless device and queue on one adapter.
 pub struct GpuContext {
+    /// The instance (windows create their surfaces from it).
+    pub instance: wgpu::Instance,
     /// The adapter.
     pub adapter: wgpu::Adapter,
     /// The device.
@@ -116,7 +118,28 @@ impl GpuContext {
     /// among the adapters (filtered by `opts.adapter`), real GPUs come
     /// before software ones and Vulkan before the others.
     pub fn new(opts: &ContextOptions) -> Result<Self, GpuError> {
-        let desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        Self::on_instance(
+            wgpu::InstanceDescriptor::new_without_display_handle_from_env(),
+            opts,
+        )
+    }
+
+    /// As [`GpuContext::new`], on an instance that knows the display of
+    /// the windows it will present to (the viewer's).
+    pub fn with_display(
+        display: Box<dyn wgpu::wgt::WgpuHasDisplayHandle>,
+        opts: &ContextOptions,
+    ) -> Result<Self, GpuError> {
+        Self::on_instance(
+            wgpu::InstanceDescriptor::new_with_display_handle_from_env(display),
+            opts,
+        )
+    }
+
+    fn on_instance(
+        desc: wgpu::InstanceDescriptor,
+        opts: &ContextOptions,
+    ) -> Result<Self, GpuError> {
         let backends = desc.backends;
         let instance = wgpu::Instance::new(desc);
         let adapters = pollster::block_on(instance.enumerate_adapters(backends));
@@ -186,6 +209,7 @@ impl GpuContext {
             g.get_or_insert_with(|| format!("device lost ({reason:?}): {msg}"));
         });
         Ok(GpuContext {
+            instance,
             adapter,
             device,
             queue,

@@ -7,11 +7,16 @@
 //! shared with WGSL; [`tables`] builds the host images of the buffers that
 //! both the GPU ([`emit`]) and the twin ([`twin`]) read.
 
+pub mod camera;
 pub mod context;
+pub mod draw;
 pub mod emit;
 pub mod frame;
 pub mod gradient;
+pub mod preintegrate;
+pub mod present;
 pub mod render;
+pub mod scene;
 pub mod shaders;
 pub mod shared;
 pub mod slice;

@@ -15,7 +15,7 @@
 
 use std::collections::HashMap;
 
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 use serde::Deserialize;
 use thiserror::Error;
 
@@ -24,11 +24,14 @@ use crate::grid::Grid;
 use crate::pipeline::{LevelSpec, PipelineError, SliceRequest, vertex_property};
 use crate::structures::Structure;
 
+pub use super::camera::{FRAME_MARGIN, frame_camera};
 use super::context::{GpuContext, GpuError};
+use super::draw::FrameSetup;
 use super::emit::{GpuEmitter, emit_chunked};
 use super::gradient::vertex_gradients;
+use super::scene::fit_camera;
 use super::shaders;
-use super::shared::{ARGS_WORDS, ControlLayout, OutVertex, RenderParams};
+use super::shared::OutVertex;
 use super::slice::prepare;
 use super::tables::slot_values;
 
@@ -273,29 +276,150 @@ impl Image {
     }
 }
 
-/// Triangles of one (axis or iso, count, property) on the GPU.
-struct Cached<'c> {
+/// Triangles of one (axis or iso, count, property) on the GPU: the cached
+/// slices that every view in the axis's cone draws without a dispatch.
+pub struct SliceSet<'c> {
     /// Level chunks (one unless the frame exceeded a storage binding), in level order.
-    chunks: Vec<GpuEmitter<'c>>,
+    pub(super) chunks: Vec<GpuEmitter<'c>>,
     /// Slice spacing along the axis (volume), 0 for iso.
-    spacing: f64,
+    pub spacing: f64,
     /// Range of the shown values.
-    range: (f64, f64),
+    pub range: (f64, f64),
+    /// Cut cells of all levels (the frame's entries).
+    pub cut_cells: u64,
+    /// Levels (slices or isovalues).
+    pub levels: u32,
+}
+
+impl SliceSet<'_> {
+    /// Compute dispatches issued to build these slices.
+    pub fn dispatches(&self) -> u64 {
+        self.chunks.iter().map(|e| e.dispatches).sum()
+    }
+}
+
+/// What one [`SliceSet`] is: the cache key and the request that builds it.
+#[derive(Clone, Debug)]
+pub struct SliceKey {
+    /// Cache key (mode, axis or isovalues, count, property).
+    pub key: String,
+    /// The field sliced: an axis, or the property (iso).
+    pub field: FieldSpec,
+    /// Levels.
+    pub levels: LevelSpec,
+    /// The shown property.
+    pub property: Option<String>,
+    /// Iso mode (gradients uploaded, no flat cell colour).
+    pub iso: bool,
+    /// Slicing axis (volume and slices modes).
+    pub axis: usize,
+    /// The attribute's gradient rides along as normals (pre-integration).
+    pub attr_gradient: bool,
+    /// IJK clipping: only cells with `lo ≤ i < hi` (and j, k) are drawn
+    /// (IJK grids).
+    pub clip: Option<[[usize; 2]; 3]>,
+}
+
+impl SliceKey {
+    /// Carries the attribute's gradient (pre-integrated volume mode).
+    pub fn with_attr_gradient(mut self) -> Self {
+        if !self.iso && !self.attr_gradient {
+            self.attr_gradient = true;
+            self.key.push_str(" +gradient");
+        }
+        self
+    }
+
+    /// Draws only the cells of the IJK box `clip` (cell index ranges `lo..hi`).
+    pub fn with_clip(mut self, clip: Option<[[usize; 2]; 3]>) -> Self {
+        if let Some(c) = clip {
+            self.key.push_str(&format!(" clip {c:?}"));
+        }
+        self.clip = clip;
+        self
+    }
+}
+
+/// The slicing axis for a display-space view direction: `argmax |d·e_i|`.
+pub fn slicing_axis(d: Vec3) -> usize {
+    (0..3)
+        .max_by(|&a, &b| d[a].abs().total_cmp(&d[b].abs()))
+        .unwrap_or(2)
+}
+
+/// The property shown by `o` on `grid`: the named one, else the first point
+/// property, else the first cell property.
+pub fn shown_property(grid: &Grid, o: &RenderOptions) -> Option<String> {
+    o.property
+        .clone()
+        .or_else(|| grid.point_data.first().map(|p| p.name.clone()))
+        .or_else(|| grid.cell_data.first().map(|p| p.name.clone()))
+}
+
+/// The slices `o` needs along `axis` (or its isosurfaces).
+pub fn slice_key(grid: &Grid, o: &RenderOptions, axis: usize) -> Result<SliceKey, RenderError> {
+    let property = shown_property(grid, o);
+    let (key, field, levels) = match o.mode {
+        Mode::Iso => {
+            let Some(p) = &property else {
+                return Err(RenderError::Options(
+                    "iso mode needs a point or cell property".into(),
+                ));
+            };
+            if o.iso.is_empty() {
+                return Err(RenderError::Options("iso mode needs --iso VALUES".into()));
+            }
+            let mut iso = o.iso.clone();
+            iso.sort_by(f64::total_cmp);
+            iso.dedup();
+            (
+                format!("iso {p} {iso:?}"),
+                FieldSpec::Property(p.clone()),
+                LevelSpec::Values(iso),
+            )
+        }
+        _ => {
+            if o.slices == 0 {
+                return Err(RenderError::Options("--slices must be at least 1".into()));
+            }
+            (
+                format!("axis {axis} {} {property:?}", o.slices),
+                FieldSpec::Axis {
+                    axis,
+                    negative: false,
+                },
+                LevelSpec::Count(o.slices),
+            )
+        }
+    };
+    Ok(SliceKey {
+        key,
+        field,
+        levels,
+        property,
+        iso: o.mode == Mode::Iso,
+        axis,
+        attr_gradient: false,
+        clip: None,
+    })
 }
 
 /// The offscreen renderer with its cache of slices.
 pub struct Renderer<'c> {
-    ctx: &'c GpuContext,
-    format: wgpu::TextureFormat,
-    layout: wgpu::BindGroupLayout,
-    blend: wgpu::RenderPipeline,
-    iso: wgpu::RenderPipeline,
-    cache: HashMap<String, Cached<'c>>,
+    pub(super) ctx: &'c GpuContext,
+    pub(super) format: wgpu::TextureFormat,
+    pub(super) layout: wgpu::BindGroupLayout,
+    pub(super) blend: wgpu::RenderPipeline,
+    pub(super) iso: wgpu::RenderPipeline,
+    /// Volume mode with pre-integrated slabs (attribute gradients as normals).
+    pub(super) pre: wgpu::RenderPipeline,
+    preintegrated: bool,
+    cache: HashMap<String, SliceSet<'c>>,
     /// Compute dispatches of evicted cache entries.
     evicted_dispatches: u64,
 }
 
-const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub(super) const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 impl<'c> Renderer<'c> {
     /// Builds the render pipelines (Rgba32Float target when the adapter can
@@ -315,33 +439,7 @@ impl<'c> Renderer<'c> {
                 label: Some("render.wgsl"),
                 source: wgpu::ShaderSource::Wgsl(src.into()),
             });
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("render"),
-                entries: &[
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 0,
-                        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Uniform,
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 1,
-                        visibility: wgpu::ShaderStages::FRAGMENT,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Storage { read_only: true },
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
-                ],
-            });
+        let layout = bind_group_layout(&ctx.device);
         let pl = ctx
             .device
             .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -364,8 +462,8 @@ impl<'c> Renderer<'c> {
         };
         let slice_buffers = [Some(vertices.clone())];
         let iso_buffers = [Some(vertices), Some(normals)];
-        let make = |blend: Option<wgpu::BlendState>, depth: bool| {
-            let (entry, buffers): (&str, &[Option<wgpu::VertexBufferLayout>]) = if depth {
+        let make = |blend: Option<wgpu::BlendState>, depth: bool, normals: bool, fs: &str| {
+            let (entry, buffers): (&str, &[Option<wgpu::VertexBufferLayout>]) = if normals {
                 ("vs_iso", &iso_buffers)
             } else {
                 ("vs", &slice_buffers)
@@ -391,7 +489,7 @@ impl<'c> Renderer<'c> {
                     multisample: Default::default(),
                     fragment: Some(wgpu::FragmentState {
                         module: &module,
-                        entry_point: Some("fs"),
+                        entry_point: Some(fs),
                         compilation_options: Default::default(),
                         targets: &[Some(wgpu::ColorTargetState {
                             format,
@@ -403,15 +501,19 @@ impl<'c> Renderer<'c> {
                     cache: None,
                 })
         };
-        let blend = make(Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING), false);
-        let iso = make(None, true);
+        let over = Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
+        let blend = make(over, false, false, "fs");
+        let pre = make(over, false, true, "fs_pre");
+        let iso = make(None, true, true, "fs");
         ctx.check()?;
         Ok(Renderer {
             ctx,
             format,
             layout,
             blend,
+            pre,
             iso,
+            preintegrated: false,
             cache: HashMap::new(),
             evicted_dispatches: 0,
         })
@@ -433,6 +535,36 @@ impl<'c> Renderer<'c> {
         self.format
     }
 
+    /// Volume mode with pre-integrated transfer functions: each slab's
+    /// colour and opacity come from a 2D table over its front value (the
+    /// slice's) and back value (extrapolated along the ray with the
+    /// attribute's gradient). Off by default.
+    pub fn set_preintegrated(&mut self, on: bool) {
+        self.preintegrated = on;
+    }
+
+    /// Whether volume mode is pre-integrated.
+    pub fn preintegrated(&self) -> bool {
+        self.preintegrated
+    }
+
+    /// The device this renderer draws with.
+    pub fn ctx(&self) -> &'c GpuContext {
+        self.ctx
+    }
+
+    /// The cached slices of `key`, if built.
+    pub fn slices(&self, key: &str) -> Option<&SliceSet<'c>> {
+        self.cache.get(key)
+    }
+
+    /// Caches `set` under `key`, replacing (evicting) every other entry:
+    /// one axis cone or property at a time.
+    pub fn insert(&mut self, key: &str, set: SliceSet<'c>) {
+        self.evicted_dispatches += self.cache.drain().map(|(_, c)| c.dispatches()).sum::<u64>();
+        self.cache.insert(key.to_string(), set);
+    }
+
     /// Renders `grid` (with its built structure `s`).
     pub fn render(
         &mut self,
@@ -440,11 +572,29 @@ impl<'c> Renderer<'c> {
         s: &Structure,
         o: &RenderOptions,
     ) -> Result<Image, RenderError> {
+        self.render_exaggerated(grid, s, o, 1.0)
+    }
+
+    /// Renders `grid` with its z multiplied by `z_scale` for display
+    /// (vertical exaggeration; opacities and the unit distance are taken
+    /// in that display space).
+    pub fn render_exaggerated(
+        &mut self,
+        grid: &Grid,
+        s: &Structure,
+        o: &RenderOptions,
+        z_scale: f64,
+    ) -> Result<Image, RenderError> {
         let d = Vec3::from_array(o.view_dir.map(|c| c as f32));
         if !d.is_finite() || d.length() <= 0.0 {
             return Err(RenderError::Options(
                 "--view-dir must be a non-zero vector".into(),
             ));
+        }
+        if !(z_scale.is_finite() && z_scale > 0.0) {
+            return Err(RenderError::Options(format!(
+                "the z-scale {z_scale} must be positive"
+            )));
         }
         let d = d.normalize();
         let (w, h) = o.size;
@@ -458,569 +608,195 @@ impl<'c> Renderer<'c> {
                 self.ctx.limits.max_texture_dimension_2d
             )));
         }
-        let property = o
-            .property
-            .clone()
-            .or_else(|| grid.point_data.first().map(|p| p.name.clone()))
-            .or_else(|| grid.cell_data.first().map(|p| p.name.clone()));
-        let axis = (0..3)
-            .max_by(|&a, &b| d[a].abs().total_cmp(&d[b].abs()))
-            .unwrap_or(2);
-        let (key, field, levels) = match o.mode {
-            Mode::Iso => {
-                let Some(p) = &property else {
-                    return Err(RenderError::Options(
-                        "iso mode needs a point or cell property".into(),
-                    ));
-                };
-                if o.iso.is_empty() {
-                    return Err(RenderError::Options("iso mode needs --iso VALUES".into()));
-                }
-                let mut iso = o.iso.clone();
-                iso.sort_by(f64::total_cmp);
-                iso.dedup();
-                (
-                    format!("iso {p} {iso:?}"),
-                    FieldSpec::Property(p.clone()),
-                    LevelSpec::Values(iso),
-                )
-            }
-            _ => {
-                if o.slices == 0 {
-                    return Err(RenderError::Options("--slices must be at least 1".into()));
-                }
-                (
-                    format!("axis {axis} {} {property:?}", o.slices),
-                    FieldSpec::Axis {
-                        axis,
-                        negative: false,
-                    },
-                    LevelSpec::Count(o.slices),
-                )
-            }
-        };
-        if !self.cache.contains_key(&key) {
-            let req = SliceRequest {
-                field,
-                levels,
-                attribute: property.clone(),
-                threads: rayon::current_num_threads(),
-                brute_force: false,
-                collect_mesh: false,
-                sweep: Default::default(),
-            };
-            let mut p = prepare(grid, s, &req)?;
-            // A cell property (no point property of that name) colours
-            // each slice polygon flat with its own cell's value.
-            let cell_values: Option<Vec<f64>> = match &property {
-                Some(n) if o.mode != Mode::Iso && grid.point_property(n).is_none() => grid
-                    .cell_property(n)
-                    .map(|c| (0..c.len()).map(|i| c.scalar_at(i)).collect()),
-                _ => None,
-            };
-            if let Some(v) = &cell_values {
-                p.grid.attr = match s {
-                    Structure::SCGraph(g) => slot_values(g, v),
-                    Structure::CGraph(g) => slot_values(g, v),
-                    Structure::CpGraph(g) => slot_values(g.as_ref(), v),
-                    // `prepare` already refused CIEL grids.
-                    Structure::Ciel(_) => {
-                        return Err(PipelineError::Unsupported(
-                            "the GPU path does not take CIEL grids".into(),
-                        )
-                        .into());
-                    }
-                };
-                p.grid.attr_per_cell = true;
-            }
-            if o.mode == Mode::Iso {
-                p.grid.grad = vertex_gradients(&p.grid);
-            }
-            let spacing = match p.level_values.as_slice() {
-                [a, b, ..] => b - a,
-                _ => {
-                    let (lo, hi) = grid.bounds();
-                    hi[axis] - lo[axis]
-                }
-            };
-            let range = match (&property, &cell_values) {
-                (_, Some(v)) => {
-                    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-                    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-                    (lo as f32 as f64, hi as f32 as f64)
-                }
-                (Some(name), None) => {
-                    let v = vertex_property(grid, s, name)?;
-                    let lo = v.iter().copied().fold(f32::INFINITY, f32::min) as f64;
-                    let hi = v.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
-                    (lo, hi)
-                }
-                (None, None) => {
-                    let l = &p.level_values;
-                    (l[0], l[l.len() - 1])
-                }
-            };
-            let base = GpuEmitter::new(self.ctx, p.grid)?;
-            let chunks = emit_chunked(&base, &p.frame, false)?
-                .into_iter()
-                .map(|c| c.0)
-                .collect();
-            // Keep one entry: another axis cone or property replaces it.
-            self.evicted_dispatches += self
-                .cache
-                .drain()
-                .flat_map(|(_, c)| c.chunks)
-                .map(|e| e.dispatches)
-                .sum::<u64>();
-            self.cache.insert(
-                key.clone(),
-                Cached {
-                    chunks,
-                    spacing,
-                    range,
-                },
-            );
+        let axis = slicing_axis(d);
+        let mut k = slice_key(grid, o, axis)?;
+        if self.preintegrated && o.mode == Mode::Volume {
+            k = k.with_attr_gradient();
         }
-        let c = &self.cache[&key];
-        let transfer = match &o.transfer {
-            Some(t) => t.clone(),
-            None => Transfer::named(&o.colormap, c.range.0, c.range.1).ok_or_else(|| {
-                RenderError::Options(format!(
-                    "unknown colormap '{}' (known: {COLORMAPS:?})",
-                    o.colormap
-                ))
-            })?,
+        if !self.cache.contains_key(&k.key) {
+            let set = build_slices(self.ctx, grid, s, &k)?;
+            self.insert(&k.key, set);
+        }
+        let c = &self.cache[&k.key];
+        let transfer = transfer_for(o, c.range)?;
+        let unit = unit_distance(grid, o, z_scale)?;
+        let cam = fit_camera(grid, o, z_scale)?;
+        let frame = FrameSetup {
+            camera: cam,
+            axis,
+            unit,
+            mode: o.mode,
+            lod: 1,
+            preintegrated: self.preintegrated,
         };
-        let unit = match o.unit_distance {
-            Some(u) if u > 0.0 && u.is_finite() => u,
-            Some(u) => {
-                return Err(RenderError::Options(format!(
-                    "--unit-distance {u} must be positive"
-                )));
-            }
-            None => mean_cell_size(grid),
-        };
-        self.draw(grid, c, &transfer, d, axis, unit, o)
+        self.draw_image(c, &transfer, &frame, o.size, o.background)
     }
+}
 
-    #[allow(clippy::too_many_arguments)]
-    fn draw(
-        &self,
-        grid: &Grid,
-        c: &Cached,
-        transfer: &Transfer,
-        d: Vec3,
-        axis: usize,
-        unit: f64,
-        o: &RenderOptions,
-    ) -> Result<Image, RenderError> {
-        let ctx = self.ctx;
-        let (w, h) = o.size;
-        let (lo, hi) = grid.bounds();
-        let ext = Vec3::new(
-            (hi[0] - lo[0]) as f32,
-            (hi[1] - lo[1]) as f32,
-            (hi[2] - lo[2]) as f32,
-        );
-        let up = match o.up {
-            Some(u) => Vec3::from_array(u.map(|c| c as f32)),
-            None if d.z.abs() > 0.99 => Vec3::Y,
-            None => Vec3::Z,
+/// The render pass's bindings: 0 the uniform parameters, 1 the transfer
+/// LUT, 2 the pre-integrated table (both storage, read only).
+fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let entry = |binding: u32, ty: wgpu::BufferBindingType, stages: wgpu::ShaderStages| {
+        wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: stages,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }
+    };
+    let storage = wgpu::BufferBindingType::Storage { read_only: true };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("render"),
+        entries: &[
+            entry(
+                0,
+                wgpu::BufferBindingType::Uniform,
+                wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ),
+            entry(1, storage, wgpu::ShaderStages::FRAGMENT),
+            entry(2, storage, wgpu::ShaderStages::FRAGMENT),
+        ],
+    })
+}
+
+/// The transfer function of `o` for a property range: `o.transfer`, else
+/// its named colormap over the range.
+pub fn transfer_for(o: &RenderOptions, range: (f64, f64)) -> Result<Transfer, RenderError> {
+    match &o.transfer {
+        Some(t) => Ok(t.clone()),
+        None => Transfer::named(&o.colormap, range.0, range.1).ok_or_else(|| {
+            RenderError::Options(format!(
+                "unknown colormap '{}' (known: {COLORMAPS:?})",
+                o.colormap
+            ))
+        }),
+    }
+}
+
+/// The unit distance of the opacities in display space: `o.unit_distance`,
+/// else the mean cell size of the exaggerated bounding box.
+pub fn unit_distance(grid: &Grid, o: &RenderOptions, z_scale: f64) -> Result<f64, RenderError> {
+    match o.unit_distance {
+        Some(u) if u > 0.0 && u.is_finite() => Ok(u),
+        Some(u) => Err(RenderError::Options(format!(
+            "--unit-distance {u} must be positive"
+        ))),
+        None => Ok(mean_cell_size(grid) * z_scale.cbrt()),
+    }
+}
+
+/// Sweeps and emits the slices of `k` (or its isosurfaces) on `ctx`: the
+/// CPU sweep finds the cut cells, the GPU emits the triangles. Runs on any
+/// thread (the viewer builds a new axis's slices on a worker).
+pub fn build_slices<'c>(
+    ctx: &'c GpuContext,
+    grid: &Grid,
+    s: &Structure,
+    k: &SliceKey,
+) -> Result<SliceSet<'c>, RenderError> {
+    let property = &k.property;
+    let req = SliceRequest {
+        field: k.field.clone(),
+        levels: k.levels.clone(),
+        attribute: property.clone(),
+        threads: rayon::current_num_threads(),
+        brute_force: false,
+        collect_mesh: false,
+        sweep: Default::default(),
+    };
+    let mut p = prepare(grid, s, &req)?;
+    // A cell property (no point property of that name) colours
+    // each slice polygon flat with its own cell's value.
+    let cell_values: Option<Vec<f64>> = match property {
+        Some(n) if !k.iso && grid.point_property(n).is_none() => grid
+            .cell_property(n)
+            .map(|c| (0..c.len()).map(|i| c.scalar_at(i)).collect()),
+        _ => None,
+    };
+    if let Some(v) = &cell_values {
+        p.grid.attr = match s {
+            Structure::SCGraph(g) => slot_values(g, v),
+            Structure::CGraph(g) => slot_values(g, v),
+            Structure::CpGraph(g) => slot_values(g.as_ref(), v),
+            // `prepare` already refused CIEL grids.
+            Structure::Ciel(_) => {
+                return Err(PipelineError::Unsupported(
+                    "the GPU path does not take CIEL grids".into(),
+                )
+                .into());
+            }
         };
-        if up.cross(d).length() < 1e-6 {
+        p.grid.attr_per_cell = true;
+    }
+    if k.iso {
+        p.grid.grad = vertex_gradients(&p.grid);
+    } else if k.attr_gradient && cell_values.is_none() && !p.grid.attr.is_empty() {
+        // The attribute's gradient: φ's slot holds the attribute meanwhile.
+        let phi: Vec<f32> = p.grid.grid.iter().map(|v| v[3]).collect();
+        for (v, a) in p.grid.grid.iter_mut().zip(&p.grid.attr) {
+            v[3] = *a;
+        }
+        p.grid.grad = vertex_gradients(&p.grid);
+        for (v, f) in p.grid.grid.iter_mut().zip(phi) {
+            v[3] = f;
+        }
+    }
+    let spacing = match p.level_values.as_slice() {
+        [a, b, ..] => b - a,
+        _ => {
+            let (lo, hi) = grid.bounds();
+            hi[k.axis] - lo[k.axis]
+        }
+    };
+    let range = match (property, &cell_values) {
+        (_, Some(v)) => {
+            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            (lo as f32 as f64, hi as f32 as f64)
+        }
+        (Some(name), None) => {
+            let v = vertex_property(grid, s, name)?;
+            let lo = v.iter().copied().fold(f32::INFINITY, f32::min) as f64;
+            let hi = v.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
+            (lo, hi)
+        }
+        (None, None) => {
+            let l = &p.level_values;
+            (l[0], l[l.len() - 1])
+        }
+    };
+    if let Some(c) = k.clip {
+        let Structure::SCGraph(g) = s else {
             return Err(RenderError::Options(
-                "--up must not be parallel to --view-dir".into(),
+                "IJK clipping needs an IJK (structured) grid".into(),
             ));
-        }
-        let aspect = w as f32 / h as f32;
-        let (view_proj, eye) = frame_camera(
-            &grid.points,
-            grid.origin(),
-            ext,
-            d,
-            up,
-            aspect,
-            o.perspective,
-        );
-        let mut axis_v = [0f32; 4];
-        axis_v[axis] = 1.0;
-        let (lut, vlo, vhi) = transfer.lut();
-        let mode = match o.mode {
-            Mode::Volume => 0,
-            Mode::Slices => 1,
-            Mode::Iso => 2,
         };
-        let params = RenderParams {
-            view_proj: view_proj.to_cols_array_2d(),
-            eye: [eye.x, eye.y, eye.z, 1.0],
-            view_dir: [d.x, d.y, d.z, 0.0],
-            axis: axis_v,
-            value_lo: vlo as f32,
-            value_hi: vhi as f32,
-            spacing_over_unit: (c.spacing / unit) as f32,
-            perspective: o.perspective as u32,
-            mode,
-            ..Default::default()
-        };
-        use wgpu::util::DeviceExt;
-        let ub = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("render params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-        let lb = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("lut"),
-                contents: bytemuck::cast_slice(&lut),
-                usage: wgpu::BufferUsages::STORAGE,
-            });
-        let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("render"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: ub.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: lb.as_entire_binding(),
-                },
-            ],
+        // Slot of cell (i, j, k): i + j·npi + (k + 1)·npi·npj (see `scgraph`).
+        let [npi, npj, _] = g.dims;
+        p.frame.entries.retain(|e| {
+            let v = e.slot as usize - npi * npj;
+            let ijk = [v % npi, (v / npi) % npj, v / (npi * npj)];
+            (0..3).all(|a| c[a][0] <= ijk[a] && ijk[a] < c[a][1])
         });
-        let size = wgpu::Extent3d {
-            width: w,
-            height: h,
-            depth_or_array_layers: 1,
-        };
-        let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("target"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: self.format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let tv = target.create_view(&Default::default());
-        let depth = (o.mode == Mode::Iso).then(|| {
-            ctx.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("depth"),
-                size,
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: DEPTH,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                view_formats: &[],
-            })
-        });
-        let dv = depth.as_ref().map(|t| t.create_view(&Default::default()));
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("slices"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &tv,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: dv.as_ref().map(|v| {
-                    wgpu::RenderPassDepthStencilAttachment {
-                        view: v,
-                        depth_ops: Some(wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(1.0),
-                            store: wgpu::StoreOp::Discard,
-                        }),
-                        stencil_ops: None,
-                    }
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(if o.mode == Mode::Iso {
-                &self.iso
-            } else {
-                &self.blend
-            });
-            pass.set_bind_group(0, &bg, &[]);
-            // Levels increase along +axis: looking toward +axis, the far
-            // slices are the high ones, so draw in decreasing order.
-            let reverse = d[axis] > 0.0 && o.mode != Mode::Iso;
-            let chunks: Vec<&GpuEmitter> = if reverse {
-                c.chunks.iter().rev().collect()
-            } else {
-                c.chunks.iter().collect()
-            };
-            for e in chunks {
-                let k = e.level_count;
-                if let (Some(vb), Some(cb), true) =
-                    (e.vertex_buffer(), e.control_buffer(), e.triangles > 0)
-                {
-                    pass.set_vertex_buffer(0, vb.slice(..));
-                    if o.mode == Mode::Iso {
-                        match e.normal_buffer() {
-                            Some(nb) if e.has_normals() => pass.set_vertex_buffer(1, nb.slice(..)),
-                            _ => {
-                                return Err(RenderError::Options(
-                                    "iso mode: the slices carry no normals".into(),
-                                ));
-                            }
-                        }
-                    }
-                    let lay = ControlLayout { k };
-                    let first = if reverse {
-                        lay.args_rev()
-                    } else {
-                        lay.args_fwd()
-                    };
-                    debug_assert_eq!(lay.args_rev(), ARGS_WORDS * k);
-                    pass.multi_draw_indirect(cb, first as u64 * 4, k);
-                }
-            }
-        }
-        let bpr = (w * 16).div_ceil(256) * 256;
-        let texel = if self.format == wgpu::TextureFormat::Rgba32Float {
-            16
-        } else {
-            8
-        };
-        let bpr = if texel == 16 {
-            bpr
-        } else {
-            (w * 8).div_ceil(256) * 256
-        };
-        let rb = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("image"),
-            size: bpr as u64 * h as u64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        enc.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture: &target,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &rb,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(bpr),
-                    rows_per_image: Some(h),
-                },
-            },
-            size,
-        );
-        ctx.queue.submit([enc.finish()]);
-        let bytes = ctx.read_buffer(&rb, bpr as u64 * h as u64)?;
-        let bg_p = o
-            .background
-            .map_or([0.0; 4], |b| [b[0] * b[3], b[1] * b[3], b[2] * b[3], b[3]]);
-        let mut px = Vec::with_capacity((w * h) as usize);
-        for y in 0..h as usize {
-            let row = &bytes[y * bpr as usize..];
-            for x in 0..w as usize {
-                let c: [f32; 4] = if texel == 16 {
-                    std::array::from_fn(|i| {
-                        let o = x * 16 + 4 * i;
-                        f32::from_le_bytes([row[o], row[o + 1], row[o + 2], row[o + 3]])
-                    })
-                } else {
-                    std::array::from_fn(|i| {
-                        let o = x * 8 + 2 * i;
-                        f16_to_f32(u16::from_le_bytes([row[o], row[o + 1]]))
-                    })
-                };
-                let t = 1.0 - c[3];
-                px.push(std::array::from_fn(|i| c[i] + t * bg_p[i]));
-            }
-        }
-        Ok(Image {
-            width: w,
-            height: h,
-            premultiplied: px,
-        })
     }
-}
-
-/// Margin around the projected grid: the window is 5 % wider (or taller)
-/// than the side of the projected points that limits the fit.
-pub const FRAME_MARGIN: f32 = 1.05;
-
-/// Extents of the points in view coordinates: (min, max) along the right
-/// vector `s` and the up vector `u`, and the perspective eye distance that
-/// fits every point in a window of half-slopes `tx`, `ty`.
-fn view_extents(
-    points: &[[f64; 3]],
-    origin: [f64; 3],
-    s: Vec3,
-    u: Vec3,
-    d: Vec3,
-    tx: f32,
-    ty: f32,
-) -> [f32; 5] {
-    use rayon::prelude::*;
-    let init = || {
-        [
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NEG_INFINITY,
-        ]
-    };
-    points
-        .par_iter()
-        .fold(init, |mut acc, p| {
-            let q = Vec3::new(
-                (p[0] - origin[0]) as f32,
-                (p[1] - origin[1]) as f32,
-                (p[2] - origin[2]) as f32,
-            );
-            let (x, y) = (q.dot(s), q.dot(u));
-            acc[0] = acc[0].min(x);
-            acc[1] = acc[1].max(x);
-            acc[2] = acc[2].min(y);
-            acc[3] = acc[3].max(y);
-            // depth = dist + q·d must reach |x|·m / tx and |y|·m / ty.
-            let dist = (x.abs() * FRAME_MARGIN / tx).max(y.abs() * FRAME_MARGIN / ty) - q.dot(d);
-            acc[4] = acc[4].max(dist);
-            acc
-        })
-        .reduce(init, |a, b| {
-            [
-                a[0].min(b[0]),
-                a[1].max(b[1]),
-                a[2].min(b[2]),
-                a[3].max(b[3]),
-                a[4].max(b[4]),
-            ]
-        })
-}
-
-/// The camera that frames a grid tightly: its `points` (world), rebased to
-/// `origin` (the bounding-box centre, the local frame's origin), with
-/// bounding-box extents `ext`, seen along the unit vector `d` with `up`.
-/// Returns the world (local frame) → clip matrix and the eye position.
-///
-/// Orthographic: the window is the projected points' extent, centred on
-/// it, widened to the image aspect and enlarged by [`FRAME_MARGIN`] (so a
-/// rotated grid fills the image, not its axis-aligned box). Perspective
-/// (30° field of view across the smaller image side, looking at the
-/// bounding-box centre): the eye is placed at the smallest distance at
-/// which every point projects inside the window. Without points the
-/// bounding box's corners are framed.
-pub fn frame_camera(
-    points: &[[f64; 3]],
-    origin: [f64; 3],
-    ext: Vec3,
-    d: Vec3,
-    up: Vec3,
-    aspect: f32,
-    perspective: bool,
-) -> (Mat4, Vec3) {
-    let r = (0.5 * ext.length()).max(1e-6);
-    let s = d.cross(up).normalize();
-    let u = s.cross(d);
-    let fov = 30f32.to_radians();
-    let fov_y = if aspect >= 1.0 {
-        fov
-    } else {
-        2.0 * ((0.5 * fov).tan() / aspect).atan()
-    };
-    let ty = (0.5 * fov_y).tan();
-    let tx = ty * aspect;
-    let corners: Vec<[f64; 3]>;
-    let pts = if points.is_empty() {
-        corners = (0..8)
-            .map(|i| {
-                let sign = |b: usize| if i >> b & 1 == 1 { 0.5 } else { -0.5 };
-                let c = ext * Vec3::new(sign(0), sign(1), sign(2));
-                [0, 1, 2].map(|a| origin[a] + c[a] as f64)
-            })
-            .collect();
-        &corners[..]
-    } else {
-        points
-    };
-    let [x0, x1, y0, y1, fit] = view_extents(pts, origin, s, u, d, tx, ty);
-    let tiny = 1e-6 * r;
-    if perspective {
-        // The eye stays outside the bounding sphere's depth.
-        let hz = (0..8)
-            .map(|i| {
-                let sign = |b: usize| if i >> b & 1 == 1 { 0.5 } else { -0.5 };
-                (ext * Vec3::new(sign(0), sign(1), sign(2))).dot(d).abs()
-            })
-            .fold(tiny, f32::max);
-        let dist = fit.max(1.05 * hz + tiny);
-        let eye = -d * dist;
-        let view = look_at_rh(eye, Vec3::ZERO, up);
-        let near = (0.9 * (dist - hz)).max(1e-3 * r);
-        let far = 1.1 * (dist + hz);
-        (perspective_rh(fov_y, aspect, near, far) * view, eye)
-    } else {
-        let eye = -d * (3.0 * r);
-        let view = look_at_rh(eye, Vec3::ZERO, up);
-        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-        let (hx, hy) = ((0.5 * (x1 - x0)).max(tiny), (0.5 * (y1 - y0)).max(tiny));
-        let (hw, hh) = if hx > hy * aspect {
-            (hx * FRAME_MARGIN, hx * FRAME_MARGIN / aspect)
-        } else {
-            (hy * FRAME_MARGIN * aspect, hy * FRAME_MARGIN)
-        };
-        let proj = orthographic_rh(cx - hw, cx + hw, cy - hh, cy + hh, 1.5 * r, 4.5 * r);
-        (proj * view, eye)
-    }
-}
-
-/// Right-handed view matrix looking from `eye` at `at`.
-fn look_at_rh(eye: Vec3, at: Vec3, up: Vec3) -> Mat4 {
-    let f = (at - eye).normalize();
-    let s = f.cross(up).normalize();
-    let u = s.cross(f);
-    Mat4::from_cols(
-        glam::Vec4::new(s.x, u.x, -f.x, 0.0),
-        glam::Vec4::new(s.y, u.y, -f.y, 0.0),
-        glam::Vec4::new(s.z, u.z, -f.z, 0.0),
-        glam::Vec4::new(-s.dot(eye), -u.dot(eye), f.dot(eye), 1.0),
-    )
-}
-
-/// Right-handed perspective projection to wgpu clip space (depth 0..1).
-fn perspective_rh(fov_y: f32, aspect: f32, near: f32, far: f32) -> Mat4 {
-    let h = 1.0 / (0.5 * fov_y).tan();
-    let r = far / (near - far);
-    Mat4::from_cols(
-        glam::Vec4::new(h / aspect, 0.0, 0.0, 0.0),
-        glam::Vec4::new(0.0, h, 0.0, 0.0),
-        glam::Vec4::new(0.0, 0.0, r, -1.0),
-        glam::Vec4::new(0.0, 0.0, r * near, 0.0),
-    )
-}
-
-/// Right-handed orthographic projection to wgpu clip space (depth 0..1).
-fn orthographic_rh(l: f32, r: f32, b: f32, t: f32, near: f32, far: f32) -> Mat4 {
-    let rl = 1.0 / (r - l);
-    let tb = 1.0 / (t - b);
-    let nf = 1.0 / (near - far);
-    Mat4::from_cols(
-        glam::Vec4::new(2.0 * rl, 0.0, 0.0, 0.0),
-        glam::Vec4::new(0.0, 2.0 * tb, 0.0, 0.0),
-        glam::Vec4::new(0.0, 0.0, nf, 0.0),
-        glam::Vec4::new(-(l + r) * rl, -(t + b) * tb, near * nf, 1.0),
-    )
+    let cut_cells = p.frame.entries.len() as u64;
+    let levels = p.level_values.len() as u32;
+    let base = GpuEmitter::new(ctx, p.grid)?;
+    let chunks = emit_chunked(&base, &p.frame, false)?
+        .into_iter()
+        .map(|c| c.0)
+        .collect();
+    Ok(SliceSet {
+        chunks,
+        spacing,
+        range,
+        cut_cells,
+        levels,
+    })
 }
 
 /// Mean cell size: the cube root of the bounding-box volume per cell
@@ -1031,7 +807,7 @@ pub fn mean_cell_size(grid: &Grid) -> f64 {
     (v / grid.cell_count().max(1) as f64).cbrt()
 }
 
-fn f16_to_f32(h: u16) -> f32 {
+pub(super) fn f16_to_f32(h: u16) -> f32 {
     let s = ((h >> 15) as u32) << 31;
     let e = (h >> 10 & 0x1f) as u32;
     let m = (h & 0x3ff) as u32;

@@ -15,6 +15,8 @@ pub const EMIT: &str = include_str!("../../wgsl/emit.wgsl");
 pub const BIN: &str = include_str!("../../wgsl/bin.wgsl");
 /// Render pass (volume, slices, iso).
 pub const RENDER: &str = include_str!("../../wgsl/render.wgsl");
+/// Present pass (the viewer's float target over the background).
+pub const PRESENT: &str = include_str!("../../wgsl/present.wgsl");
 
 /// The compute module of one pass: the decider precision alias (`f64`
 /// when the adapter has it, like the CPU; else `f32`), the shared types,
@@ -39,6 +41,7 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("count.wgsl (f32 decider)", compute_source(COUNT, false)),
         ("emit.wgsl (f32 decider)", compute_source(EMIT, false)),
         ("render.wgsl", render_source()),
+        ("present.wgsl", PRESENT.to_string()),
         ("shared/types.wgsl", TYPES.to_string()),
     ]
 }

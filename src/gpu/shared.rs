@@ -219,10 +219,11 @@ pub struct RenderParams {
     pub perspective: u32,
     /// 0 = volume (opacity-corrected), 1 = slices (opacity as is), 2 = iso (opaque, lit).
     pub mode: u32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
+    /// Vertical exaggeration S: display z = S × local z (rays, normals).
+    pub z_scale: f32,
+    /// Pre-integrated volume mode: display-space slab thickness (Δ × LOD
+    /// × the z-scale along z); 0 for the plain mode.
+    pub slab: f32,
     /// Padding.
     pub _pad2: u32,
 }

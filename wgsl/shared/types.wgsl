@@ -68,8 +68,8 @@ struct RenderParams {
     spacing_over_unit: f32,
     perspective: u32,
     mode: u32,
-    _pad0: u32,
-    _pad1: u32,
+    z_scale: f32,
+    slab: f32,
     _pad2: u32,
 }
 

@@ -1,0 +1,378 @@
+//! The viewer's scene without a window: the orbit camera, the slices of
+//! the current (axis, count, property) cached on the GPU, and the worker
+//! thread that sweeps and emits a new axis's slices while the previous ones
+//! keep being drawn. The window (the CLI's `view`) and the orbit benchmark
+//! drive it; tests drive it headless.
+//!
+//! A view change inside the axis's cone draws the cached slices: no sweep,
+//! no compute dispatch. Crossing into another cone starts one build on a
+//! worker; [`Scene::poll`] swaps the new slices in when they are ready.
+
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, TryRecvError, channel};
+use std::time::Instant;
+
+use glam::Vec3;
+
+use crate::grid::Grid;
+use crate::structures::Structure;
+
+use super::camera::{Framing, OrbitCamera};
+use super::context::GpuContext;
+use super::draw::{DrawBindings, FrameSetup, OffscreenTarget};
+use super::render::{
+    Image, Mode, RenderError, RenderOptions, Renderer, SliceKey, SliceSet, Transfer, build_slices,
+    slice_key, slicing_axis, transfer_for, unit_distance,
+};
+
+/// A build running on the worker.
+struct Pending {
+    key: SliceKey,
+    rx: Receiver<Result<SliceSet<'static>, RenderError>>,
+    started: Instant,
+}
+
+/// Counters of the scene's slice builds.
+#[derive(Clone, Debug, Default)]
+pub struct SceneStats {
+    /// Builds finished after the first (axis, mode, count or property changes).
+    pub resweeps: u32,
+    /// Wall time of each of those builds, milliseconds.
+    pub resweep_ms: Vec<f64>,
+    /// The last build error, if any (the previous slices stay shown).
+    pub last_error: Option<String>,
+}
+
+/// What a frame drew.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameInfo {
+    /// Cut cells of the drawn slices (of every drawn level).
+    pub cut_cells: u64,
+    /// Slicing axis of the drawn slices.
+    pub axis: usize,
+    /// Whether the drawn slices are not the wanted ones (a build is running).
+    pub stale: bool,
+    /// Slices drawn.
+    pub slices: u32,
+}
+
+/// The viewer's scene: renderer, camera, cached slices, worker.
+pub struct Scene {
+    renderer: Renderer<'static>,
+    grid: Arc<Grid>,
+    structure: Arc<Structure>,
+    /// Render options (property, mode, slices, transfer, background...).
+    pub options: RenderOptions,
+    /// Vertical exaggeration S.
+    pub z_scale: f64,
+    /// The camera.
+    pub camera: OrbitCamera,
+    bindings: DrawBindings,
+    target: OffscreenTarget,
+    /// Key and axis of the slices drawn now.
+    shown: Option<SliceKey>,
+    pending: Option<Pending>,
+    /// Build counters.
+    pub stats: SceneStats,
+    /// IJK clipping box (cell index ranges `lo..hi`), IJK grids only.
+    pub clip: Option<[[usize; 2]; 3]>,
+    builds: u32,
+    preintegrated: bool,
+}
+
+impl Scene {
+    /// A scene of `grid` showing `options` (its view direction, up and size
+    /// give the first camera, exactly `render`'s); builds the first slices
+    /// before returning, so the first frame equals `render`'s image.
+    pub fn new(
+        ctx: &'static GpuContext,
+        grid: Arc<Grid>,
+        structure: Arc<Structure>,
+        options: RenderOptions,
+        z_scale: f64,
+        preintegrated: bool,
+    ) -> Result<Self, RenderError> {
+        if !(z_scale.is_finite() && z_scale > 0.0) {
+            return Err(RenderError::Options(format!(
+                "the z-scale {z_scale} must be positive"
+            )));
+        }
+        let renderer = Renderer::new(ctx)?;
+        let bindings = renderer.bindings();
+        let target = renderer.target(options.size);
+        let camera = fit_camera(&grid, &options, z_scale)?;
+        let mut scene = Scene {
+            renderer,
+            grid,
+            structure,
+            options,
+            z_scale,
+            camera,
+            bindings,
+            target,
+            shown: None,
+            pending: None,
+            stats: SceneStats::default(),
+            clip: None,
+            builds: 0,
+            preintegrated,
+        };
+        scene.request()?;
+        scene.poll(true)?;
+        if let Some(e) = scene.stats.last_error.take() {
+            return Err(RenderError::Options(e));
+        }
+        Ok(scene)
+    }
+
+    /// The device.
+    pub fn ctx(&self) -> &'static GpuContext {
+        self.renderer.ctx()
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// Compute dispatches issued so far (slice builds only).
+    pub fn dispatches(&self) -> u64 {
+        self.renderer.dispatches()
+    }
+
+    /// Whether a build is running on the worker.
+    pub fn building(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// The camera `render` would use for the current options.
+    pub fn reset_camera(&mut self) -> Result<(), RenderError> {
+        self.camera = fit_camera(&self.grid, &self.options, self.z_scale)?;
+        Ok(())
+    }
+
+    /// Changes the vertical exaggeration, keeping the view direction.
+    pub fn set_z_scale(&mut self, z_scale: f64) {
+        if z_scale.is_finite() && z_scale > 0.0 {
+            let f = (z_scale / self.z_scale) as f32;
+            self.camera.ext.z *= f;
+            self.camera.target.z *= f;
+            self.camera.z_scale = z_scale as f32;
+            self.z_scale = z_scale;
+        }
+    }
+
+    /// Resizes the scene target (window resize).
+    pub fn resize(&mut self, size: (u32, u32)) {
+        let size = (size.0.max(1), size.1.max(1));
+        if size != self.target.size {
+            self.target = self.renderer.target(size);
+            self.options.size = size;
+            self.camera.aspect = size.0 as f32 / size.1 as f32;
+        }
+    }
+
+    /// The slices the current camera and options want.
+    pub fn wanted(&self) -> Result<SliceKey, RenderError> {
+        let k = slice_key(&self.grid, &self.options, slicing_axis(self.camera.dir))?
+            .with_clip(self.clip);
+        Ok(if self.preintegrated && self.options.mode == Mode::Volume {
+            k.with_attr_gradient()
+        } else {
+            k
+        })
+    }
+
+    /// Pre-integrated volume mode on or off (new slices carry the
+    /// attribute's gradient; they build on the worker).
+    pub fn set_preintegrated(&mut self, on: bool) {
+        self.preintegrated = on;
+    }
+
+    /// Whether volume mode is pre-integrated.
+    pub fn preintegrated(&self) -> bool {
+        self.preintegrated
+    }
+
+    /// Starts a build of the wanted slices on the worker when they are
+    /// neither shown nor being built (one build at a time).
+    pub fn request(&mut self) -> Result<(), RenderError> {
+        let want = self.wanted()?;
+        let have = self.shown.as_ref().is_some_and(|k| k.key == want.key);
+        if have || self.pending.is_some() {
+            return Ok(());
+        }
+        let (tx, rx) = channel();
+        let (ctx, grid, s, k) = (
+            self.renderer.ctx(),
+            self.grid.clone(),
+            self.structure.clone(),
+            want.clone(),
+        );
+        std::thread::Builder::new()
+            .name("stratasweep-slices".into())
+            .spawn(move || {
+                let _ = tx.send(build_slices(ctx, &grid, &s, &k));
+            })
+            .map_err(|e| RenderError::Options(format!("cannot start the slice worker: {e}")))?;
+        self.pending = Some(Pending {
+            key: want,
+            rx,
+            started: Instant::now(),
+        });
+        Ok(())
+    }
+
+    /// Takes a finished build (waiting for it when `wait`), then starts the
+    /// next one if the wanted slices changed meanwhile. Returns whether the
+    /// shown slices changed.
+    pub fn poll(&mut self, wait: bool) -> Result<bool, RenderError> {
+        let mut changed = false;
+        if let Some(p) = &self.pending {
+            let got = if wait {
+                p.rx.recv().ok()
+            } else {
+                match p.rx.try_recv() {
+                    Ok(r) => Some(r),
+                    Err(TryRecvError::Empty) => return Ok(false),
+                    Err(TryRecvError::Disconnected) => None,
+                }
+            };
+            let p = self.pending.take().expect("pending");
+            let ms = p.started.elapsed().as_secs_f64() * 1e3;
+            match got {
+                Some(Ok(set)) => {
+                    self.renderer.insert(&p.key.key, set);
+                    self.shown = Some(p.key);
+                    if self.builds > 0 {
+                        self.stats.resweeps += 1;
+                        self.stats.resweep_ms.push(ms);
+                    }
+                    self.builds += 1;
+                    changed = true;
+                }
+                Some(Err(e)) => self.stats.last_error = Some(e.to_string()),
+                None => self.stats.last_error = Some("the slice worker stopped".into()),
+            }
+        }
+        if self.stats.last_error.is_none() {
+            self.request()?;
+        }
+        Ok(changed)
+    }
+
+    /// The shown slices.
+    fn shown_set(&self) -> Option<(&SliceKey, &SliceSet<'static>)> {
+        let k = self.shown.as_ref()?;
+        Some((k, self.renderer.slices(&k.key)?))
+    }
+
+    /// The value range and transfer function of the shown slices.
+    pub fn transfer(&self) -> Result<Option<(Transfer, (f64, f64))>, RenderError> {
+        match self.shown_set() {
+            Some((_, set)) => Ok(Some((transfer_for(&self.options, set.range)?, set.range))),
+            None => Ok(None),
+        }
+    }
+
+    /// The property shown.
+    pub fn property(&self) -> Option<String> {
+        self.shown.as_ref().and_then(|k| k.property.clone())
+    }
+
+    /// Records the scene pass into the scene target (every `lod`-th slice).
+    pub fn encode(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        lod: u32,
+    ) -> Result<FrameInfo, RenderError> {
+        let Some((k, set)) = self.shown_set() else {
+            return Err(RenderError::Options("no slices built".into()));
+        };
+        let transfer = transfer_for(&self.options, set.range)?;
+        let (lut, vlo, vhi) = transfer.lut();
+        let mode = if k.iso { Mode::Iso } else { self.options.mode };
+        let frame = FrameSetup {
+            camera: self.camera,
+            axis: k.axis,
+            unit: unit_distance(&self.grid, &self.options, self.z_scale)?,
+            mode,
+            lod: lod.max(1),
+            preintegrated: k.attr_gradient,
+        };
+        self.bindings.write(
+            &self.renderer.ctx().queue,
+            &frame.params(set, vlo, vhi),
+            &transfer,
+            &lut,
+        );
+        self.renderer
+            .encode_slices(enc, &self.target, set, &self.bindings, &frame)?;
+        let lod = if mode == Mode::Iso { 1 } else { lod.max(1) };
+        let slices = set.levels.div_ceil(lod);
+        let stale = self.wanted().map_or(true, |w| w.key != k.key);
+        Ok(FrameInfo {
+            cut_cells: set.cut_cells * slices as u64 / set.levels.max(1) as u64,
+            axis: k.axis,
+            stale,
+            slices,
+        })
+    }
+
+    /// The scene target (float, premultiplied).
+    pub fn target(&self) -> &OffscreenTarget {
+        &self.target
+    }
+
+    /// Reads the scene target back (the last frame drawn), over the background.
+    pub fn read_target(&self) -> Result<Image, RenderError> {
+        self.renderer
+            .read_image(&self.target, self.options.background)
+    }
+
+    /// Draws a frame and reads it back, over the background (as `render`).
+    pub fn image(&self, lod: u32) -> Result<Image, RenderError> {
+        let ctx = self.renderer.ctx();
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        self.encode(&mut enc, lod)?;
+        ctx.queue.submit([enc.finish()]);
+        self.renderer
+            .read_image(&self.target, self.options.background)
+    }
+}
+
+/// `render`'s camera for `o` on `grid` with exaggeration `z_scale`.
+pub fn fit_camera(
+    grid: &Grid,
+    o: &RenderOptions,
+    z_scale: f64,
+) -> Result<OrbitCamera, RenderError> {
+    let d = Vec3::from_array(o.view_dir.map(|c| c as f32));
+    if !d.is_finite() || d.length() <= 0.0 {
+        return Err(RenderError::Options(
+            "--view-dir must be a non-zero vector".into(),
+        ));
+    }
+    let d = d.normalize();
+    let up = match o.up {
+        Some(u) => Vec3::from_array(u.map(|c| c as f32)),
+        None if d.z.abs() > 0.99 => Vec3::Y,
+        None => Vec3::Z,
+    };
+    if up.cross(d).length() < 1e-6 {
+        return Err(RenderError::Options(
+            "--up must not be parallel to --view-dir".into(),
+        ));
+    }
+    let (lo, hi) = grid.bounds();
+    Ok(OrbitCamera::fit(&Framing {
+        points: &grid.points,
+        origin: grid.origin(),
+        ext: Vec3::from_array([0, 1, 2].map(|a| (hi[a] - lo[a]) as f32)),
+        dir: d,
+        up,
+        aspect: o.size.0 as f32 / o.size.1 as f32,
+        perspective: o.perspective,
+        z_scale: z_scale as f32,
+    }))
+}

@@ -1,0 +1,179 @@
+//! The options that `render` and `view` share (what to draw and how), and
+//! their conversion to the library's `RenderOptions`; the default vertical
+//! exaggeration is chosen and printed here.
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+
+use stratasweep::gpu::camera::default_z_scale;
+use stratasweep::gpu::render::{Mode, RenderOptions, Transfer};
+use stratasweep::grid::Grid;
+
+use super::parse_triplet;
+
+/// `--projection`.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum ProjectionArg {
+    /// Orthographic.
+    Ortho,
+    /// Perspective (30° field of view).
+    Perspective,
+}
+
+/// `--mode`.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum ModeArg {
+    /// Opacity-corrected slices.
+    Volume,
+    /// Slices with the transfer function's opacity as is.
+    Slices,
+    /// Opaque lit isosurfaces.
+    Iso,
+}
+
+/// Options shared by `render` and `view`.
+#[derive(Args, Clone, Debug)]
+pub struct SceneArgs {
+    /// Property to show (default: the first point property).
+    #[arg(long)]
+    pub property: Option<String>,
+    /// Slices along the axis most parallel to the view direction.
+    #[arg(long, default_value_t = 200)]
+    pub slices: usize,
+    /// Direction the camera looks along.
+    #[arg(long, default_value = "-1,-0.6,-0.8", allow_hyphen_values = true)]
+    pub view_dir: String,
+    /// Up vector (default +z, or +y when looking along z).
+    #[arg(long, allow_hyphen_values = true)]
+    pub up: Option<String>,
+    /// Projection.
+    #[arg(long, value_enum, default_value = "ortho")]
+    pub projection: ProjectionArg,
+    /// Colormap name (viridis, magma, coolwarm, greys; linear opacity ramp) or a JSON file
+    /// `{"points":[{"value":v,"color":[r,g,b],"opacity":a},...]}`.
+    #[arg(long, default_value = "viridis")]
+    pub transfer: String,
+    /// Distance U that the opacities are given per (default: the mean cell size).
+    #[arg(long)]
+    pub unit_distance: Option<f64>,
+    /// Background `R,G,B,A` in [0, 1], or `transparent`.
+    #[arg(long, default_value = "1,1,1,1")]
+    pub background: String,
+    /// Image size.
+    #[arg(long, default_value = "800x600")]
+    pub size: String,
+    /// Volume (opacity-corrected slices), slices (opacity as is) or iso (opaque isosurfaces).
+    #[arg(long, value_enum, default_value = "volume")]
+    pub mode: ModeArg,
+    /// Isovalues for `--mode iso`.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub iso: Vec<f64>,
+    /// Vertical exaggeration: z is multiplied by S for display (default: 1 for
+    /// grids at least a quarter as high as wide, else 2, 5, 10, 20, ... so that
+    /// flat reservoirs are readable; the value used is printed).
+    #[arg(long)]
+    pub z_scale: Option<f64>,
+    /// Volume mode with pre-integrated transfer functions (each slab from its
+    /// front and back value): fewer slices for the same quality.
+    #[arg(long)]
+    pub preintegrated: bool,
+    /// Adapter name (substring); `WGPU_BACKEND` picks backends.
+    #[arg(long)]
+    pub adapter: Option<String>,
+}
+
+/// `--size WxH`.
+pub fn parse_size(s: &str) -> Result<(u32, u32)> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .with_context(|| format!("--size '{s}': expected WxH, e.g. 800x600"))?;
+    let (w, h): (u32, u32) = (w.trim().parse()?, h.trim().parse()?);
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        bail!("--size '{s}': each side must be 1..=16384");
+    }
+    Ok((w, h))
+}
+
+/// `--background R,G,B,A` or `transparent`.
+pub fn parse_background(s: &str) -> Result<Option<[f32; 4]>> {
+    if s.eq_ignore_ascii_case("transparent") {
+        return Ok(None);
+    }
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--background '{s}': expected R,G,B,A or transparent"))?;
+    if v.len() != 4 || v.iter().any(|c| !(0.0..=1.0).contains(c)) {
+        bail!("--background '{s}': expected four values in [0, 1] (R,G,B,A) or transparent");
+    }
+    Ok(Some([v[0], v[1], v[2], v[3]]))
+}
+
+impl SceneArgs {
+    /// The library's options (checked before the grid is loaded).
+    pub fn options(&self) -> Result<RenderOptions> {
+        let view = parse_triplet(&self.view_dir, "--view-dir")?;
+        let up = self
+            .up
+            .as_deref()
+            .map(|u| parse_triplet(u, "--up"))
+            .transpose()?;
+        let size = parse_size(&self.size)?;
+        let background = parse_background(&self.background)?;
+        let (transfer, colormap) = if self.transfer.ends_with(".json") {
+            let text = std::fs::read_to_string(&self.transfer)
+                .with_context(|| format!("cannot read the transfer function {}", self.transfer))?;
+            let t = Transfer::from_json(&text).with_context(|| format!("in {}", self.transfer))?;
+            (Some(t), String::new())
+        } else {
+            (None, self.transfer.clone())
+        };
+        let mode = match self.mode {
+            ModeArg::Volume => Mode::Volume,
+            ModeArg::Slices => Mode::Slices,
+            ModeArg::Iso => Mode::Iso,
+        };
+        if mode == Mode::Iso && self.iso.is_empty() {
+            bail!("--mode iso needs --iso VALUES (comma-separated)");
+        }
+        if let Some(z) = self.z_scale
+            && !(z.is_finite() && z > 0.0)
+        {
+            bail!("--z-scale {z}: must be a positive number");
+        }
+        Ok(RenderOptions {
+            property: self.property.clone(),
+            slices: self.slices,
+            view_dir: view,
+            up,
+            perspective: self.projection == ProjectionArg::Perspective,
+            transfer,
+            colormap,
+            unit_distance: self.unit_distance,
+            background,
+            size,
+            mode,
+            iso: self.iso.clone(),
+        })
+    }
+
+    /// `--z-scale`, or the default for the grid's bounding box; printed
+    /// unless quiet.
+    pub fn z_scale(&self, grid: &Grid, quiet: bool) -> f64 {
+        let (lo, hi) = grid.bounds();
+        let (z, how) = match self.z_scale {
+            Some(z) => (z, "--z-scale"),
+            None => (default_z_scale(lo, hi), "default for this grid's extents"),
+        };
+        if !quiet {
+            eprintln!(
+                "z-scale {z} ({how}; box {:.4} x {:.4} x {:.4})",
+                hi[0] - lo[0],
+                hi[1] - lo[1],
+                hi[2] - lo[2]
+            );
+        }
+        z
+    }
+}

@@ -1,0 +1,338 @@
+//! `stratasweep view`: the interactive window over the library's
+//! [`Scene`] (one renderer, two targets: this window and `render`'s PNG),
+//! its scripted uses (`--frames N --screenshot OUT.png`, `--orbit-bench N`)
+//! and `render --legend`.
+
+mod app;
+mod overlay;
+mod panel;
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use serde_json::json;
+use winit::event_loop::EventLoop;
+
+use stratasweep::gpu::context::{ContextOptions, GpuContext};
+use stratasweep::gpu::render::{
+    Image, RenderOptions, Renderer, slice_key, slicing_axis, transfer_for,
+};
+use stratasweep::gpu::scene::Scene;
+use stratasweep::grid::Grid;
+use stratasweep::structures::{Structure, StructureChoice};
+
+use super::scene_args::SceneArgs;
+use super::{GridArg, load};
+use app::{App, Script, Timeline};
+use overlay::{LEGEND_SIZE, Legend, Overlay, paint_legend, read_rgba8};
+
+/// `stratasweep view`.
+#[derive(Args)]
+pub struct ViewArgs {
+    #[command(flatten)]
+    input: GridArg,
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Draw N frames, then close (with --screenshot: write the last one).
+    #[arg(long)]
+    frames: Option<u32>,
+    /// With --frames: write the last frame's scene (without the panel) as a PNG.
+    #[arg(long, requires = "frames")]
+    screenshot: Option<PathBuf>,
+    /// Turn the camera through N views (one full turn about the up axis), then
+    /// print frame times, re-sweeps and cut cells per frame.
+    #[arg(long, conflicts_with = "frames")]
+    orbit_bench: Option<u32>,
+    /// With --frames: write the last frame as the window shows it (scene, panel, legend).
+    #[arg(long, requires = "frames")]
+    window_screenshot: Option<PathBuf>,
+    /// Draw only the cells of an IJK box: `I0:I1,J0:J1,K0:K1` (cell indices, end exclusive).
+    #[arg(long)]
+    ijk_clip: Option<String>,
+    /// With --orbit-bench: print JSON.
+    #[arg(long, requires = "orbit_bench")]
+    json: bool,
+}
+
+/// Fails with a hint to `render` when there is no display to open a window on.
+fn require_display() -> Result<()> {
+    let set = |v: &str| std::env::var_os(v).is_some_and(|s| !s.is_empty());
+    if !set("DISPLAY") && !set("WAYLAND_DISPLAY") {
+        bail!(
+            "`view` needs a display and neither DISPLAY nor WAYLAND_DISPLAY is set; \
+             use `stratasweep render ... -o out.png` for an image without a window \
+             (or run under `xvfb-run -a` for a virtual display)"
+        );
+    }
+    Ok(())
+}
+
+/// `stratasweep view`.
+pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
+    require_display()?;
+    if a.frames == Some(0) || a.orbit_bench == Some(0) {
+        bail!("--frames and --orbit-bench need at least 1");
+    }
+    let o = a.scene.options()?;
+    let clip = a.ijk_clip.as_deref().map(parse_clip).transpose()?;
+    let (grid, name, _) = load(&a.input, quiet)?;
+    let z_scale = a.scene.z_scale(&grid, quiet);
+    let s = Structure::build(&grid, StructureChoice::Auto)
+        .with_context(|| format!("cannot build a structure for {name}"))?;
+    let event_loop = EventLoop::new().context("cannot start the window event loop")?;
+    let ctx = GpuContext::with_display(
+        Box::new(event_loop.owned_display_handle()),
+        &ContextOptions {
+            adapter: a.scene.adapter.clone(),
+            limits: None,
+        },
+    )?;
+    if !quiet {
+        eprintln!("GPU adapter: {}", ctx.name);
+    }
+    // One device for the whole process: the slice worker borrows it.
+    let ctx: &'static GpuContext = Box::leak(Box::new(ctx));
+    let t = std::time::Instant::now();
+    let scene = Scene::new(
+        ctx,
+        Arc::new(grid),
+        Arc::new(s),
+        o,
+        z_scale,
+        a.scene.preintegrated,
+    )?;
+    if !quiet {
+        eprintln!(
+            "{name}: first slices in {:.3} s ({} compute dispatches)",
+            t.elapsed().as_secs_f64(),
+            scene.dispatches()
+        );
+    }
+    let mut scene = scene;
+    if clip.is_some() {
+        scene.clip = clip;
+        scene.request()?;
+        scene.poll(true)?;
+        if let Some(e) = scene.stats.last_error.take() {
+            bail!("--ijk-clip: {e}");
+        }
+    }
+    let script = Script {
+        frames: a.frames,
+        screenshot: a.screenshot.clone(),
+        orbit: a.orbit_bench,
+        window_shot: a.window_screenshot.clone(),
+    };
+    let mut app = App::new(scene, script);
+    event_loop
+        .run_app(&mut app)
+        .context("the window event loop failed")?;
+    if let Some(e) = app.error.take() {
+        return Err(e);
+    }
+    if let Some(n) = a.orbit_bench {
+        // A build still running after the last view is waited for, so that
+        // its duration is counted.
+        app.scene.poll(true)?;
+        report_bench(&app, &name, n, a.json)?;
+    } else if let (Some(p), false) = (&a.screenshot, quiet) {
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// `I0:I1,J0:J1,K0:K1` → cell index ranges.
+fn parse_clip(s: &str) -> Result<[[usize; 2]; 3]> {
+    let bad = || anyhow::anyhow!("--ijk-clip '{s}': expected I0:I1,J0:J1,K0:K1 with I0 < I1 etc.");
+    let r: Vec<[usize; 2]> = s
+        .split(',')
+        .map(|p| {
+            let (a, b) = p.split_once(':').ok_or_else(bad)?;
+            let (a, b): (usize, usize) = (a.trim().parse()?, b.trim().parse()?);
+            if a >= b {
+                return Err(bad());
+            }
+            Ok([a, b])
+        })
+        .collect::<Result<_>>()?;
+    r.try_into().map_err(|_| bad())
+}
+
+/// The p-th percentile (nearest rank) of `v`.
+fn percentile(v: &[f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let i = ((p / 100.0 * s.len() as f64).ceil() as usize).clamp(1, s.len()) - 1;
+    s[i]
+}
+
+fn report_bench(app: &App, name: &str, n: u32, as_json: bool) -> Result<()> {
+    let Timeline {
+        frame_ms,
+        cut_cells,
+        stale,
+    } = &app.timeline;
+    let st = &app.scene.stats;
+    let idle: Vec<f64> = frame_ms
+        .iter()
+        .zip(stale)
+        .filter(|x| !*x.1)
+        .map(|x| *x.0)
+        .collect();
+    let busy: Vec<f64> = frame_ms
+        .iter()
+        .zip(stale)
+        .filter(|x| *x.1)
+        .map(|x| *x.0)
+        .collect();
+    let mean_cut = cut_cells.iter().sum::<u64>() as f64 / cut_cells.len().max(1) as f64;
+    let o = &app.scene.options;
+    let out = json!({
+        "grid": name, "views": n, "frames": frame_ms.len(),
+        "frame_ms_p50": percentile(frame_ms, 50.0),
+        "frame_ms_p95": percentile(frame_ms, 95.0),
+        "frame_ms_max": percentile(frame_ms, 100.0),
+        "idle_frames": idle.len(), "idle_frame_ms_p95": percentile(&idle, 95.0),
+        "resweep_frames": busy.len(), "resweep_frame_ms_p95": percentile(&busy, 95.0),
+        "resweeps": st.resweeps,
+        "resweep_ms": st.resweep_ms,
+        "resweep_ms_max": st.resweep_ms.iter().copied().fold(0.0, f64::max),
+        "cut_cells_per_frame": mean_cut,
+        "slices": o.slices, "size": [o.size.0, o.size.1], "z_scale": app.scene.z_scale,
+        "compute_dispatches": app.scene.dispatches(),
+        "adapter": app.scene.ctx().name,
+    });
+    if as_json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+        return Ok(());
+    }
+    println!(
+        "{name}: {} frames over one turn, {} slices, {}x{}; adapter {}",
+        frame_ms.len(),
+        o.slices,
+        o.size.0,
+        o.size.1,
+        app.scene.ctx().name
+    );
+    println!(
+        "  frame ms: p50 {:.2}, p95 {:.2}, max {:.2} (idle p95 {:.2} over {} frames; during re-sweeps p95 {:.2} over {})",
+        out["frame_ms_p50"].as_f64().unwrap_or(0.0),
+        out["frame_ms_p95"].as_f64().unwrap_or(0.0),
+        out["frame_ms_max"].as_f64().unwrap_or(0.0),
+        out["idle_frame_ms_p95"].as_f64().unwrap_or(0.0),
+        idle.len(),
+        out["resweep_frame_ms_p95"].as_f64().unwrap_or(0.0),
+        busy.len()
+    );
+    println!(
+        "  re-sweeps {} (max {:.1} ms); {:.0} cut cells per frame",
+        st.resweeps,
+        out["resweep_ms_max"].as_f64().unwrap_or(0.0),
+        mean_cut
+    );
+    Ok(())
+}
+
+/// `render --legend`: the viewer's legend painted (egui, on the GPU) into
+/// the bottom-right corner of `img`.
+pub fn legend_onto(
+    ctx: &GpuContext,
+    r: &Renderer,
+    grid: &Grid,
+    o: &RenderOptions,
+    img: Image,
+) -> Result<Image> {
+    let d = glam::Vec3::from_array(o.view_dir.map(|c| c as f32)).normalize();
+    let mut k = slice_key(grid, o, slicing_axis(d))?;
+    if r.preintegrated() && o.mode == stratasweep::gpu::render::Mode::Volume {
+        k = k.with_attr_gradient();
+    }
+    let set = r
+        .slices(&k.key)
+        .context("the legend needs the rendered slices")?;
+    let transfer = transfer_for(o, set.range)?;
+    let title = k
+        .property
+        .clone()
+        .unwrap_or_else(|| "(slice position)".into());
+    let (w, h) = (img.width, img.height);
+    let format = wgpu::TextureFormat::Rgba8Unorm;
+    let tex = ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("legend"),
+        size: wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    let extent = tex.size();
+    ctx.queue.write_texture(
+        tex.as_image_copy(),
+        &img.rgba8(),
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(4 * w),
+            rows_per_image: Some(h),
+        },
+        extent,
+    );
+    let view = tex.create_view(&Default::default());
+    let mut overlay = Overlay::new(ctx, format);
+    let input = egui::RawInput {
+        screen_rect: Some(egui::Rect::from_min_size(
+            egui::Pos2::ZERO,
+            egui::vec2(w as f32, h as f32),
+        )),
+        ..Default::default()
+    };
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    let legend = Legend {
+        title: &title,
+        range: set.range,
+        transfer: &transfer,
+    };
+    overlay.paint(ctx, &mut enc, &view, (w, h), input, |ectx| {
+        let screen = ectx.content_rect();
+        let rect = egui::Align2::RIGHT_BOTTOM
+            .anchor_size(screen.max - egui::vec2(10.0, 10.0), LEGEND_SIZE);
+        paint_legend(
+            &ectx.layer_painter(egui::LayerId::background()),
+            rect,
+            &legend,
+        );
+    });
+    ctx.queue.submit([enc.finish()]);
+    let bytes = read_rgba8(ctx, &tex)?;
+    let mut px = Vec::with_capacity((w * h) as usize);
+    for y in 0..h as usize {
+        for x in 0..w as usize {
+            let o = (y * w as usize + x) * 4;
+            let a = bytes[o + 3] as f32 / 255.0;
+            px.push(std::array::from_fn(|i| {
+                if i == 3 {
+                    a
+                } else {
+                    bytes[o + i] as f32 / 255.0 * a
+                }
+            }));
+        }
+    }
+    Ok(Image {
+        width: w,
+        height: h,
+        premultiplied: px,
+    })
+}
