@@ -18,7 +18,9 @@ use stratasweep::pipeline::{
     LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice, slice,
 };
 
+use super::cli_checks::{self, Outputs};
 use super::{BenchArgs, GridArg, load, parse_axis, parse_triplet};
+use stratasweep::io::guard::Named;
 
 /// Where polygons are generated.
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
@@ -142,10 +144,19 @@ fn parse_size(s: &str) -> Result<(u32, u32)> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .with_context(|| format!("--size '{s}': expected WxH, e.g. 800x600"))?;
-    let (w, h): (u32, u32) = (w.trim().parse()?, h.trim().parse()?);
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        bail!("--size '{s}': each side must be 1..=16384");
-    }
+    let side = |x: &str| {
+        x.trim()
+            .parse::<u64>()
+            .ok()
+            .filter(|&v| v >= 1 && v <= cli_checks::MAX_IMAGE_SIDE as u64)
+    };
+    let (Some(w), Some(h)) = (side(w), side(h)) else {
+        bail!(
+            "--size '{s}': each side must be a whole number in 1..={} (the limit of the image side)",
+            cli_checks::MAX_IMAGE_SIDE
+        );
+    };
+    let (w, h) = (w as u32, h as u32);
     Ok((w, h))
 }
 
@@ -173,6 +184,14 @@ pub fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
             .transpose()?;
     let size = parse_size(&a.size)?;
     let background = parse_background(&a.background)?;
+    cli_checks::check_slices(a.slices)?;
+    cli_checks::output_ext("-o", &a.output, &["png"])?;
+    let outputs = Outputs::default().add("-o", Some(&a.output));
+    let transfer_file = a
+        .transfer
+        .ends_with(".json")
+        .then(|| Named::new("the transfer function", &a.transfer));
+    outputs.check_before(a.input.grid.as_deref(), transfer_file.as_slice())?;
     let (transfer, colormap) = if a.transfer.ends_with(".json") {
         let text = std::fs::read_to_string(&a.transfer)
             .with_context(|| format!("cannot read the transfer function {}", a.transfer))?;
@@ -189,7 +208,7 @@ pub fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
     if mode == Mode::Iso && a.iso.is_empty() {
         bail!("--mode iso needs --iso VALUES (comma-separated)");
     }
-    let (grid, name, _) = load(&a.input, quiet)?;
+    let (grid, name, _) = load(&a.input, quiet, &outputs)?;
     let s = Structure::build(&grid, StructureChoice::Auto)
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let ctx = open(&a.adapter, quiet)?;
@@ -214,7 +233,7 @@ pub fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
         },
     )?;
     let secs = t.elapsed().as_secs_f64();
-    std::fs::write(&a.output, img.png()?)
+    stratasweep::io::atomic::write_bytes(&a.output, &img.png()?)
         .with_context(|| format!("cannot write {}", a.output.display()))?;
     if !quiet {
         eprintln!(
@@ -239,7 +258,7 @@ pub fn cmd_bench_devices(a: &BenchArgs, devices: &[String], quiet: bool) -> Resu
         }
     }
     let field = parse_axis(&a.axis)?;
-    let (grid, name, _) = load(&a.input, quiet)?;
+    let (grid, name, _) = load(&a.input, quiet, &Outputs::default())?;
     let s = Structure::build(&grid, a.structure.into())?;
     let all = std::thread::available_parallelism().map_or(1, |n| n.get());
     let req = |threads: usize| SliceRequest {

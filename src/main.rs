@@ -1,5 +1,7 @@
 //! The `stratasweep` command line: info, slice, generate, bench, render.
 
+mod cli_checks;
+mod cli_write;
 mod gpu_cmd;
 
 use std::path::{Path, PathBuf};
@@ -10,13 +12,15 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 
-use stratasweep::field::{FieldSpec, levels_by_range};
+use stratasweep::field::FieldSpec;
 use stratasweep::grid::{Grid, Topology, vtk_type};
 use stratasweep::pipeline::{
     LevelSpec, SliceRequest, SliceResult, Structure, StructureChoice, slice,
 };
 use stratasweep::structure::CELL_CLASS_NAMES;
 use stratasweep::{generate, io};
+
+use cli_checks::Outputs;
 
 /// Cells per axis of the built-in demo grid (`--demo`).
 const DEMO_DIMS: [usize; 3] = [64, 64, 64];
@@ -399,12 +403,21 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
-fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
-    let (g, n, s, _) = load_with_info(input, quiet)?;
+/// Loads the grid (see [`load_with_info`]).
+fn load(input: &GridArg, quiet: bool, outputs: &Outputs) -> Result<(Grid, String, f64)> {
+    let (g, n, s, _) = load_with_info(input, quiet, outputs)?;
     Ok((g, n, s))
 }
 
-fn load_with_info(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64, Option<Value>)> {
+/// Loads the grid; `outputs` are refused before the read when they name the
+/// grid file (or an EGRID's INIT) and after it when they name any file the
+/// load read (INCLUDEs), so nothing is written over an input.
+fn load_with_info(
+    input: &GridArg,
+    quiet: bool,
+    outputs: &Outputs,
+) -> Result<(Grid, String, f64, Option<Value>)> {
+    outputs.check_before(input.grid.as_deref(), &[])?;
     let t = Instant::now();
     let mut info = None;
     let (grid, name) = if input.demo {
@@ -421,6 +434,7 @@ fn load_with_info(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64, Op
         };
         let sp = spinner(quiet, format!("reading {}", path.display()));
         let loaded = io::load(path).with_context(|| format!("cannot load {}", path.display()))?;
+        outputs.check_after(&loaded.inputs)?;
         info = loaded.cornerpoint;
         let g = loaded.grid;
         sp.finish_and_clear();
@@ -503,7 +517,7 @@ fn memory_json(s: &Structure, grid: &Grid) -> (Value, usize) {
 
 fn cmd_info(a: InfoArgs) -> Result<()> {
     let cpu0 = process_cpu_ns();
-    let (grid, name, load_s, cp) = load_with_info(&a.input, true)?;
+    let (grid, name, load_s, cp) = load_with_info(&a.input, true, &Outputs::default())?;
     let cpu1 = process_cpu_ns();
     let t = Instant::now();
     let s = Structure::build(&grid, a.structure.into())
@@ -791,25 +805,11 @@ fn field_spec(f: &FieldArgs) -> Result<FieldSpec> {
 
 fn level_spec(l: &LevelArgs) -> Result<LevelSpec> {
     if let Some(k) = l.count {
-        if k == 0 {
-            bail!("--count must be at least 1");
-        }
+        cli_checks::check_count(k)?;
         return Ok(LevelSpec::Count(k));
     }
     let s = l.values.as_deref().expect("clap group");
-    let p: Vec<f64> = s
-        .split(':')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--values '{s}': expected FROM:TO:STEP"))?;
-    if p.len() != 3 || p[2].is_nan() || p[2] <= 0.0 || p[1] < p[0] {
-        bail!("--values '{s}': expected FROM:TO:STEP with FROM <= TO and STEP > 0");
-    }
-    let v = levels_by_range(p[0], p[1], p[2]);
-    if v.len() > 10_000_000 {
-        bail!("--values '{s}' gives {} levels; that is too many", v.len());
-    }
-    Ok(LevelSpec::Values(v))
+    Ok(LevelSpec::Values(cli_checks::values_levels(s)?))
 }
 
 fn stats_json(
@@ -858,16 +858,15 @@ fn stats_json(
 fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     let field = field_spec(&a.field)?;
     let levels = level_spec(&a.levels)?;
-    if let Some(o) = &a.output {
-        match o.extension().and_then(|e| e.to_str()) {
-            Some("ply") | Some("vtp") => {}
-            _ => bail!("-o {}: the output must end in .ply or .vtp", o.display()),
-        }
-    }
-    if a.threads == 0 {
-        bail!("--threads must be at least 1");
-    }
-    let (grid, name, load_s) = load(&a.input, quiet)?;
+    let ext = match &a.output {
+        Some(o) => Some(cli_checks::output_ext("-o", o, &["ply", "vtp"])?),
+        None => None,
+    };
+    cli_checks::check_threads(a.threads)?;
+    let outputs = Outputs::default()
+        .add("-o", a.output.as_deref())
+        .add("--stats", a.stats.as_deref());
+    let (grid, name, load_s) = load(&a.input, quiet, &outputs)?;
     let t = Instant::now();
     let s = Structure::build(&grid, a.structure.into())
         .with_context(|| format!("cannot build a structure for {name}"))?;
@@ -934,15 +933,14 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
             mesh
         };
         let sp = spinner(quiet, format!("writing {}", out.display()));
-        match out.extension().and_then(|e| e.to_str()) {
+        match ext.as_deref() {
             Some("ply") => io::writers::write_ply(out, mesh)?,
             _ => io::writers::write_vtp(out, mesh)?,
         }
         sp.finish_and_clear();
     }
     if let Some(p) = &a.stats {
-        std::fs::write(p, serde_json::to_string_pretty(&stats)?)
-            .with_context(|| format!("cannot write {}", p.display()))?;
+        cli_write::write_json(p, &stats)?;
     }
     if !quiet {
         let t = &stats["totals"];
@@ -980,9 +978,7 @@ fn parse_dims(s: &str) -> Result<[usize; 3]> {
 }
 
 fn write_grid(path: &Path, grid: &Grid, want_ext: &str, quiet: bool) -> Result<()> {
-    if path.extension().and_then(|e| e.to_str()) != Some(want_ext) {
-        bail!("-o {}: this grid is written as .{want_ext}", path.display());
-    }
+    cli_checks::output_ext("-o", path, &[want_ext])?;
     let sp = spinner(quiet, format!("writing {}", path.display()));
     io::writers::write_vtk_xml_grid(path, grid)?;
     sp.finish_and_clear();
@@ -1011,6 +1007,7 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
             seed,
             output,
         } => {
+            let ext = cli_checks::output_ext("-o", &output, cli_write::CORNERPOINT_EXTS)?;
             let d = parse_dims(&dims)?;
             if faults > 1000 {
                 bail!("--faults must be at most 1000");
@@ -1025,19 +1022,13 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
             }
             let g = generate::faulted_with_dip(d, faults, fault_dip, seed);
             let sp = spinner(quiet, format!("writing {}", output.display()));
-            let f = std::fs::File::create(&output)
-                .with_context(|| format!("cannot create {}", output.display()))?;
-            let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
-            io::grdecl::write_grdecl(&mut w, &g)
-                .and_then(|_| std::io::Write::flush(&mut w))
-                .with_context(|| format!("cannot write {}", output.display()))?;
+            let cells = g.cell_count();
+            let wrote = cli_write::write_cornerpoint(&output, &ext, g)?;
             sp.finish_and_clear();
             if !quiet {
                 eprintln!(
-                    "wrote {} ({} cells, {} faults)",
-                    output.display(),
-                    g.cell_count(),
-                    faults
+                    "wrote {} ({cells} cells, {faults} faults)",
+                    wrote.join(" and ")
                 );
             }
             Ok(())
@@ -1113,7 +1104,9 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
         return bench_load(&a);
     }
     let field = parse_axis(&a.axis)?;
-    let (grid, name, load_s) = load(&a.input, quiet)?;
+    cli_checks::check_count(a.count)?;
+    cli_checks::check_threads(a.threads)?;
+    let (grid, name, load_s) = load(&a.input, quiet, &Outputs::default())?;
     let t = Instant::now();
     let s = Structure::build(&grid, a.structure.into())?;
     let build_s = t.elapsed().as_secs_f64();
