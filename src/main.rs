@@ -307,7 +307,8 @@ fn main() {
     quiet_headless_vulkan_layer();
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
-        eprintln!("error: {}", error_chain(&e));
+        // Messages may quote file content: never send raw control bytes.
+        eprintln!("error: {}", io::checks::escape_control(&error_chain(&e)));
         std::process::exit(1);
     }
 }

@@ -1204,6 +1204,16 @@ impl Parser {
         let base = lx.file.parent().unwrap_or(Path::new(""));
         let direct = base.join(p);
         let mut tried = vec![direct.clone()];
+        if direct.is_dir() {
+            return Err(lx.bad(
+                line,
+                "INCLUDE",
+                format!(
+                    "'{p}' is a directory ({}), not a file: INCLUDE takes a file name",
+                    direct.display()
+                ),
+            ));
+        }
         let path = if direct.is_file() {
             direct
         } else {
@@ -1211,7 +1221,9 @@ impl Parser {
             match by_name {
                 Some(b) if b.is_file() => b,
                 Some(b) => {
-                    tried.push(b);
+                    if b != direct {
+                        tried.push(b);
+                    }
                     return Err(self.missing(lx, line, p, &tried));
                 }
                 None => return Err(self.missing(lx, line, p, &tried)),

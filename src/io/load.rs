@@ -84,6 +84,15 @@ pub enum LoadError {
     /// The corner-point geometry cannot be turned into cells.
     #[error(transparent)]
     CornerPoint(#[from] CornerPointError),
+    /// The file is not in the format its name says, or its content cannot
+    /// be used (no cells left, coordinates out of range).
+    #[error("{}: {why}", file.display())]
+    Content {
+        /// The file.
+        file: PathBuf,
+        /// What is wrong, with its cause.
+        why: String,
+    },
     /// The grid parsed but fails [`Grid::validate`].
     #[error("{}: invalid grid: {source}", file.display())]
     Invalid {
@@ -156,6 +165,9 @@ fn by_extension(path: &Path) -> Format {
 /// Loads any grid file the crate reads (see [`detect`]) and validates it.
 pub fn load(path: &Path) -> Result<Loaded, LoadError> {
     let format = detect(path)?;
+    if format == Format::Egrid {
+        check_egrid_head(path)?;
+    }
     let (grid, inputs, cornerpoint) = match format {
         Format::VtkLegacy | Format::VtkXml => {
             let g = read_vtk_as(path, format == Format::VtkXml)?;
@@ -169,6 +181,10 @@ pub fn load(path: &Path) -> Result<Loaded, LoadError> {
     grid.validate().map_err(|source| LoadError::Invalid {
         file: path.into(),
         source,
+    })?;
+    crate::io::checks::check_f32_range(&grid).map_err(|why| LoadError::Content {
+        file: path.into(),
+        why,
     })?;
     Ok(Loaded {
         grid,
@@ -202,7 +218,14 @@ fn load_cornerpoint(path: &Path, format: Format) -> Result<(Grid, Vec<PathBuf>, 
     let read_s = t.elapsed().as_secs_f64();
     let (dims, mapaxes) = (cp.dims, cp.mapaxes);
     let (mapunits, gridunit) = (cp.mapunits.clone(), cp.gridunit.clone());
+    let cells = cp.cell_count();
     let (grid, rep) = cp.into_grid()?;
+    if grid.cell_count() == 0 {
+        return Err(LoadError::Content {
+            file: path.into(),
+            why: crate::io::checks::no_cells_left(cells, &rep.class_counts()),
+        });
+    }
     let mut classes = serde_json::Map::new();
     for (k, v) in rep.class_counts() {
         classes.insert(k.into(), json!(v));
@@ -214,4 +237,30 @@ fn load_cornerpoint(path: &Path, format: Format) -> Result<(Grid, Vec<PathBuf>, 
         "read_s": read_s, "to_grid_s": t.elapsed().as_secs_f64() - read_s, "input": extra,
     });
     Ok((grid, inputs, info))
+}
+
+/// A file taken as EGRID by its extension must start like one; a text
+/// file named `.EGRID` is reported as text rather than as a record whose
+/// length is its first four letters.
+fn check_egrid_head(path: &Path) -> Result<(), LoadError> {
+    let mut head = [0u8; 64];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| f.read(&mut head))
+        .map_err(|source| LoadError::Io {
+            file: path.into(),
+            source,
+        })?;
+    let head = &head[..n];
+    if detect_bytes(head) == Some(Format::Egrid) {
+        return Ok(());
+    }
+    let why = if crate::io::checks::looks_like_text(head) {
+        "not an EGRID file: it looks like text (GRDECL keywords? then name it .grdecl)".to_string()
+    } else {
+        "not an EGRID file: it does not start with a 16-byte array header record (unformatted big-endian Eclipse output)".to_string()
+    };
+    Err(LoadError::Content {
+        file: path.into(),
+        why,
+    })
 }

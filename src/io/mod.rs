@@ -1,6 +1,7 @@
 //! Readers and writers. The only module (with the binary) that touches files.
 
 pub mod atomic;
+pub mod checks;
 pub mod egrid;
 pub mod egrid_write;
 pub mod grdecl;

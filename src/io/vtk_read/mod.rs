@@ -32,6 +32,7 @@
 //! [`crate::grid::Cells::push_polyhedron`], the sorted unique point ids of their
 //! faces as connectivity.
 
+mod byte_order;
 mod common;
 mod legacy;
 mod xml;
