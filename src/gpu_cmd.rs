@@ -211,6 +211,10 @@ pub fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
     let (grid, name, _) = load(&a.input, quiet, &outputs)?;
     let s = Structure::build(&grid, StructureChoice::Auto)
         .with_context(|| format!("cannot build a structure for {name}"))?;
+    let iso = if mode == Mode::Iso { &a.iso[..] } else { &[] };
+    for v in super::render_checks::check_before(&grid, a.property.as_deref(), iso)? {
+        eprintln!("warning: --iso {v} is outside the property's range: it draws nothing");
+    }
     let ctx = open(&a.adapter, quiet)?;
     let mut r = Renderer::new(&ctx)?;
     let t = Instant::now();
@@ -233,6 +237,12 @@ pub fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
         },
     )?;
     let secs = t.elapsed().as_secs_f64();
+    if super::render_checks::is_blank(&img) {
+        eprintln!(
+            "warning: nothing was drawn: every pixel of {} is the background (check --property, --transfer, --iso and --view-dir)",
+            a.output.display()
+        );
+    }
     stratasweep::io::atomic::write_bytes(&a.output, &img.png()?)
         .with_context(|| format!("cannot write {}", a.output.display()))?;
     if !quiet {

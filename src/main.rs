@@ -3,6 +3,7 @@
 mod cli_checks;
 mod cli_write;
 mod gpu_cmd;
+mod render_checks;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -436,6 +437,9 @@ fn load_with_info(
         let sp = spinner(quiet, format!("reading {}", path.display()));
         let loaded = io::load(path).with_context(|| format!("cannot load {}", path.display()))?;
         outputs.check_after(&loaded.inputs)?;
+        for w in &loaded.warnings {
+            eprintln!("warning: {}", io::checks::escape_control(w));
+        }
         info = loaded.cornerpoint;
         let g = loaded.grid;
         sp.finish_and_clear();

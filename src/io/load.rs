@@ -49,6 +49,10 @@ impl Format {
 /// A loaded grid and what the load found.
 #[derive(Debug)]
 pub struct Loaded {
+    /// Things the load dropped or changed, one sentence each naming the
+    /// file and the item (INIT arrays skipped, ...); the CLI prints them as
+    /// warnings.
+    pub warnings: Vec<String>,
     /// The grid (validated).
     pub grid: Grid,
     /// The format it was read as.
@@ -186,7 +190,9 @@ pub fn load(path: &Path) -> Result<Loaded, LoadError> {
         file: path.into(),
         why,
     })?;
+    let warnings = load_warnings(cornerpoint.as_ref());
     Ok(Loaded {
+        warnings,
         grid,
         format,
         inputs,
@@ -200,8 +206,13 @@ fn load_cornerpoint(path: &Path, format: Format) -> Result<(Grid, Vec<PathBuf>, 
     let t = Instant::now();
     let (cp, inputs, extra): (CornerPointGrid, Vec<PathBuf>, Value) = if format == Format::Egrid {
         let e = read_egrid(path)?;
-        let extra =
-            json!({"format": "egrid", "init": e.init.as_ref().map(|p| p.display().to_string())});
+        let skipped: Vec<Value> = e
+            .skipped_init
+            .iter()
+            .map(|s| json!({"name": s.name, "reason": s.reason}))
+            .collect();
+        let extra = json!({"format": "egrid", "init": e.init.as_ref().map(|p| p.display().to_string()),
+            "skipped_init_arrays": skipped});
         let mut inputs = vec![path.to_path_buf()];
         inputs.extend(e.init.iter().cloned());
         (e.grid, inputs, extra)
@@ -263,4 +274,26 @@ fn check_egrid_head(path: &Path) -> Result<(), LoadError> {
         file: path.into(),
         why,
     })
+}
+
+/// The warnings a corner-point load report carries: skipped INIT arrays.
+fn load_warnings(cornerpoint: Option<&Value>) -> Vec<String> {
+    let Some(c) = cornerpoint else {
+        return Vec::new();
+    };
+    let init = c["input"]["init"].as_str().unwrap_or("INIT");
+    c["input"]["skipped_init_arrays"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .map(|s| {
+                    format!(
+                        "{init}: array {} skipped: {}",
+                        s["name"].as_str().unwrap_or("?"),
+                        s["reason"].as_str().unwrap_or("?")
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default()
 }
