@@ -185,13 +185,13 @@ pub fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
     let size = parse_size(&a.size)?;
     let background = parse_background(&a.background)?;
     cli_checks::check_slices(a.slices)?;
-    cli_checks::output_ext("-o", &a.output, &["png"])?;
     let outputs = Outputs::default().add("-o", Some(&a.output));
     let transfer_file = a
         .transfer
         .ends_with(".json")
         .then(|| Named::new("the transfer function", &a.transfer));
     outputs.check_before(a.input.grid.as_deref(), transfer_file.as_slice())?;
+    cli_checks::output_ext("-o", &a.output, &["png"])?;
     let (transfer, colormap) = if a.transfer.ends_with(".json") {
         let text = std::fs::read_to_string(&a.transfer)
             .with_context(|| format!("cannot read the transfer function {}", a.transfer))?;

@@ -863,14 +863,15 @@ fn stats_json(
 fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     let field = field_spec(&a.field)?;
     let levels = level_spec(&a.levels)?;
-    let ext = match &a.output {
-        Some(o) => Some(cli_checks::output_ext("-o", o, &["ply", "vtp"])?),
-        None => None,
-    };
     cli_checks::check_threads(a.threads)?;
     let outputs = Outputs::default()
         .add("-o", a.output.as_deref())
         .add("--stats", a.stats.as_deref());
+    outputs.check_before(a.input.grid.as_deref(), &[])?;
+    let ext = match &a.output {
+        Some(o) => Some(cli_checks::output_ext("-o", o, &["ply", "vtp"])?),
+        None => None,
+    };
     let (grid, name, load_s) = load(&a.input, quiet, &outputs)?;
     let t = Instant::now();
     let s = Structure::build(&grid, a.structure.into())
