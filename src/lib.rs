@@ -10,6 +10,7 @@
 )]
 
 pub mod bruteforce;
+pub mod cell_check;
 pub mod cgraph;
 pub mod ciel;
 pub mod convex_split;

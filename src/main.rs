@@ -623,6 +623,8 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         "cornerpoint": cp,
     });
     let mut out = out;
+    let (bow_ties, n_bow_ties) = stratasweep::cell_check::self_intersecting_cells(&grid, 20);
+    out["self_intersecting_cells"] = json!({"count": n_bow_ties, "first": bow_ties});
     if let Structure::Ciel(g) = &s {
         out["half_edges"] = json!(g.half_edge_count());
         out["ciel"] = ciel;
@@ -653,6 +655,11 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         println!("    {k:<18} {v}");
     }
     println!("  cell classes  {}", out["cell_classes"]);
+    if n_bow_ties > 0 {
+        println!(
+            "  self-intersecting cells (a face crosses itself; not sliced): {n_bow_ties}, first ids {bow_ties:?}"
+        );
+    }
     println!("  bulk volume   {bulk_volume}");
     if let Some(i) = &cp {
         println!(

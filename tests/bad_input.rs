@@ -582,3 +582,97 @@ fn class3_blank_renders_are_refused() {
         "every isovalue is outside the range of 'f'",
     );
 }
+
+#[test]
+fn class3_a_bow_tie_hexahedron_is_invalid_and_named() {
+    let d = Dir::new("bowtie");
+    let pts = "0 0 0 1 0 0 1 1 0 0 1 0 0 0 1 1 0 1 1 1 1 0 1 1 2 0 0 2 1 0 2 0 1 2 1 1";
+    let cube = |first: &str| {
+        format!(
+            "# vtk DataFile Version 3.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 12 double\n{pts}\n\
+             CELLS 2 18\n8 {first}\n8 1 8 9 2 5 10 11 6\nCELL_TYPES 2\n12\n12\n\
+             POINT_DATA 12\nSCALARS f double 1\nLOOKUP_TABLE default\n0 1 2 3 4 5 6 7 8 9 10 11\n"
+        )
+    };
+    let ok = d
+        .write("ok.vtk", cube("0 1 2 3 4 5 6 7"))
+        .display()
+        .to_string();
+    // Vertices 2 and 3 swapped: the bottom and back faces cross themselves.
+    let bad = d
+        .write("bowtie.vtk", cube("0 1 3 2 4 5 6 7"))
+        .display()
+        .to_string();
+    let before = d.snapshot();
+    let info = |f: &str| -> serde_json::Value {
+        let o = run(&["info", f, "--json"]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let (a, b) = (info(&ok), info(&bad));
+    assert_eq!(a["cell_classes"]["self_intersecting"], 0);
+    assert_eq!(a["cell_classes"]["valid"], 2);
+    assert_eq!(
+        b["cell_classes"]["self_intersecting"], 1,
+        "{}",
+        b["cell_classes"]
+    );
+    assert_eq!(b["cell_classes"]["valid"], 1);
+    assert_eq!(b["live_cells"], 1);
+    assert_eq!(
+        b["self_intersecting_cells"],
+        serde_json::json!({"count": 1, "first": [0]})
+    );
+    let o = run(&["info", &bad]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains(
+            "self-intersecting cells (a face crosses itself; not sliced): 1, first ids [0]"
+        ),
+        "{text}"
+    );
+    // Only the good cell is sliced.
+    let stats = d.p("s.json");
+    assert!(
+        run(&[
+            "slice", &bad, "--axis", "x", "--count", "4", "--stats", &stats
+        ])
+        .status
+        .success()
+    );
+    let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    std::fs::remove_file(&stats).unwrap();
+    assert!(
+        s["slices"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|l| l["cells"].as_u64() <= Some(1)),
+        "{s}"
+    );
+    assert_eq!(d.snapshot(), before);
+}
+
+#[test]
+fn class3_bow_tie_test_against_simple_quads() {
+    use stratasweep::structure::quad_is_bow_tie;
+    let sq = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]];
+    assert!(!quad_is_bow_tie(sq));
+    // Concave (a dart) and warped quads are simple.
+    assert!(!quad_is_bow_tie([
+        [0., 0., 0.],
+        [2., 0., 0.],
+        [0.5, 0.5, 0.],
+        [0., 2., 0.]
+    ]));
+    assert!(!quad_is_bow_tie([
+        [0., 0., 0.],
+        [1., 0., 0.3],
+        [1., 1., 0.],
+        [0., 1., 0.3]
+    ]));
+    // Two vertices swapped: crosses itself.
+    assert!(quad_is_bow_tie([sq[0], sq[1], sq[3], sq[2]]));
+    // Collapsed (two points equal) is not a bow-tie (repeated vertex instead).
+    assert!(!quad_is_bow_tie([sq[0], sq[1], sq[1], sq[3]]));
+}
