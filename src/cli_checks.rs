@@ -64,7 +64,7 @@ pub fn values_levels(s: &str) -> Result<Vec<f64>> {
         bail!("--values '{s}': expected FROM:TO:STEP, finite, with FROM <= TO and STEP > 0");
     }
     let n = stratasweep::field::range_level_count(p[0], p[1], p[2]);
-    if !(n <= MAX_LEVELS as f64) {
+    if n.is_nan() || n > MAX_LEVELS as f64 {
         bail!(
             "--values '{s}' gives {} levels, more than the limit of {MAX_LEVELS} levels per run: take a larger STEP",
             if n.is_finite() {
