@@ -196,6 +196,7 @@ pub fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
         let text = std::fs::read_to_string(&a.transfer)
             .with_context(|| format!("cannot read the transfer function {}", a.transfer))?;
         let t = Transfer::from_json(&text).with_context(|| format!("in {}", a.transfer))?;
+        super::render_checks::check_transfer(&t).with_context(|| format!("in {}", a.transfer))?;
         (Some(t), String::new())
     } else {
         (None, a.transfer.clone())

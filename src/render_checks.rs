@@ -3,7 +3,7 @@
 //! which nothing was drawn (a warning naming the likely cause).
 
 use anyhow::{Result, bail};
-use stratasweep::gpu::render::Image;
+use stratasweep::gpu::render::{Image, Transfer};
 use stratasweep::grid::Grid;
 
 /// The property `render` shows: `--property`, else the first point
@@ -63,4 +63,17 @@ pub fn is_blank(img: &Image) -> bool {
         return true;
     };
     img.premultiplied.iter().all(|p| p == first)
+}
+
+/// Refuses a transfer function that can only draw nothing: no points, or
+/// every point fully transparent. (The library renders such a function as
+/// the bare background; on the command line it is a mistake.)
+pub fn check_transfer(t: &Transfer) -> Result<()> {
+    if t.points.is_empty() {
+        bail!("the transfer function has no points: nothing would be drawn");
+    }
+    if t.points.iter().all(|p| p.opacity == 0.0) {
+        bail!("every transfer point has opacity 0: nothing would be drawn");
+    }
+    Ok(())
 }

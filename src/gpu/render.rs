@@ -124,16 +124,6 @@ impl Transfer {
     pub fn from_json(text: &str) -> Result<Self, RenderError> {
         let mut t: Transfer = serde_json::from_str(text)
             .map_err(|e| RenderError::Options(format!("transfer function JSON: {e}")))?;
-        if t.points.is_empty() {
-            return Err(RenderError::Options(
-                "the transfer function has no points: nothing would be drawn".into(),
-            ));
-        }
-        if t.points.iter().all(|p| p.opacity == 0.0) {
-            return Err(RenderError::Options(
-                "every transfer point has opacity 0: nothing would be drawn".into(),
-            ));
-        }
         for p in &t.points {
             let ok = p.value.is_finite()
                 && p.color.iter().all(|c| (0.0..=1.0).contains(c))
