@@ -3,8 +3,8 @@
 //! them; the structures count them as [`crate::structure::CellClass::SelfIntersecting`]
 //! and never sweep them.
 
-use crate::grid::{Grid, Topology, hex_corner_offsets};
-use crate::metacell::Catalog;
+use crate::grid::{Grid, Topology, hex_corner_offsets, vtk_type};
+use crate::metacell::{Catalog, VOXEL_TO_HEX};
 use crate::structure::quad_is_bow_tie;
 
 /// The first `limit` cells (input ids, ascending) with a bow-tie face,
@@ -51,7 +51,12 @@ pub fn self_intersecting_cells(grid: &Grid, limit: usize) -> (Vec<usize>, usize)
                 if meta.nv != vs.len() {
                     continue;
                 }
-                check(c, vs, &meta.faces);
+                if cells.types[c] == vtk_type::VOXEL {
+                    // Voxels list their corners in another order.
+                    check(c, &VOXEL_TO_HEX.map(|i| vs[i]), &meta.faces);
+                } else {
+                    check(c, vs, &meta.faces);
+                }
             }
         }
     }

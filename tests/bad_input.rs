@@ -603,12 +603,19 @@ fn class3_a_bow_tie_hexahedron_is_invalid_and_named() {
         .write("bowtie.vtk", cube("0 1 3 2 4 5 6 7"))
         .display()
         .to_string();
-    let before = d.snapshot();
     let info = |f: &str| -> serde_json::Value {
         let o = run(&["info", f, "--json"]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         serde_json::from_slice(&o.stdout).unwrap()
     };
+    // The same good cube as a voxel (VTK's voxel corner order) is not flagged.
+    let voxel = cube("0 1 3 2 4 5 7 6").replace("CELL_TYPES 2\n12\n", "CELL_TYPES 2\n11\n");
+    let voxel = d.write("voxel.vtk", voxel).display().to_string();
+    let before = d.snapshot();
+    let v = info(&voxel);
+    assert_eq!(v["cell_types"]["voxel"], 1, "{}", v["cell_types"]);
+    assert_eq!(v["self_intersecting_cells"]["count"], 0);
+    assert_eq!(v["cell_classes"]["valid"], 2);
     let (a, b) = (info(&ok), info(&bad));
     assert_eq!(a["cell_classes"]["self_intersecting"], 0);
     assert_eq!(a["cell_classes"]["valid"], 2);
