@@ -165,11 +165,23 @@ pub fn levels_by_count(lo: f64, hi: f64, count: usize) -> Vec<f64> {
 
 /// Level values `from, from+step, ...` up to and including `to` (within 1e-9 step).
 pub fn levels_by_range(from: f64, to: f64, step: f64) -> Vec<f64> {
+    // Callers bound the count first with [`range_level_count`].
     if step.is_nan() || step <= 0.0 || !from.is_finite() || !to.is_finite() || to < from {
         return Vec::new();
     }
     let n = ((to - from) / step + 1e-9).floor() as usize + 1;
     (0..n).map(|k| from + k as f64 * step).collect()
+}
+
+/// How many levels [`levels_by_range`] would give, computed without making
+/// them (infinite when the range over the step does not fit an f64; 0 for
+/// invalid arguments), so callers can refuse an absurd count before
+/// allocating it.
+pub fn range_level_count(from: f64, to: f64, step: f64) -> f64 {
+    if step.is_nan() || step <= 0.0 || !from.is_finite() || !to.is_finite() || to < from {
+        return 0.0;
+    }
+    ((to - from) / step + 1e-9).floor() + 1.0
 }
 
 /// Converts world level values to the f32 local frame and checks they

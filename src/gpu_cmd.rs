@@ -13,13 +13,15 @@ use serde_json::json;
 
 use stratasweep::gpu::context::{ContextOptions, GpuContext, GpuError};
 use stratasweep::gpu::emit::GpuEmitter;
-use stratasweep::gpu::render::Renderer;
+use stratasweep::gpu::render::{Mode, Renderer};
 use stratasweep::gpu::slice::{Emitter, prepare, slice_on};
 use stratasweep::grid::Grid;
 use stratasweep::pipeline::{LevelSpec, SliceRequest, SliceResult, slice};
 use stratasweep::structures::{Structure, StructureChoice};
 
+use super::cli_checks::{self, Outputs};
 use super::{BenchArgs, GridArg, load, parse_axis};
+use stratasweep::io::guard::Named;
 
 /// Where polygons are generated.
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
@@ -96,11 +98,31 @@ pub struct RenderArgs {
 
 /// `stratasweep render`.
 pub fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
+    cli_checks::check_slices(a.scene.slices)?;
+    let outputs = Outputs::default().add("-o", Some(&a.output));
+    let transfer_file = a
+        .scene
+        .transfer
+        .ends_with(".json")
+        .then(|| Named::new("the transfer function", &a.scene.transfer));
+    outputs.check_before(a.input.grid.as_deref(), transfer_file.as_slice())?;
+    cli_checks::output_ext("-o", &a.output, &["png"])?;
     let o = a.scene.options()?;
-    let (grid, name, _) = load(&a.input, quiet)?;
+    if let Some(t) = &o.transfer {
+        super::render_checks::check_transfer(t)
+            .with_context(|| format!("in {}", a.scene.transfer))?;
+    }
+    if o.mode == Mode::Iso && o.iso.is_empty() {
+        bail!("--mode iso needs --iso VALUES (comma-separated)");
+    }
+    let (grid, name, _) = load(&a.input, quiet, &outputs)?;
     let z_scale = a.scene.z_scale(&grid, quiet);
     let s = Structure::build(&grid, StructureChoice::Auto)
         .with_context(|| format!("cannot build a structure for {name}"))?;
+    let iso = if o.mode == Mode::Iso { &o.iso[..] } else { &[] };
+    for v in super::render_checks::check_before(&grid, o.property.as_deref(), iso)? {
+        eprintln!("warning: --iso {v} is outside the property's range: it draws nothing");
+    }
     let ctx = open(&a.scene.adapter, quiet)?;
     let mut r = Renderer::new(&ctx)?;
     r.set_preintegrated(a.scene.preintegrated);
@@ -112,7 +134,13 @@ pub fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
         img
     };
     let secs = t.elapsed().as_secs_f64();
-    std::fs::write(&a.output, img.png()?)
+    if super::render_checks::is_blank(&img) {
+        eprintln!(
+            "warning: nothing was drawn: every pixel of {} is the background (check --property, --transfer, --iso and --view-dir)",
+            a.output.display()
+        );
+    }
+    stratasweep::io::atomic::write_bytes(&a.output, &img.png()?)
         .with_context(|| format!("cannot write {}", a.output.display()))?;
     if !quiet {
         eprintln!(
@@ -137,7 +165,7 @@ pub fn cmd_bench_devices(a: &BenchArgs, devices: &[String], quiet: bool) -> Resu
         }
     }
     let field = parse_axis(&a.axis)?;
-    let (grid, name, _) = load(&a.input, quiet)?;
+    let (grid, name, _) = load(&a.input, quiet, &Outputs::default())?;
     let s = Structure::build(&grid, a.structure.into())?;
     let all = std::thread::available_parallelism().map_or(1, |n| n.get());
     let req = |threads: usize| SliceRequest {

@@ -1,6 +1,9 @@
 //! The `stratasweep` command line: info, slice, generate, bench, render, view.
 
+mod cli_checks;
+mod cli_write;
 mod gpu_cmd;
+mod render_checks;
 mod scene_args;
 mod view;
 
@@ -12,7 +15,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 
-use stratasweep::field::{FieldSpec, levels_by_range};
+use stratasweep::field::FieldSpec;
 use stratasweep::grid::{Grid, Topology};
 use stratasweep::pipeline::{LevelSpec, SliceRequest, SliceResult, slice};
 use stratasweep::report::{flatten_by_cell, memory_json, stats_json};
@@ -20,6 +23,8 @@ use stratasweep::structures::cpgraph::IjkLayout;
 use stratasweep::structures::{Structure, StructureChoice};
 use stratasweep::sweep::SweepOptions;
 use stratasweep::{generate, io};
+
+use cli_checks::Outputs;
 
 /// Cells per axis of the built-in demo grid (`--demo`).
 const DEMO_DIMS: [usize; 3] = [64, 64, 64];
@@ -281,7 +286,8 @@ fn main() {
     quiet_headless_vulkan_layer();
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
-        eprintln!("error: {}", error_chain(&e));
+        // Messages may quote file content: never send raw control bytes.
+        eprintln!("error: {}", io::checks::escape_control(&error_chain(&e)));
         std::process::exit(1);
     }
 }
@@ -378,8 +384,9 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
-fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
-    let (g, n, s, _, _) = load_with_info(input, quiet)?;
+/// Loads the grid (see [`load_with_info`]).
+fn load(input: &GridArg, quiet: bool, outputs: &Outputs) -> Result<(Grid, String, f64)> {
+    let (g, n, s, _, _) = load_with_info(input, quiet, outputs)?;
     Ok((g, n, s))
 }
 
@@ -387,8 +394,11 @@ fn load(input: &GridArg, quiet: bool) -> Result<(Grid, String, f64)> {
 /// conversion report and the IJK layout.
 type LoadedGrid = (Grid, String, f64, Option<Value>, Option<IjkLayout>);
 
-/// [`load`] with the corner-point report and IJK layout (corner-point input).
-fn load_with_info(input: &GridArg, quiet: bool) -> Result<LoadedGrid> {
+/// Loads the grid; `outputs` are refused before the read when they name the
+/// grid file (or an EGRID's INIT) and after it when they name any file the
+/// load read (INCLUDEs), so nothing is written over an input.
+fn load_with_info(input: &GridArg, quiet: bool, outputs: &Outputs) -> Result<LoadedGrid> {
+    outputs.check_before(input.grid.as_deref(), &[])?;
     let t = Instant::now();
     let mut info = None;
     let mut ijk = None;
@@ -406,6 +416,10 @@ fn load_with_info(input: &GridArg, quiet: bool) -> Result<LoadedGrid> {
         };
         let sp = spinner(quiet, format!("reading {}", path.display()));
         let loaded = io::load(path).with_context(|| format!("cannot load {}", path.display()))?;
+        outputs.check_after(&loaded.inputs)?;
+        for w in &loaded.warnings {
+            eprintln!("warning: {}", io::checks::escape_control(w));
+        }
         info = loaded.cornerpoint;
         ijk = loaded.ijk;
         let g = loaded.grid;
@@ -454,7 +468,7 @@ fn bar(quiet: bool, len: u64, msg: &str) -> ProgressBar {
 
 fn cmd_info(a: InfoArgs) -> Result<()> {
     let cpu0 = process_cpu_ns();
-    let (grid, name, load_s, cp, ijk) = load_with_info(&a.input, true)?;
+    let (grid, name, load_s, cp, ijk) = load_with_info(&a.input, true, &Outputs::default())?;
     let cpu1 = process_cpu_ns();
     let t = Instant::now();
     let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())
@@ -496,6 +510,13 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         println!("    {k:<18} {v}");
     }
     println!("  cell classes  {}", out["cell_classes"]);
+    let bow_ties = &out["self_intersecting_cells"];
+    if bow_ties["count"].as_u64().unwrap_or(0) > 0 {
+        println!(
+            "  self-intersecting cells (a face crosses itself; not sliced): {}, first ids {}",
+            bow_ties["count"], bow_ties["first"]
+        );
+    }
     println!("  bulk volume   {bulk_volume}");
     if let Some(i) = &cp {
         println!(
@@ -590,40 +611,26 @@ fn field_spec(f: &FieldArgs) -> Result<FieldSpec> {
 
 fn level_spec(l: &LevelArgs) -> Result<LevelSpec> {
     if let Some(k) = l.count {
-        if k == 0 {
-            bail!("--count must be at least 1");
-        }
+        cli_checks::check_count(k)?;
         return Ok(LevelSpec::Count(k));
     }
     let s = l.values.as_deref().expect("clap group");
-    let p: Vec<f64> = s
-        .split(':')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--values '{s}': expected FROM:TO:STEP"))?;
-    if p.len() != 3 || p[2].is_nan() || p[2] <= 0.0 || p[1] < p[0] {
-        bail!("--values '{s}': expected FROM:TO:STEP with FROM <= TO and STEP > 0");
-    }
-    let v = levels_by_range(p[0], p[1], p[2]);
-    if v.len() > 10_000_000 {
-        bail!("--values '{s}' gives {} levels; that is too many", v.len());
-    }
-    Ok(LevelSpec::Values(v))
+    Ok(LevelSpec::Values(cli_checks::values_levels(s)?))
 }
 
 fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     let field = field_spec(&a.field)?;
     let levels = level_spec(&a.levels)?;
-    if let Some(o) = &a.output {
-        match o.extension().and_then(|e| e.to_str()) {
-            Some("ply") | Some("vtp") => {}
-            _ => bail!("-o {}: the output must end in .ply or .vtp", o.display()),
-        }
-    }
-    if a.threads == 0 {
-        bail!("--threads must be at least 1");
-    }
-    let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet)?;
+    cli_checks::check_threads(a.threads)?;
+    let outputs = Outputs::default()
+        .add("-o", a.output.as_deref())
+        .add("--stats", a.stats.as_deref());
+    outputs.check_before(a.input.grid.as_deref(), &[])?;
+    let ext = match &a.output {
+        Some(o) => Some(cli_checks::output_ext("-o", o, &["ply", "vtp"])?),
+        None => None,
+    };
+    let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
     let t = Instant::now();
     let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())
         .with_context(|| format!("cannot build a structure for {name}"))?;
@@ -697,15 +704,14 @@ fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
             mesh
         };
         let sp = spinner(quiet, format!("writing {}", out.display()));
-        match out.extension().and_then(|e| e.to_str()) {
+        match ext.as_deref() {
             Some("ply") => io::writers::write_ply(out, mesh)?,
             _ => io::writers::write_vtp(out, mesh)?,
         }
         sp.finish_and_clear();
     }
     if let Some(p) = &a.stats {
-        std::fs::write(p, serde_json::to_string_pretty(&stats)?)
-            .with_context(|| format!("cannot write {}", p.display()))?;
+        cli_write::write_json(p, &stats)?;
     }
     if !quiet {
         let t = &stats["totals"];
@@ -743,9 +749,7 @@ fn parse_dims(s: &str) -> Result<[usize; 3]> {
 }
 
 fn write_grid(path: &Path, grid: &Grid, want_ext: &str, quiet: bool) -> Result<()> {
-    if path.extension().and_then(|e| e.to_str()) != Some(want_ext) {
-        bail!("-o {}: this grid is written as .{want_ext}", path.display());
-    }
+    cli_checks::output_ext("-o", path, &[want_ext])?;
     let sp = spinner(quiet, format!("writing {}", path.display()));
     io::writers::write_vtk_xml_grid(path, grid)?;
     sp.finish_and_clear();
@@ -774,6 +778,7 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
             seed,
             output,
         } => {
+            let ext = cli_checks::output_ext("-o", &output, cli_write::CORNERPOINT_EXTS)?;
             let d = parse_dims(&dims)?;
             if faults > 1000 {
                 bail!("--faults must be at most 1000");
@@ -788,19 +793,13 @@ fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
             }
             let g = generate::faulted_with_dip(d, faults, fault_dip, seed);
             let sp = spinner(quiet, format!("writing {}", output.display()));
-            let f = std::fs::File::create(&output)
-                .with_context(|| format!("cannot create {}", output.display()))?;
-            let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
-            io::grdecl::write_grdecl(&mut w, &g)
-                .and_then(|_| std::io::Write::flush(&mut w))
-                .with_context(|| format!("cannot write {}", output.display()))?;
+            let cells = g.cell_count();
+            let wrote = cli_write::write_cornerpoint(&output, &ext, g)?;
             sp.finish_and_clear();
             if !quiet {
                 eprintln!(
-                    "wrote {} ({} cells, {} faults)",
-                    output.display(),
-                    g.cell_count(),
-                    faults
+                    "wrote {} ({cells} cells, {faults} faults)",
+                    wrote.join(" and ")
                 );
             }
             Ok(())
@@ -876,7 +875,9 @@ fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
         return bench_load(&a);
     }
     let field = parse_axis(&a.axis)?;
-    let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet)?;
+    cli_checks::check_count(a.count)?;
+    cli_checks::check_threads(a.threads)?;
+    let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet, &Outputs::default())?;
     let t = Instant::now();
     let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())?;
     let build_s = t.elapsed().as_secs_f64();

@@ -320,6 +320,8 @@ pub fn info_json(grid: &Grid, s: &Structure, c: &InfoContext) -> Value {
     if let Structure::CpGraph(g) = s {
         out["cpgraph"] = cpgraph_json(g);
     }
+    let (bow_ties, n_bow_ties) = crate::structures::cell_check::self_intersecting_cells(grid, 20);
+    out["self_intersecting_cells"] = json!({"count": n_bow_ties, "first": bow_ties});
     // Non-convex polyhedra split into convex pieces before building.
     out["convex_split"] = s.split().map_or(Value::Null, |m| {
         let r = &m.report;

@@ -82,16 +82,24 @@ pub struct SceneArgs {
     pub adapter: Option<String>,
 }
 
-/// `--size WxH`.
+/// `--size WxH`, each side at most [`crate::cli_checks::MAX_IMAGE_SIDE`].
 pub fn parse_size(s: &str) -> Result<(u32, u32)> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .with_context(|| format!("--size '{s}': expected WxH, e.g. 800x600"))?;
-    let (w, h): (u32, u32) = (w.trim().parse()?, h.trim().parse()?);
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        bail!("--size '{s}': each side must be 1..=16384");
-    }
-    Ok((w, h))
+    let max = crate::cli_checks::MAX_IMAGE_SIDE;
+    let side = |x: &str| {
+        x.trim()
+            .parse::<u64>()
+            .ok()
+            .filter(|&v| v >= 1 && v <= max as u64)
+    };
+    let (Some(w), Some(h)) = (side(w), side(h)) else {
+        bail!(
+            "--size '{s}': each side must be a whole number in 1..={max} (the limit of the image side)"
+        );
+    };
+    Ok((w as u32, h as u32))
 }
 
 /// `--background R,G,B,A` or `transparent`.

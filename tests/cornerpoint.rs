@@ -223,7 +223,7 @@ fn pinch_outs_inactive_and_zero_volume() {
     let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
     let Structure::CGraph(cg) = &s else { panic!() };
     // Non-convex polyhedra are split: the CGraph counts pieces, live_cells input cells.
-    assert_eq!(cg.class_counts[1..], [0, 0, 0, 0]);
+    assert_eq!(cg.class_counts[1..], [0, 0, 0, 0, 0]);
     assert_eq!(s.live_cells(), 3);
     // Same with j mirrored (right-handed IJK): still valid, same volume.
     let mut m = g.clone();
@@ -236,7 +236,7 @@ fn pinch_outs_inactive_and_zero_volume() {
     let s = Structure::build(&grid2, StructureChoice::Auto).unwrap();
     let Structure::CGraph(cg) = &s else { panic!() };
     // Non-convex polyhedra are split: the CGraph counts pieces, live_cells input cells.
-    assert_eq!(cg.class_counts[1..], [0, 0, 0, 0]);
+    assert_eq!(cg.class_counts[1..], [0, 0, 0, 0, 0]);
     assert_eq!(s.live_cells(), 3);
     // Inactive cells are excluded, properties follow the kept cells.
     let mut a = g.clone();
@@ -271,7 +271,7 @@ fn three_collapsed_pillar_edges() {
     let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
     let Structure::CGraph(cg) = &s else { panic!() };
     // Non-convex polyhedra are split: the CGraph counts pieces, live_cells input cells.
-    assert_eq!(cg.class_counts[1..], [0, 0, 0, 0]);
+    assert_eq!(cg.class_counts[1..], [0, 0, 0, 0, 0]);
     assert_eq!(s.live_cells(), 1);
     // Planes near the pinched corners cut the two faces that share two
     // edges: such zero-area two-point loops must not be emitted.
@@ -417,7 +417,11 @@ fn check_collapsed(
         );
         let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
         let Structure::CGraph(cg) = &s else { panic!() };
-        assert_eq!(cg.class_counts, [grid.cell_count(), 0, 0, 0, 0], "{what}");
+        assert_eq!(
+            cg.class_counts,
+            [grid.cell_count(), 0, 0, 0, 0, 0],
+            "{what}"
+        );
         for axis in 0..3 {
             let req = axis_request(axis, 40);
             let r = slice(&grid, &s, &req, &|_| {}).unwrap();
@@ -583,7 +587,7 @@ fn twisted_cell_keeps_its_pillar_shape() {
     assert!(t > 1.0 && (rep.bulk_volume - t).abs() < 1e-12, "{t}");
     let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
     let Structure::CGraph(cg) = &s else { panic!() };
-    assert_eq!(cg.class_counts, [0, 0, 0, 1, 0]);
+    assert_eq!(cg.class_counts, [0, 0, 0, 1, 0, 0]);
 }
 
 fn reek(data: &std::path::Path) -> stratasweep::io::grdecl::GrdeclDeck {
@@ -648,7 +652,12 @@ fn reek_grdecl_counts_volume_and_cavalieri() {
     let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
     let Structure::CGraph(cg) = &s else { panic!() };
     // Non-convex polyhedra are split: the CGraph counts pieces, live_cells input cells.
-    assert_eq!(cg.class_counts[1..], [0, 0, 0, 0], "{:?}", cg.class_counts);
+    assert_eq!(
+        cg.class_counts[1..],
+        [0, 0, 0, 0, 0],
+        "{:?}",
+        cg.class_counts
+    );
     assert_eq!(s.live_cells(), grid.cell_count());
     // Every emitted polygon has at least 3 vertices (pinched cells included).
     let req = SliceRequest {
@@ -789,7 +798,12 @@ fn generated_faulted_grid_round_trips_and_sweeps() {
     let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
     let Structure::CGraph(cg) = &s else { panic!() };
     // Non-convex polyhedra are split: the CGraph counts pieces, live_cells input cells.
-    assert_eq!(cg.class_counts[1..], [0, 0, 0, 0], "{:?}", cg.class_counts);
+    assert_eq!(
+        cg.class_counts[1..],
+        [0, 0, 0, 0, 0],
+        "{:?}",
+        cg.class_counts
+    );
     assert_eq!(s.live_cells(), grid.cell_count());
     // The sweep cuts exactly the cells the brute force cuts, on a faulted grid.
     let mut req = SliceRequest {
@@ -880,7 +894,7 @@ fn generated_faults_vertical_or_inclined() {
         let Structure::CGraph(cg) = &s else { panic!() };
         // Every piece is a good cell (non-convex cells are split, so the
         // counts are of pieces) and every input cell is live.
-        assert_eq!(cg.class_counts[1..], [0, 0, 0, 0], "{dip:?}");
+        assert_eq!(cg.class_counts[1..], [0, 0, 0, 0, 0], "{dip:?}");
         assert_eq!(s.live_cells(), grid.cell_count(), "{dip:?}");
         for axis in [0, 2] {
             let a = sweep_matches_brute_force(&grid, &s, axis, 60, &format!("{dip:?}"));

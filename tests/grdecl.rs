@@ -608,7 +608,10 @@ fn operator_errors_name_file_line_and_keyword() {
             "EQUALS\n PERMY 7 2 3 1* 1* 2 2 /\n/\n",
             "EQUALS defines PERMY in part of the grid only",
         ),
-        ("ADD\n PORO 1 1 4 /\n/\n", "box I 1..4 is not within 1..3"),
+        (
+            "ADD\n PORO 1 1 4 /\n/\n",
+            "box index 4 is out of range: I runs from 1 to 3",
+        ),
         ("ADD\n PORO 1 2 1 /\n/\n", "box I 2..1 is not within 1..3"),
         ("MULTIPLY\n PORO x /\n/\n", "'x' is not a finite number"),
         (
@@ -630,7 +633,10 @@ fn operator_errors_name_file_line_and_keyword() {
             "EQUALS ACTNUM: value 2 at cell 0 is not 0 or 1",
         ),
         ("EQUALS\n PORO 1 /\n", "end of file before the closing '/'"),
-        ("BOX\n 1 2 1 2 1 3 /\n", "box K 1..3 is not within 1..2"),
+        (
+            "BOX\n 1 2 1 2 1 3 /\n",
+            "box index 3 is out of range: K runs from 1 to 2",
+        ),
     ];
     for (extra, want) in cases {
         let e = parse(&box_grid(extra)).unwrap_err().to_string();

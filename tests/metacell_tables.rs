@@ -274,6 +274,33 @@ fn reference_class(m: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellClass 
             }
         }
     }
+    // A quadrilateral face that crosses itself (issue 17): both diagonal
+    // splits give triangles facing opposite ways (normals from the cyclic
+    // rotations of the library's triangles, so rounded independently).
+    for f in &m.faces {
+        if let [a, b, c, d] = f[..] {
+            let q = [a, b, c, d].map(|k| points[ids[k as usize] as usize]);
+            let tri = |i: usize, j: usize, k: usize| {
+                let (u, v) = (
+                    std::array::from_fn::<f64, 3, _>(|x| q[j][x] - q[i][x]),
+                    std::array::from_fn::<f64, 3, _>(|x| q[k][x] - q[i][x]),
+                );
+                [
+                    u[1] * v[2] - u[2] * v[1],
+                    u[2] * v[0] - u[0] * v[2],
+                    u[0] * v[1] - u[1] * v[0],
+                ]
+            };
+            let against = |n: [f64; 3], m: [f64; 3]| {
+                let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+                let d = dot(n, m);
+                d < 0.0 && d * d > 1e-12 * dot(n, n) * dot(m, m)
+            };
+            if against(tri(1, 2, 0), tri(2, 3, 0)) && against(tri(2, 3, 1), tri(3, 0, 1)) {
+                return CellClass::SelfIntersecting;
+            }
+        }
+    }
     let p0 = points[ids[0] as usize];
     let mut ext = 0.0f64;
     let local: Vec<[f64; 3]> = ids
@@ -304,7 +331,7 @@ fn jitter(s: &mut u64) -> f64 {
 fn signed_volume_and_class_are_bit_identical_to_the_reference_formula() {
     let cat = catalog_with_prisms();
     let mut seed = 0x9E37_79B9_7F4A_7C15u64;
-    let mut seen = [0usize; 5];
+    let mut seen = [0usize; 6];
     for m in &cat.metas {
         let base = reference_coords(m);
         for trial in 0..4000 {

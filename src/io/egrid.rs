@@ -459,6 +459,8 @@ pub struct EgridFile {
     pub grid: CornerPointGrid,
     /// The INIT file read, if any.
     pub init: Option<PathBuf>,
+    /// INIT arrays not added as properties, with the reason.
+    pub skipped_init: Vec<SkippedArray>,
 }
 
 /// Parses EGRID bytes (main grid only) into a corner-point grid.
@@ -590,7 +592,28 @@ pub fn add_init_properties(
     bytes: &[u8],
     file: &Path,
 ) -> Result<Vec<String>, EgridError> {
+    Ok(add_init_properties_report(grid, bytes, file)?.0)
+}
+
+/// An INIT array that was not added as a property, and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkippedArray {
+    /// The array's keyword.
+    pub name: String,
+    /// Why it was skipped (wrong length, a value that is not finite).
+    pub reason: String,
+}
+
+/// As [`add_init_properties`], also returning the numeric per-cell-looking
+/// arrays skipped, each with its reason (header and logical arrays are not
+/// properties and are not listed).
+pub fn add_init_properties_report(
+    grid: &mut CornerPointGrid,
+    bytes: &[u8],
+    file: &Path,
+) -> Result<(Vec<String>, Vec<SkippedArray>), EgridError> {
     let n = grid.cell_count();
+    let mut skipped = Vec::new();
     let active: Vec<usize> = (0..n).filter(|&c| grid.is_active(c)).collect();
     let mut r = ArrayReader::new(bytes, file);
     let mut names = Vec::new();
@@ -608,9 +631,26 @@ pub fn add_init_properties(
             }
             full
         } else {
+            // Only arrays that look per-cell (at least half the active
+            // count, at most twice the cells) are worth a word: TAB,
+            // TABDIMS and the like are not properties.
+            if a.keyword != "TAB" && v.len() * 2 >= active.len().max(2) && v.len() <= 2 * n {
+                skipped.push(SkippedArray {
+                    name: a.keyword.clone(),
+                    reason: format!(
+                        "has {} values; the grid has {n} cells, {} of them active",
+                        v.len(),
+                        active.len()
+                    ),
+                });
+            }
             continue;
         };
-        if full.iter().any(|x| !x.is_finite()) {
+        if let Some(i) = full.iter().position(|x| !x.is_finite()) {
+            skipped.push(SkippedArray {
+                name: a.keyword.clone(),
+                reason: format!("value {i} is {} (not finite)", full[i]),
+            });
             continue;
         }
         grid.properties.retain(|p| p.name != a.keyword);
@@ -618,7 +658,7 @@ pub fn add_init_properties(
             .push(Property::scalar(a.keyword.clone(), full));
         names.push(a.keyword);
     }
-    Ok(names)
+    Ok((names, skipped))
 }
 
 /// Reads an EGRID file and, when a file with the same stem and extension
@@ -635,14 +675,19 @@ pub fn read_egrid(path: impl AsRef<Path>) -> Result<EgridFile, EgridError> {
     let mut grid = parse_egrid(&bytes, path)?;
     drop(bytes);
     let mut init = None;
+    let mut skipped_init = Vec::new();
     for ext in ["INIT", "init"] {
         let p = path.with_extension(ext);
         if p.is_file() {
             let b = read(&p)?;
-            add_init_properties(&mut grid, &b, &p)?;
+            skipped_init = add_init_properties_report(&mut grid, &b, &p)?.1;
             init = Some(p);
             break;
         }
     }
-    Ok(EgridFile { grid, init })
+    Ok(EgridFile {
+        grid,
+        init,
+        skipped_init,
+    })
 }

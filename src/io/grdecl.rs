@@ -43,6 +43,12 @@ const WINDOW: usize = 1 << 16;
 /// Deepest INCLUDE nesting accepted.
 const MAX_INCLUDE_DEPTH: usize = 32;
 
+/// Most cells an operator (EQUALS, COPY, ...) may create an array for
+/// before ZCORN has been read (8 Mi cells, 64 MiB per f64 array): a deck
+/// whose header claims a huge grid must show its geometry before it costs
+/// gigabytes.
+const MAX_CELLS_BEFORE_GEOMETRY: usize = 8 << 20;
+
 /// Errors reading GRDECL text. Every variant names the file, the line and
 /// (where there is one) the keyword.
 #[derive(Debug, Error)]
@@ -255,9 +261,21 @@ struct Lexer<'r> {
     pushed: Option<Tok>,
     file: PathBuf,
     bytes: u64,
+    /// The input's length when known.
+    len: Option<u64>,
 }
 
 impl<'r> Lexer<'r> {
+    /// Capacity to reserve for an array of `n` values before they are read:
+    /// `n`, but never more values than the input could spell out plainly
+    /// (two bytes each), so that a header alone (SPECGRID, DIMENS) never
+    /// costs more memory than the file's size. Repeats (`N*v`) grow the
+    /// array as their data arrives.
+    fn reserve_hint(&self, n: usize) -> usize {
+        let most = self.len.map_or(1 << 20, |l| (l / 2) as usize + 1024);
+        n.min(most)
+    }
+
     /// A lexer over `r`; `len` is the input's length when known (a file), so
     /// that a small file gets a window of its size rather than [`WINDOW`]
     /// zeroed bytes (decks include many small files).
@@ -279,6 +297,7 @@ impl<'r> Lexer<'r> {
             pushed: None,
             file,
             bytes: 0,
+            len,
         }
     }
 
@@ -853,19 +872,19 @@ impl Parser {
             "COORD" => {
                 let [nx, ny, _] = self.dims_or(lx, line, kw)?;
                 let n = 6 * (nx + 1) * (ny + 1);
-                let mut v = Vec::with_capacity(n);
+                let mut v = Vec::with_capacity(lx.reserve_hint(n));
                 read_values(lx, kw, line, n, &mut v, None)?;
                 self.coord = Some(v);
             }
             "ZCORN" => {
                 let n = 8 * self.cells(lx, line, kw)?;
-                let mut v = Vec::with_capacity(n);
+                let mut v = Vec::with_capacity(lx.reserve_hint(n));
                 read_values(lx, kw, line, n, &mut v, None)?;
                 self.zcorn = Some(v);
             }
             "ACTNUM" => {
                 let n = self.cells(lx, line, kw)?;
-                let mut v = Vec::with_capacity(n);
+                let mut v = Vec::with_capacity(lx.reserve_hint(n));
                 read_values(lx, kw, line, n, &mut v, Some(1.0))?;
                 let mut a = Vec::with_capacity(n);
                 for (i, &x) in v.iter().enumerate() {
@@ -959,7 +978,7 @@ impl Parser {
             }
             _ if KNOWN_PROPERTIES.contains(&kw) => {
                 let n = self.cells(lx, line, kw)?;
-                let mut v = Vec::with_capacity(n);
+                let mut v = Vec::with_capacity(lx.reserve_hint(n));
                 read_values(lx, kw, line, n, &mut v, None)?;
                 self.set_property(kw, v);
             }
@@ -1001,13 +1020,35 @@ impl Parser {
             let arg = items[1].as_deref().unwrap_or_default().trim().to_string();
             let bx = op_box(lx, kw, rline, dims, &items[2..], Some(last))?;
             last = bx;
-            let cells: Vec<usize> = (bx[4] - 1..bx[5])
-                .flat_map(|k| {
+            // The box's cells, I fastest (iterated, never collected).
+            let cells = || {
+                (bx[4] - 1..bx[5]).flat_map(move |k| {
                     (bx[2] - 1..bx[3])
                         .flat_map(move |j| (bx[0] - 1..bx[1]).map(move |i| i + nx * (j + ny * k)))
                 })
-                .collect();
-            let whole = cells.len() == n;
+            };
+            let whole = (bx[1] - bx[0] + 1) * (bx[3] - bx[2] + 1) * (bx[5] - bx[4] + 1) == n;
+            let target_name = if kw == "COPY" {
+                arg.to_ascii_uppercase()
+            } else {
+                name.clone()
+            };
+            let missing = |t: &str| {
+                if t == "ACTNUM" {
+                    self.actnum.is_none()
+                } else {
+                    !self.properties.iter().any(|p| p.name == t)
+                }
+            };
+            let creates =
+                missing(&target_name) || (kw == "COPY" && name == "ACTNUM" && missing(&name));
+            if creates && self.zcorn.is_none() && n > MAX_CELLS_BEFORE_GEOMETRY {
+                return Err(bad(format!(
+                    "{kw} would create an array of {n} cells before COORD and ZCORN were read \
+                     (more than {MAX_CELLS_BEFORE_GEOMETRY} cells are allowed only once the geometry has arrived): \
+                     is COORD or ZCORN missing, or does the grid size {dims:?} hold a typo?"
+                )));
+            }
             let (target, value) = if kw == "COPY" {
                 let src = name.clone();
                 let v: Vec<f64> = if src == "ACTNUM" {
@@ -1036,7 +1077,7 @@ impl Parser {
                     return Err(bad(format!("{kw} cannot change ACTNUM (0/1 flags)")));
                 }
                 let a = self.actnum.get_or_insert_with(|| vec![1; n]);
-                for &c in &cells {
+                for c in cells() {
                     let x = match &value {
                         Ok(x) => *x,
                         Err(v) => v[c],
@@ -1075,7 +1116,7 @@ impl Parser {
                 .iter_mut()
                 .find(|p| p.name == target)
                 .expect("defined above");
-            for &c in &cells {
+            for c in cells() {
                 let v = &mut p.values[c];
                 match (kw, &value) {
                     ("EQUALS", Ok(x)) => *v = *x,
@@ -1163,6 +1204,16 @@ impl Parser {
         let base = lx.file.parent().unwrap_or(Path::new(""));
         let direct = base.join(p);
         let mut tried = vec![direct.clone()];
+        if direct.is_dir() {
+            return Err(lx.bad(
+                line,
+                "INCLUDE",
+                format!(
+                    "'{p}' is a directory ({}), not a file: INCLUDE takes a file name",
+                    direct.display()
+                ),
+            ));
+        }
         let path = if direct.is_file() {
             direct
         } else {
@@ -1170,7 +1221,9 @@ impl Parser {
             match by_name {
                 Some(b) if b.is_file() => b,
                 Some(b) => {
-                    tried.push(b);
+                    if b != direct {
+                        tried.push(b);
+                    }
                     return Err(self.missing(lx, line, p, &tried));
                 }
                 None => return Err(self.missing(lx, line, p, &tried)),
@@ -1559,7 +1612,7 @@ fn op_box(
     for (a, item) in items.iter().enumerate() {
         if let Some(s) = item {
             let x = parse_number(s.trim().as_bytes())
-                .filter(|x| x.fract() == 0.0 && *x >= 1.0 && *x <= 1e9)
+                .filter(|x| x.fract() == 0.0 && *x >= 1.0)
                 .ok_or_else(|| {
                     lx.bad(
                         line,
@@ -1567,6 +1620,17 @@ fn op_box(
                         format!("box index '{s}' is not a positive integer"),
                     )
                 })?;
+            let dim = full[2 * (a / 2) + 1];
+            if x > dim as f64 {
+                let axis = ["I", "J", "K"][a / 2];
+                return Err(lx.bad(
+                    line,
+                    kw,
+                    format!(
+                        "box index {s} is out of range: {axis} runs from 1 to {dim} in this grid"
+                    ),
+                ));
+            }
             b[a] = x as usize;
         }
     }

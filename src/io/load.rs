@@ -49,6 +49,10 @@ impl Format {
 /// A loaded grid and what the load found.
 #[derive(Debug)]
 pub struct Loaded {
+    /// Things the load dropped or changed, one sentence each naming the
+    /// file and the item (INIT arrays skipped, ...); the CLI prints them as
+    /// warnings.
+    pub warnings: Vec<String>,
     /// The grid (validated).
     pub grid: Grid,
     /// The format it was read as.
@@ -87,6 +91,15 @@ pub enum LoadError {
     /// The corner-point geometry cannot be turned into cells.
     #[error(transparent)]
     CornerPoint(#[from] CornerPointError),
+    /// The file is not in the format its name says, or its content cannot
+    /// be used (no cells left, coordinates out of range).
+    #[error("{}: {why}", file.display())]
+    Content {
+        /// The file.
+        file: PathBuf,
+        /// What is wrong, with its cause.
+        why: String,
+    },
     /// The grid parsed but fails [`Grid::validate`].
     #[error("{}: invalid grid: {source}", file.display())]
     Invalid {
@@ -159,6 +172,9 @@ fn by_extension(path: &Path) -> Format {
 /// Loads any grid file the crate reads (see [`detect`]) and validates it.
 pub fn load(path: &Path) -> Result<Loaded, LoadError> {
     let format = detect(path)?;
+    if format == Format::Egrid {
+        check_egrid_head(path)?;
+    }
     let (grid, inputs, cornerpoint, ijk) = match format {
         Format::VtkLegacy | Format::VtkXml => {
             let g = read_vtk_as(path, format == Format::VtkXml)?;
@@ -173,7 +189,13 @@ pub fn load(path: &Path) -> Result<Loaded, LoadError> {
         file: path.into(),
         source,
     })?;
+    crate::io::checks::check_f32_range(&grid).map_err(|why| LoadError::Content {
+        file: path.into(),
+        why,
+    })?;
+    let warnings = load_warnings(cornerpoint.as_ref());
     Ok(Loaded {
+        warnings,
         grid,
         format,
         inputs,
@@ -199,8 +221,13 @@ fn load_cornerpoint(
     let t = Instant::now();
     let (cp, inputs, extra): (CornerPointGrid, Vec<PathBuf>, Value) = if format == Format::Egrid {
         let e = read_egrid(path)?;
-        let extra =
-            json!({"format": "egrid", "init": e.init.as_ref().map(|p| p.display().to_string())});
+        let skipped: Vec<Value> = e
+            .skipped_init
+            .iter()
+            .map(|s| json!({"name": s.name, "reason": s.reason}))
+            .collect();
+        let extra = json!({"format": "egrid", "init": e.init.as_ref().map(|p| p.display().to_string()),
+            "skipped_init_arrays": skipped});
         let mut inputs = vec![path.to_path_buf()];
         inputs.extend(e.init.iter().cloned());
         (e.grid, inputs, extra)
@@ -217,7 +244,14 @@ fn load_cornerpoint(
     let read_s = t.elapsed().as_secs_f64();
     let (dims, mapaxes) = (cp.dims, cp.mapaxes);
     let (mapunits, gridunit) = (cp.mapunits.clone(), cp.gridunit.clone());
+    let cells = cp.cell_count();
     let (grid, rep) = cp.into_grid()?;
+    if grid.cell_count() == 0 {
+        return Err(LoadError::Content {
+            file: path.into(),
+            why: crate::io::checks::no_cells_left(cells, &rep.class_counts()),
+        });
+    }
     let mut classes = serde_json::Map::new();
     for (k, v) in rep.class_counts() {
         classes.insert(k.into(), json!(v));
@@ -233,4 +267,52 @@ fn load_cornerpoint(
         source_cell: rep.source_cell,
     };
     Ok((grid, inputs, info, ijk))
+}
+
+/// A file taken as EGRID by its extension must start like one; a text
+/// file named `.EGRID` is reported as text rather than as a record whose
+/// length is its first four letters.
+fn check_egrid_head(path: &Path) -> Result<(), LoadError> {
+    let mut head = [0u8; 64];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| f.read(&mut head))
+        .map_err(|source| LoadError::Io {
+            file: path.into(),
+            source,
+        })?;
+    let head = &head[..n];
+    if detect_bytes(head) == Some(Format::Egrid) {
+        return Ok(());
+    }
+    let why = if crate::io::checks::looks_like_text(head) {
+        "not an EGRID file: it looks like text (GRDECL keywords? then name it .grdecl)".to_string()
+    } else {
+        "not an EGRID file: it does not start with a 16-byte array header record (unformatted big-endian Eclipse output)".to_string()
+    };
+    Err(LoadError::Content {
+        file: path.into(),
+        why,
+    })
+}
+
+/// The warnings a corner-point load report carries: skipped INIT arrays.
+fn load_warnings(cornerpoint: Option<&Value>) -> Vec<String> {
+    let Some(c) = cornerpoint else {
+        return Vec::new();
+    };
+    let init = c["input"]["init"].as_str().unwrap_or("INIT");
+    c["input"]["skipped_init_arrays"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .map(|s| {
+                    format!(
+                        "{init}: array {} skipped: {}",
+                        s["name"].as_str().unwrap_or("?"),
+                        s["reason"].as_str().unwrap_or("?")
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default()
 }

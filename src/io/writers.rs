@@ -1,6 +1,6 @@
 //! Writers: PLY, VTP polydata, and VTK XML grids (`.vts` / `.vtu`).
 //!
-//! All writers stream through a [`BufWriter`] and encode their binary
+//! All writers stream through an [`AtomicFile`] (a 1 MiB `BufWriter` over a temporary file renamed into place) and encode their binary
 //! payload in parallel chunks (rayon), so meshes of tens of millions of
 //! polygons are written at disk speed. Coordinates are always written in
 //! world space as f64 (`origin + position`, summed in f64), so nothing is
@@ -12,11 +12,11 @@
 //!   UnstructuredGrid (`.vtu`), appended raw binary, `UInt64` headers.
 
 use crate::grid::{Cells, Grid, GridError, Property, Topology, vtk_type};
+use crate::io::atomic::AtomicFile;
 use crate::mesh::PolyMesh;
 use rayon::prelude::*;
 use std::fmt::Write as _;
-use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -139,11 +139,10 @@ macro_rules! le_bytes {
 }
 le_bytes!(u8, i32, u32, i64, u64, f32, f64);
 
-/// Opens `path` for buffered writing.
-fn create(path: &Path) -> Result<BufWriter<File>, WriteError> {
-    File::create(path)
-        .map(|f| BufWriter::with_capacity(1 << 20, f))
-        .map_err(io_err(path))
+/// Opens `path` for buffered writing through a temporary file beside it
+/// ([`AtomicFile`]); nothing replaces `path` until [`AtomicFile::commit`].
+fn create(path: &Path) -> Result<AtomicFile, WriteError> {
+    AtomicFile::create(path).map_err(io_err(path))
 }
 
 /// Maps an I/O error to [`WriteError::Io`] naming `path`.
@@ -291,7 +290,7 @@ pub fn write_ply(path: impl AsRef<Path>, mesh: &PolyMesh) -> Result<(), WriteErr
         ply_property_name(&mesh.property_name),
     );
     let mut w = create(path)?;
-    let body = |w: &mut BufWriter<File>| -> io::Result<()> {
+    let body = |w: &mut AtomicFile| -> io::Result<()> {
         w.write_all(header.as_bytes())?;
         write_encoded(w, mesh.positions.len(), |r, b| {
             b.reserve(r.len() * 28);
@@ -318,7 +317,7 @@ pub fn write_ply(path: impl AsRef<Path>, mesh: &PolyMesh) -> Result<(), WriteErr
         })?;
         w.flush()
     };
-    body(&mut w).map_err(io_err(path))
+    body(&mut w).and_then(|_| w.commit()).map_err(io_err(path))
 }
 
 // ---------------------------------------------------------------------------
@@ -449,7 +448,7 @@ pub fn write_vtp(path: impl AsRef<Path>, mesh: &PolyMesh) -> Result<(), WriteErr
     let xml = x.finish();
 
     let mut w = create(path)?;
-    let body = |w: &mut BufWriter<File>| -> io::Result<()> {
+    let body = |w: &mut AtomicFile| -> io::Result<()> {
         w.write_all(xml.as_bytes())?;
         block_header(w, nv, 4)?;
         write_le_slice(w, &mesh.values)?;
@@ -490,7 +489,7 @@ pub fn write_vtp(path: impl AsRef<Path>, mesh: &PolyMesh) -> Result<(), WriteErr
         w.write_all(XML_TAIL)?;
         w.flush()
     };
-    body(&mut w).map_err(io_err(path))
+    body(&mut w).and_then(|_| w.commit()).map_err(io_err(path))
 }
 
 /// The VTK XML extension (without the dot) [`write_vtk_xml_grid`] uses for
@@ -610,7 +609,7 @@ pub fn write_vtk_xml_grid(path: impl AsRef<Path>, grid: &Grid) -> Result<(), Wri
         }
         Topology::Unstructured(cells) => write_vtu_body(&mut w, grid, cells, np, nc),
     };
-    res.map_err(io_err(path))
+    res.and_then(|_| w.commit()).map_err(io_err(path))
 }
 
 /// The `.vtu` part of [`write_vtk_xml_grid`].

@@ -42,7 +42,7 @@ pub struct CGraph {
     cells: CellStore,
     live: BitSet,
     /// Counts of cell classes (see [`crate::structures::CELL_CLASS_NAMES`]).
-    pub class_counts: [usize; 5],
+    pub class_counts: [usize; crate::structures::CELL_CLASS_COUNT],
     /// Cells per meta-cell id.
     pub meta_counts: Vec<usize>,
     /// Hidden cells excluded.
@@ -297,7 +297,7 @@ impl CGraph {
         }
         let class = classify_and_orient(&mut catalog, &mut metas, &voff, &verts, &grid.points)?;
         let mut live = BitSet::new(n);
-        let mut class_counts = [0usize; 5];
+        let mut class_counts = [0usize; crate::structures::CELL_CLASS_COUNT];
         let mut hidden_count = 0;
         for c in 0..n {
             class_counts[class[c] as usize] += 1;

@@ -47,16 +47,47 @@ pub enum CellClass {
     RepeatedVertex = 3,
     /// A 0D/1D/2D cell (point, line, triangle, quad, ...): skipped.
     NonVolumetric = 4,
+    /// A quadrilateral face crosses itself (a bow-tie: two vertices
+    /// swapped), so the cell's polygons would be wrong: skipped.
+    SelfIntersecting = 5,
 }
 
+/// How many [`CellClass`] variants there are.
+pub const CELL_CLASS_COUNT: usize = 6;
+
 /// Names of the [`CellClass`] variants, in order.
-pub const CELL_CLASS_NAMES: [&str; 5] = [
+pub const CELL_CLASS_NAMES: [&str; CELL_CLASS_COUNT] = [
     "valid",
     "inverted",
     "zero_volume",
     "repeated_vertex",
     "non_volumetric",
+    "self_intersecting",
 ];
+
+/// True when the quadrilateral `a b c d` crosses itself (a bow-tie): split
+/// along either diagonal, its two triangles face opposite ways. A convex or
+/// concave (but simple) quadrilateral, planar or mildly warped, has at
+/// least one diagonal whose triangles agree; a collapsed one (zero-area
+/// triangles) is not flagged here.
+pub fn quad_is_bow_tie(q: [[f64; 3]; 4]) -> bool {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let cross = |u: [f64; 3], v: [f64; 3]| {
+        [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ]
+    };
+    let dot = |u: [f64; 3], v: [f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let normal = |a: usize, b: usize, c: usize| cross(sub(q[b], q[a]), sub(q[c], q[a]));
+    // Opposite beyond rounding: cos < -1e-6 between non-zero normals.
+    let opposite = |n: [f64; 3], m: [f64; 3]| {
+        let d = dot(n, m);
+        d < 0.0 && d * d > 1e-12 * dot(n, n) * dot(m, m)
+    };
+    opposite(normal(0, 1, 2), normal(0, 2, 3)) && opposite(normal(1, 2, 3), normal(1, 3, 0))
+}
 
 /// Classifies one cell from its global vertex ids (local order) and the f64
 /// points. A vertex list that fits no meta-cell (empty, or longer than
@@ -89,6 +120,13 @@ fn classify_fixed<const N: usize>(meta: &MetaCell, ids: &[u32], points: &[[f64; 
     }
     if repeated {
         return CellClass::RepeatedVertex;
+    }
+    for f in &meta.faces {
+        if let [a, b, c, d] = f[..]
+            && quad_is_bow_tie([a, b, c, d].map(|k| local[k as usize]))
+        {
+            return CellClass::SelfIntersecting;
+        }
     }
     let p0 = local[0];
     // Extent: largest |coordinate| from p0 (a plain maximum skips NaN just

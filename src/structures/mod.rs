@@ -3,6 +3,7 @@
 //! convex polyhedra), the convex split of non-convex polyhedra below CGraph
 //! and CIEL, and what they share (build errors, cell classes, a bit set).
 
+pub mod cell_check;
 pub mod cgraph;
 pub mod ciel;
 pub mod common;
@@ -11,7 +12,8 @@ pub mod cpgraph;
 pub mod scgraph;
 
 pub use common::{
-    BitSet, CELL_CLASS_NAMES, CellClass, StructureError, classify_cell, is_sweepable,
+    BitSet, CELL_CLASS_COUNT, CELL_CLASS_NAMES, CellClass, StructureError, classify_cell,
+    is_sweepable, quad_is_bow_tie,
 };
 
 use crate::grid::{Grid, Topology};

@@ -32,7 +32,7 @@ pub struct SCGraph {
     /// lattice emitter then needs no per-neighbour check to weld).
     surrounded: BitSet,
     /// Counts of cell classes (see [`crate::structures::CELL_CLASS_NAMES`]).
-    pub class_counts: [usize; 5],
+    pub class_counts: [usize; crate::structures::CELL_CLASS_COUNT],
     /// The IJK frame is left-handed; cells are read with K reversed.
     pub left_handed: bool,
     catalog: Catalog,
@@ -64,7 +64,7 @@ impl SCGraph {
         let mut offsets = hex_corner_offsets(npi, slab).map(|o| o as u32);
         let catalog = Catalog::new();
         let mut live = BitSet::new(slots);
-        let mut class_counts = [0usize; 5];
+        let mut class_counts = [0usize; crate::structures::CELL_CLASS_COUNT];
         let hex = catalog.get(builtin::HEXAHEDRON);
         let (nci, ncj, nck) = (npi - 1, npj - 1, npk - 1);
         let classify_all = |offsets: [u32; 8]| -> Vec<CellClass> {

@@ -75,9 +75,21 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
     if a.frames == Some(0) || a.orbit_bench == Some(0) {
         bail!("--frames and --orbit-bench need at least 1");
     }
+    crate::cli_checks::check_slices(a.scene.slices)?;
+    let outputs = crate::cli_checks::Outputs::default()
+        .add("--screenshot", a.screenshot.as_deref())
+        .add("--window-screenshot", a.window_screenshot.as_deref());
+    for (flag, p) in [
+        ("--screenshot", &a.screenshot),
+        ("--window-screenshot", &a.window_screenshot),
+    ] {
+        if let Some(p) = p {
+            crate::cli_checks::output_ext(flag, p, &["png"])?;
+        }
+    }
     let o = a.scene.options()?;
     let clip = a.ijk_clip.as_deref().map(parse_clip).transpose()?;
-    let (grid, name, _) = load(&a.input, quiet)?;
+    let (grid, name, _) = load(&a.input, quiet, &outputs)?;
     let z_scale = a.scene.z_scale(&grid, quiet);
     let s = Structure::build(&grid, StructureChoice::Auto)
         .with_context(|| format!("cannot build a structure for {name}"))?;

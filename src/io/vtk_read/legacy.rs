@@ -493,7 +493,33 @@ impl<'a> Parser<'a> {
                     let total = n
                         .checked_mul(3)
                         .ok_or_else(|| self.err(kw, "point count overflows"))?;
-                    let v = self.read_f64(total, ty, "POINTS", kw)?;
+                    if let Some((_, d)) = dims
+                        && dataset == Some(Dataset::Structured)
+                    {
+                        let need = d[0].checked_mul(d[1]).and_then(|v| v.checked_mul(d[2]));
+                        if need != Some(n) {
+                            return Err(self.err(
+                                kw,
+                                format!(
+                                    "POINTS {n}, but DIMENSIONS {} {} {} give {} points",
+                                    d[0],
+                                    d[1],
+                                    d[2],
+                                    need.map_or("too many".into(), |x| x.to_string())
+                                ),
+                            ));
+                        }
+                    }
+                    let v = if self.binary {
+                        let bytes = self.binary_bytes(total, ty, "POINTS", kw)?;
+                        let v = decode_f64(bytes, ty, true, total);
+                        if let Some(why) = super::byte_order::little_endian_hint(bytes, ty, &v) {
+                            return Err(self.err(kw, why));
+                        }
+                        v
+                    } else {
+                        self.read_f64(total, ty, "POINTS", kw)?
+                    };
                     self.skip_optional_metadata();
                     points = Some((kw, v));
                 }

@@ -33,6 +33,7 @@
 //! faces as connectivity.
 
 mod arrays;
+mod byte_order;
 mod common;
 mod legacy;
 mod xml;

@@ -129,7 +129,7 @@ struct ChunkOut {
     /// Half-edges and faces written.
     half_edges: usize,
     faces: usize,
-    class_counts: [usize; 5],
+    class_counts: [usize; crate::structures::CELL_CLASS_COUNT],
     hidden: usize,
     flipped: usize,
     /// Live cells found non-convex.

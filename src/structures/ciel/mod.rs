@@ -211,7 +211,7 @@ pub struct CielCounts {
     /// Edges (fans), i.e. representatives in the vertex cycles / 2.
     pub edges: usize,
     /// Counts of cell classes (see [`crate::structures::CELL_CLASS_NAMES`]).
-    pub class_counts: [usize; 5],
+    pub class_counts: [usize; crate::structures::CELL_CLASS_COUNT],
     /// Hidden cells excluded.
     pub hidden: usize,
 }

@@ -139,7 +139,7 @@ impl CpGraph {
             stencil: vec![EXPLICIT; total],
             live: BitSet::new(total),
         };
-        let mut class_counts = [0usize; 5];
+        let mut class_counts = [0usize; crate::structures::CELL_CLASS_COUNT];
         let mut meta_counts = vec![0usize; catalog.metas.len()];
         let mut hidden_count = 0;
         let mut counts = CpCounts::default();

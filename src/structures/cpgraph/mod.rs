@@ -133,7 +133,7 @@ pub struct CpGraph {
     /// Per slot, bit `d` (−i, +i, −j, +j, −k, +k): linked to that neighbour.
     links: Vec<u8>,
     /// Counts of cell classes (see [`crate::structures::CELL_CLASS_NAMES`]).
-    pub class_counts: [usize; 5],
+    pub class_counts: [usize; crate::structures::CELL_CLASS_COUNT],
     /// Cells per meta-cell id.
     pub meta_counts: Vec<usize>,
     /// Hidden cells excluded.
