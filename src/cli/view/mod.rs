@@ -75,8 +75,8 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
     if a.frames == Some(0) || a.orbit_bench == Some(0) {
         bail!("--frames and --orbit-bench need at least 1");
     }
-    crate::cli_checks::check_slices(a.scene.slices)?;
-    let outputs = crate::cli_checks::Outputs::default()
+    crate::cli::checks::check_slices(a.scene.slices)?;
+    let outputs = crate::cli::checks::Outputs::default()
         .add("--screenshot", a.screenshot.as_deref())
         .add("--window-screenshot", a.window_screenshot.as_deref());
     for (flag, p) in [
@@ -84,7 +84,7 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         ("--window-screenshot", &a.window_screenshot),
     ] {
         if let Some(p) = p {
-            crate::cli_checks::output_ext(flag, p, &["png"])?;
+            crate::cli::checks::output_ext(flag, p, &["png"])?;
         }
     }
     let o = a.scene.options()?;

@@ -1,0 +1,71 @@
+//! The GPU side of `slice` and `bench`: device choice and GPU emission.
+
+use anyhow::Result;
+use clap::ValueEnum;
+use stratasweep::gpu::context::ContextOptions;
+use stratasweep::gpu::context::GpuContext;
+use stratasweep::gpu::context::GpuError;
+use stratasweep::gpu::slice::Emitter;
+use stratasweep::gpu::slice::slice_on;
+use stratasweep::grid::Grid;
+use stratasweep::pipeline::SliceRequest;
+use stratasweep::pipeline::SliceResult;
+use stratasweep::structures::Structure;
+
+/// Where polygons are generated.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub(crate) enum DeviceArg {
+    /// The CPU sweep emits the polygons.
+    Cpu,
+    /// The CPU sweep finds the cut cells; the GPU emits (fails without an adapter).
+    Gpu,
+    /// The GPU when an adapter exists, else the CPU.
+    Auto,
+}
+
+/// Opens the GPU, printing the adapter's name unless quiet.
+pub(crate) fn open(adapter: &Option<String>, quiet: bool) -> Result<GpuContext, GpuError> {
+    let ctx = GpuContext::new(&ContextOptions {
+        adapter: adapter.clone(),
+        limits: None,
+    })?;
+    if !quiet {
+        eprintln!("GPU adapter: {}", ctx.name);
+    }
+    Ok(ctx)
+}
+
+/// `slice --device`: `None` means "run the CPU path" (cpu, or auto without adapter).
+pub(crate) fn slice_gpu(
+    device: DeviceArg,
+    adapter: &Option<String>,
+    grid: &Grid,
+    s: &Structure,
+    req: &SliceRequest,
+    quiet: bool,
+) -> Result<Option<SliceResult>> {
+    let ctx = match device {
+        DeviceArg::Cpu => return Ok(None),
+        DeviceArg::Gpu => open(adapter, quiet)?,
+        DeviceArg::Auto => match open(adapter, quiet) {
+            Ok(c) => c,
+            Err(e @ GpuError::NoAdapter { .. }) => {
+                if !quiet {
+                    eprintln!("--device auto: {e}\n  falling back to the CPU path");
+                }
+                return Ok(None);
+            }
+            Err(e) => return Err(e.into()),
+        },
+    };
+    let (r, t) = slice_on(Emitter::Gpu(&ctx), grid, s, req)?;
+    if !quiet {
+        eprintln!(
+            "GPU emission: upload {:.2} ms, count+scan {:.2} ms, emit {:.2} ms",
+            t.upload * 1e3,
+            t.count * 1e3,
+            t.emit * 1e3
+        );
+    }
+    Ok(Some(r))
+}

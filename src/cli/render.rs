@@ -1,0 +1,93 @@
+//! `stratasweep render`: volume rendering, slices and isosurfaces to PNG.
+
+use super::checks::{self as cli_checks, Outputs};
+use super::common::*;
+use super::device::*;
+use super::scene_args::SceneArgs;
+use anyhow::Context;
+use anyhow::Result;
+use anyhow::bail;
+use clap::Args;
+use std::path::PathBuf;
+use std::time::Instant;
+use stratasweep::gpu::render::Mode;
+use stratasweep::gpu::render::Renderer;
+use stratasweep::io::guard::Named;
+use stratasweep::structures::Structure;
+use stratasweep::structures::StructureChoice;
+
+/// `stratasweep render`.
+#[derive(Args)]
+pub(crate) struct RenderArgs {
+    #[command(flatten)]
+    pub(crate) input: GridArg,
+    /// Output PNG (straight RGBA).
+    #[arg(short, long)]
+    pub(crate) output: PathBuf,
+    #[command(flatten)]
+    pub(crate) scene: SceneArgs,
+    /// Draw the colour legend (property, value range) into the PNG, as the viewer shows it.
+    #[arg(long)]
+    pub(crate) legend: bool,
+}
+
+/// `stratasweep render`.
+pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
+    cli_checks::check_slices(a.scene.slices)?;
+    let outputs = Outputs::default().add("-o", Some(&a.output));
+    let transfer_file = a
+        .scene
+        .transfer
+        .ends_with(".json")
+        .then(|| Named::new("the transfer function", &a.scene.transfer));
+    outputs.check_before(a.input.grid.as_deref(), transfer_file.as_slice())?;
+    cli_checks::output_ext("-o", &a.output, &["png"])?;
+    let o = a.scene.options()?;
+    if let Some(t) = &o.transfer {
+        super::render_checks::check_transfer(t)
+            .with_context(|| format!("in {}", a.scene.transfer))?;
+    }
+    if o.mode == Mode::Iso && o.iso.is_empty() {
+        bail!("--mode iso needs --iso VALUES (comma-separated)");
+    }
+    let (grid, name, _) = load(&a.input, quiet, &outputs)?;
+    let z_scale = a.scene.z_scale(&grid, quiet);
+    let s = Structure::build(&grid, StructureChoice::Auto)
+        .with_context(|| format!("cannot build a structure for {name}"))?;
+    let iso = if o.mode == Mode::Iso { &o.iso[..] } else { &[] };
+    for v in super::render_checks::check_before(&grid, o.property.as_deref(), iso)? {
+        eprintln!("warning: --iso {v} is outside the property's range: it draws nothing");
+    }
+    let ctx = open(&a.scene.adapter, quiet)?;
+    let mut r = Renderer::new(&ctx)?;
+    r.set_preintegrated(a.scene.preintegrated);
+    let t = Instant::now();
+    let img = r.render_exaggerated(&grid, &s, &o, z_scale)?;
+    let img = if a.legend {
+        super::view::legend_onto(&ctx, &r, &grid, &o, img)?
+    } else {
+        img
+    };
+    let secs = t.elapsed().as_secs_f64();
+    if super::render_checks::is_blank(&img) {
+        eprintln!(
+            "warning: nothing was drawn: every pixel of {} is the background (check --property, --transfer, --iso and --view-dir)",
+            a.output.display()
+        );
+    }
+    stratasweep::io::atomic::write_bytes(&a.output, &img.png()?)
+        .with_context(|| format!("cannot write {}", a.output.display()))?;
+    if !quiet {
+        eprintln!(
+            "{name}: {:?} mode, {} slices, {}x{} in {:.3} s ({} compute dispatches); wrote {}",
+            a.scene.mode,
+            o.slices,
+            o.size.0,
+            o.size.1,
+            secs,
+            r.dispatches(),
+            a.output.display()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,175 @@
+//! `stratasweep slice`: slices and isosurfaces to PLY/VTP with statistics.
+
+use super::checks::{self as cli_checks, Outputs};
+use super::common::*;
+use super::device::*;
+use anyhow::Context;
+use anyhow::Result;
+use anyhow::bail;
+use clap::Args;
+use clap::ValueEnum;
+use std::path::PathBuf;
+use std::time::Instant;
+use stratasweep::io;
+use stratasweep::pipeline::LevelSpec;
+use stratasweep::pipeline::SliceRequest;
+use stratasweep::pipeline::slice;
+use stratasweep::report::flatten_by_cell;
+use stratasweep::report::stats_json;
+use stratasweep::structures::Structure;
+
+#[derive(Args)]
+pub(crate) struct SliceArgs {
+    #[command(flatten)]
+    pub(crate) input: GridArg,
+    #[command(flatten)]
+    pub(crate) field: FieldArgs,
+    #[command(flatten)]
+    pub(crate) levels: LevelArgs,
+    /// Structure to sweep with.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub(crate) structure: StructureArg,
+    /// Spatial blocks swept in parallel (output is identical to 1 thread).
+    #[arg(long, default_value_t = 1)]
+    pub(crate) threads: usize,
+    /// Property interpolated onto the polygons (default: the contoured property, else the first point property).
+    #[arg(long)]
+    pub(crate) attribute: Option<String>,
+    /// Output mesh: .ply (binary) or .vtp (VTK XML PolyData).
+    #[arg(short, long)]
+    pub(crate) output: Option<PathBuf>,
+    /// Statistics JSON.
+    #[arg(long)]
+    pub(crate) stats: Option<PathBuf>,
+    /// Polygon generation: cpu, gpu (CPU sweep, GPU emission; statistics only), auto (gpu if an adapter exists).
+    #[arg(long, value_enum, default_value = "cpu")]
+    pub(crate) device: DeviceArg,
+    /// GPU adapter name (substring); `WGPU_BACKEND` picks backends.
+    #[arg(long)]
+    pub(crate) adapter: Option<String>,
+    /// Where a cell property (--attribute, else --property) is carried:
+    /// `vertices` = volume-weighted average over the cells that really share
+    /// each vertex (never across a fault); `cells` = flat, one value per
+    /// polygon from its source cell (polygon vertices are then not shared).
+    #[arg(long, value_enum, default_value = "vertices")]
+    pub(crate) at: AtArg,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub(crate) enum AtArg {
+    Vertices,
+    Cells,
+}
+
+pub(crate) fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
+    let field = field_spec(&a.field)?;
+    let levels = level_spec(&a.levels)?;
+    cli_checks::check_threads(a.threads)?;
+    let outputs = Outputs::default()
+        .add("-o", a.output.as_deref())
+        .add("--stats", a.stats.as_deref());
+    outputs.check_before(a.input.grid.as_deref(), &[])?;
+    let ext = match &a.output {
+        Some(o) => Some(cli_checks::output_ext("-o", o, &["ply", "vtp"])?),
+        None => None,
+    };
+    let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
+    let t = Instant::now();
+    let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())
+        .with_context(|| format!("cannot build a structure for {name}"))?;
+    let build_s = t.elapsed().as_secs_f64();
+    let nlev = match &levels {
+        LevelSpec::Count(k) => *k,
+        LevelSpec::Values(v) => v.len(),
+    };
+    let blocks = if a.structure == StructureArg::Bruteforce || matches!(s, Structure::Ciel(_)) {
+        1
+    } else {
+        a.threads
+    };
+    let pb = bar(quiet, (nlev * blocks) as u64, "slicing");
+    let req = SliceRequest {
+        field: field.clone(),
+        levels,
+        attribute: a.attribute.clone(),
+        threads: a.threads,
+        brute_force: a.structure == StructureArg::Bruteforce,
+        collect_mesh: a.output.is_some(),
+        sweep: sweep_options_from_env(),
+    };
+    let inc = |n: usize| pb.inc(n as u64);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads)
+        .build()?;
+    let device = match (a.device, &a.output, a.structure) {
+        (DeviceArg::Gpu, Some(_), _) => {
+            bail!("-o needs --device cpu: the GPU path gives statistics and draws, not mesh files")
+        }
+        (DeviceArg::Gpu, _, StructureArg::Bruteforce) => {
+            bail!("--structure bruteforce runs on the CPU only")
+        }
+        (_, Some(_), _) | (_, _, StructureArg::Bruteforce) => DeviceArg::Cpu,
+        // The GPU tables cover S-CGraph and CGraph grids; CIEL grids stay on the CPU.
+        (DeviceArg::Auto, _, _) if matches!(s, Structure::Ciel(_)) => DeviceArg::Cpu,
+        (DeviceArg::Gpu, _, _) if matches!(s, Structure::Ciel(_)) => {
+            bail!(
+                "the GPU path takes S-CGraph and CGraph grids; this grid needs CIEL \
+                 (polyhedra with more than 12 vertices): use --device cpu"
+            )
+        }
+        (d, None, _) => d,
+    };
+    let gpu = pool
+        .install(|| slice_gpu(device, &a.adapter, &grid, &s, &req, quiet))
+        .with_context(|| format!("cannot slice {name} on the GPU"))?;
+    let r = match gpu {
+        Some(r) => r,
+        None => pool
+            .install(|| slice(&grid, &s, &req, &inc))
+            .with_context(|| format!("cannot slice {name}"))?,
+    };
+    pb.finish_and_clear();
+    let stats = stats_json(&r, &s, &grid, load_s, build_s, &name, &field);
+    if let Some(out) = &a.output {
+        let mesh = r.mesh.as_ref().expect("collected");
+        let flat;
+        let mesh = if a.at == AtArg::Cells {
+            let name = a.attribute.clone().or(a.field.property.clone());
+            let Some(p) = name.as_deref().and_then(|n| grid.cell_property(n)) else {
+                bail!("--at cells needs a cell property named by --attribute or --property");
+            };
+            let vals: Vec<f64> = (0..p.len()).map(|i| p.scalar_at(i)).collect();
+            flat = flatten_by_cell(mesh, &vals);
+            &flat
+        } else {
+            mesh
+        };
+        let sp = spinner(quiet, format!("writing {}", out.display()));
+        match ext.as_deref() {
+            Some("ply") => io::writers::write_ply(out, mesh)?,
+            _ => io::writers::write_vtp(out, mesh)?,
+        }
+        sp.finish_and_clear();
+    }
+    if let Some(p) = &a.stats {
+        super::write::write_json(p, &stats)?;
+    }
+    if !quiet {
+        let t = &stats["totals"];
+        eprintln!(
+            "{name}: {} levels, {} cut cells, {} polygons, {} minima; build {:.3}s, minima {:.3}s, sweep {:.3}s ({:.1} M cut cells/s)",
+            nlev,
+            t["cells"],
+            t["polygons"],
+            r.minima,
+            build_s,
+            r.timings.minima,
+            r.timings.sweep,
+            t["cells"].as_f64().unwrap_or(0.0) / r.timings.sweep.max(1e-9) / 1e6
+        );
+        if let Some(o) = &a.output {
+            eprintln!("wrote {}", o.display());
+        }
+    }
+    Ok(())
+}
