@@ -1,6 +1,6 @@
 //! Corner-point (Eclipse) grids: pillars (COORD), corner depths (ZCORN),
 //! active flags (ACTNUM), MAPAXES, and their conversion into the crate's
-//! zoo [`Grid`] (DESIGN §7). No I/O: the readers in `io::grdecl` and
+//! zoo [`Grid`]. No I/O: the readers in `io::grdecl` and
 //! `io::egrid` fill a [`CornerPointGrid`].
 //!
 //! Conventions:

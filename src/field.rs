@@ -156,7 +156,7 @@ pub enum LevelError {
     Empty,
 }
 
-/// Level values `t_k = lo + (k + 0.5)(hi − lo)/K` (DESIGN §9).
+/// Level values `t_k = lo + (k + 0.5)(hi − lo)/K`.
 pub fn levels_by_count(lo: f64, hi: f64, count: usize) -> Vec<f64> {
     (0..count)
         .map(|k| lo + (k as f64 + 0.5) * (hi - lo) / count as f64)

@@ -1,6 +1,6 @@
 //! Meta-cells: everything about one cell *type*, stored once per type, with
 //! marching-polyhedra tables generated automatically from the face
-//! description (DESIGN §4).
+//! description.
 //!
 //! Conventions:
 //! * Configuration code: bit `i` set ⇔ local vertex `i` is *above* the level

@@ -7,6 +7,8 @@
 //! the window are display-space; [`OrbitCamera::view_proj`] takes local
 //! (physical) positions, applying `S` itself.
 
+use glam::camera::rh::proj::directx::{orthographic, perspective};
+use glam::camera::rh::view::look_at_mat4;
 use glam::{Mat4, Vec3};
 
 /// Margin around the projected grid: the window is 5 % wider (or taller)
@@ -248,13 +250,13 @@ impl OrbitCamera {
             let depth = (-eye).dot(self.dir);
             let near = (0.9 * (depth - hz)).max(1e-3 * r);
             let far = 1.1 * (depth + hz);
-            let view = look_at_rh(eye, self.target, u);
-            perspective_rh(fov_y(self.aspect), self.aspect, near, far) * view
+            let view = look_at_mat4(eye, self.target, u);
+            perspective(fov_y(self.aspect), self.aspect, near, far) * view
         } else {
-            let view = look_at_rh(self.eye(), Vec3::ZERO, u);
+            let view = look_at_mat4(self.eye(), Vec3::ZERO, u);
             let (cx, cy) = (self.target.dot(s), self.target.dot(u));
             let (hw, hh) = (self.half_height * self.aspect, self.half_height);
-            let proj = orthographic_rh(cx - hw, cx + hw, cy - hh, cy + hh, 1.5 * r, 4.5 * r);
+            let proj = orthographic(cx - hw, cx + hw, cy - hh, cy + hh, 1.5 * r, 4.5 * r);
             proj * view
         }
     }
@@ -332,44 +334,6 @@ pub fn default_z_scale(lo: [f64; 3], hi: [f64; 3]) -> f64 {
         }
     }
     best
-}
-
-/// Right-handed view matrix looking from `eye` at `at`.
-fn look_at_rh(eye: Vec3, at: Vec3, up: Vec3) -> Mat4 {
-    let f = (at - eye).normalize();
-    let s = f.cross(up).normalize();
-    let u = s.cross(f);
-    Mat4::from_cols(
-        glam::Vec4::new(s.x, u.x, -f.x, 0.0),
-        glam::Vec4::new(s.y, u.y, -f.y, 0.0),
-        glam::Vec4::new(s.z, u.z, -f.z, 0.0),
-        glam::Vec4::new(-s.dot(eye), -u.dot(eye), f.dot(eye), 1.0),
-    )
-}
-
-/// Right-handed perspective projection to wgpu clip space (depth 0..1).
-fn perspective_rh(fov_y: f32, aspect: f32, near: f32, far: f32) -> Mat4 {
-    let h = 1.0 / (0.5 * fov_y).tan();
-    let r = far / (near - far);
-    Mat4::from_cols(
-        glam::Vec4::new(h / aspect, 0.0, 0.0, 0.0),
-        glam::Vec4::new(0.0, h, 0.0, 0.0),
-        glam::Vec4::new(0.0, 0.0, r, -1.0),
-        glam::Vec4::new(0.0, 0.0, r * near, 0.0),
-    )
-}
-
-/// Right-handed orthographic projection to wgpu clip space (depth 0..1).
-fn orthographic_rh(l: f32, r: f32, b: f32, t: f32, near: f32, far: f32) -> Mat4 {
-    let rl = 1.0 / (r - l);
-    let tb = 1.0 / (t - b);
-    let nf = 1.0 / (near - far);
-    Mat4::from_cols(
-        glam::Vec4::new(2.0 * rl, 0.0, 0.0, 0.0),
-        glam::Vec4::new(0.0, 2.0 * tb, 0.0, 0.0),
-        glam::Vec4::new(0.0, 0.0, nf, 0.0),
-        glam::Vec4::new(-(l + r) * rl, -(t + b) * tb, near * nf, 1.0),
-    )
 }
 
 #[cfg(test)]

@@ -631,7 +631,7 @@ pub fn emit_chunked<'c>(
 }
 
 impl GpuEmitter<'_> {
-    /// The GPU-only span-space frame (DESIGN §6): bins every live cell into
+    /// The GPU-only span-space frame: bins every live cell into
     /// the levels it spans on the GPU (`wgsl/bin.wgsl`), then counts, scans
     /// and emits as [`GpuEmitter::run`]. No CPU sweep; returns the number
     /// of (cell, level) entries. `timings.upload` covers the binning.

@@ -1,4 +1,4 @@
-//! The GPU path (DESIGN §5–§6): the cell graphs and meta-cell tables in
+//! The GPU path: the cell graphs and meta-cell tables in
 //! storage buffers, WGSL compute passes that turn the CPU sweep's per-level
 //! active cells into triangles and indirect draw arguments, a CPU twin of
 //! those passes, and slice-based volume rendering.

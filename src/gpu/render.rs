@@ -1,4 +1,4 @@
-//! Volume rendering by slicing (DESIGN §5) and isosurfaces, offscreen.
+//! Volume rendering by slicing and isosurfaces, offscreen.
 //!
 //! Volume and slices modes: the grid is sliced along the world axis most
 //! parallel to the view direction (`argmax |d·e_i|`); the slices' triangles

@@ -182,10 +182,6 @@ impl ControlLayout {
     pub fn bin_total(&self) -> u32 {
         self.total() + 1
     }
-    /// Word of the span-space entry cursor (bin fill pass).
-    pub fn bin_cursor(&self) -> u32 {
-        self.total() + 2
-    }
     /// Total words.
     pub fn words(&self) -> u32 {
         self.total() + 4

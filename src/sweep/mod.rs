@@ -1,4 +1,4 @@
-//! The incremental sweep (DESIGN §3) over any [`CellGraph`]: two queues
+//! The incremental sweep over any [`CellGraph`]: two queues
 //! (active and swept), per-cell step stamps, minima sorted by `(lo, id)` and
 //! cached per axis direction, output into a caller-owned [`LevelMesh`].
 

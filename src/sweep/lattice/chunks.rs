@@ -1,4 +1,4 @@
-//! The lattice loop over 64-cell chunks: the sweep of DESIGN §3 on a
+//! The lattice loop over 64-cell chunks: the sweep (ARCHITECTURE.md) on a
 //! hexahedral [`Lattice`], with 64 cells handled together. A chunk is a
 //! *patch* of `width × height` cells (i × j, `width` one of [`WIDTHS`],
 //! `height = 64 / width`) in one layer, the width picked per block from
