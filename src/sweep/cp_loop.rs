@@ -25,10 +25,10 @@
 //! sharing a vertex guarantees; hence links only between cells that share
 //! a vertex.)
 
+use super::cp_weld::CpWeld;
 use super::lattice::{LatticeQueues, merge_active, pack_active, set_bit};
 use super::{Block, LevelStats, Minimum, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots};
-use super::cp_weld::CpWeld;
-use crate::extract::{EmitContext, LevelMesh, code_of};
+use crate::extract::{EmitContext, LevelMesh, code_of, prefetch};
 use crate::field::ScalarField;
 use crate::metacell::MAX_META_VERTICES;
 use crate::structures::cpgraph::CpGraph;
@@ -147,7 +147,19 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
         let catalog = g.catalog();
         for (x, &e) in active.iter().enumerate() {
             if let Some(&ahead) = active.get(x + 2 * PREFETCH_AHEAD) {
-                g.prefetch_cell((ahead >> 32) as u32, ctx);
+                // The rows the cell ahead reads: positions, attribute, φ
+                // and its vertices' weld entries.
+                let (_, na) = g.cell((ahead >> 32) as u32, &mut nb_ids);
+                for &v in &nb_ids[..na] {
+                    prefetch(ctx.positions, v as usize);
+                    if let Some(a) = ctx.attribute {
+                        prefetch(a, v as usize);
+                    }
+                    if let Some(values) = f.values() {
+                        prefetch(values, v as usize);
+                    }
+                    weld.prefetch(v);
+                }
             }
             let c = (e >> 32) as u32;
             let (m, nv) = g.cell(c, &mut ids);

@@ -15,7 +15,7 @@
 //! output is exactly the hash map's: same vertices, created in the same
 //! order.
 
-use crate::extract::{EmitContext, LevelMesh, decide_faces};
+use crate::extract::{EmitContext, LevelMesh, decide_faces, prefetch};
 use crate::metacell::MetaCell;
 
 /// Output vertex indices must fit in the entries' low bits.
@@ -59,6 +59,12 @@ impl CpWeld {
             self.entries.fill(0);
             self.gen_ = 1;
         }
+    }
+
+    /// Hints the CPU to fetch the entries of edges whose lower end is `v`.
+    #[inline(always)]
+    pub(crate) fn prefetch(&self, v: u32) {
+        prefetch(&self.entries, 3 * v as usize);
     }
 
     /// Entry of edge `ga`–`gb` (`ga < gb`, both vertex ids of the table).
