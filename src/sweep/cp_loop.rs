@@ -4,7 +4,7 @@
 //! `lo < t_k`); a cut cell stays in `A` with the last level that cuts it
 //! packed beside its slot, so later steps keep it without reading φ. A
 //! level's cut cells are emitted in slot order through the catalog
-//! (`emit_cell`, welded by the mesh's edge map).
+//! (welded by [`CpWeld`], the hash map only for the edges it cannot place).
 //!
 //! Completeness. Call `p` a predecessor of `c` when they are linked and
 //! `(lo_p, p) < (lo_c, c)`; a minimum has none (minima are computed on the
@@ -25,9 +25,10 @@
 //! sharing a vertex guarantees; hence links only between cells that share
 //! a vertex.)
 
+use super::cp_weld::CpWeld;
 use super::lattice::{LatticeQueues, merge_active, pack_active, set_bit};
 use super::{Block, LevelStats, Minimum, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots};
-use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell};
+use crate::extract::{EmitContext, LevelMesh, code_of, prefetch};
 use crate::field::ScalarField;
 use crate::metacell::MAX_META_VERTICES;
 use crate::structures::cpgraph::CpGraph;
@@ -86,8 +87,11 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
     let mut ids = [0u32; MAX_META_VERTICES];
     let mut nb_ids = [0u32; MAX_META_VERTICES];
     let mut phi = [0f32; MAX_META_VERTICES];
+    let [nx, ny, _] = g.dims;
+    let mut weld = CpWeld::new(g.positions.len(), (nx + 1) * (ny + 1), nx + 1);
     for (k, &t) in levels.iter().enumerate() {
         mesh.clear();
+        weld.next_level();
         let mut work = std::mem::take(&mut entering[k]);
         radix_sort_slots(&mut work, sort_scratch, start, len);
         fresh.clear();
@@ -143,7 +147,19 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
         let catalog = g.catalog();
         for (x, &e) in active.iter().enumerate() {
             if let Some(&ahead) = active.get(x + 2 * PREFETCH_AHEAD) {
-                g.prefetch_cell((ahead >> 32) as u32, ctx);
+                // The rows the cell ahead reads: positions, attribute, φ
+                // and its vertices' weld entries.
+                let (_, na) = g.cell((ahead >> 32) as u32, &mut nb_ids);
+                for &v in &nb_ids[..na] {
+                    prefetch(ctx.positions, v as usize);
+                    if let Some(a) = ctx.attribute {
+                        prefetch(a, v as usize);
+                    }
+                    if let Some(values) = f.values() {
+                        prefetch(values, v as usize);
+                    }
+                    weld.prefetch(v);
+                }
             }
             let c = (e >> 32) as u32;
             let (m, nv) = g.cell(c, &mut ids);
@@ -151,7 +167,7 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
                 phi[l] = f.phi(ids[l]);
             }
             let code = code_of(&phi[..nv], t);
-            emit_cell(
+            weld.emit_cell(
                 catalog.get(m),
                 &ids[..nv],
                 &phi[..nv],
