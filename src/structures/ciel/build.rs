@@ -18,10 +18,9 @@
 //!    representatives are grouped per origin vertex (CSR, the same counting
 //!    sort), in id order.
 
-use std::sync::atomic::{AtomicU32, Ordering};
-
 use rayon::prelude::*;
 
+use super::link::{Linked, vertex_cycles};
 use super::{
     CONVEXITY_TOLERANCE, Ciel, CielCounts, CielError, FIRST_IN_FACE, LAST_IN_FACE, LOOKUP_SHIFT,
     MAX_CELL_HALF_EDGES, NONE, VERTEX_MASK, structured_as_cells,
@@ -37,15 +36,15 @@ const CHUNK_CELLS: usize = 1024;
 /// its smallest vertex `m` and the two loop neighbours of `m`, sorted;
 /// indexed by [`START`], [`M`], [`LO`], [`HI`] (a plain array, so that the
 /// array of all faces is allocated zeroed, without a fill).
-type FaceRec = [u32; 4];
+pub(super) type FaceRec = [u32; 4];
 /// [`FaceRec`]'s first half-edge.
-const START: usize = 0;
+pub(super) const START: usize = 0;
 /// [`FaceRec`]'s smallest vertex.
-const M: usize = 1;
+pub(super) const M: usize = 1;
 /// [`FaceRec`]'s smaller neighbour of [`M`].
-const LO: usize = 2;
+pub(super) const LO: usize = 2;
 /// [`FaceRec`]'s larger neighbour of [`M`].
-const HI: usize = 3;
+pub(super) const HI: usize = 3;
 
 /// A table reused from cell to cell: each slot carries the generation
 /// that wrote it, so that a new generation empties the table without
@@ -728,17 +727,12 @@ fn repeated_in_face(
     }
 }
 
-/// Checks and orients the loops of one cell held in `s` (see the module
-/// docs of [`super`]); on success `s.ids`/`s.starts` hold the outward loops
-/// and `s.mate` the local `mate_face`. Returns (class, flipped, non-convex).
-fn check_cell(
-    cell: usize,
-    points: &[[f64; 3]],
-    s: &mut Scratch,
-) -> Result<(CellClass, usize, bool), CielError> {
+/// Shape checks of the loops in `s`: faces of fewer than 3 vertices (then
+/// the per-face scan, in face order), else repeated vertices found through
+/// local ids; then duplicate faces.
+#[inline]
+fn shape_checks(cell: usize, s: &mut Scratch) -> Result<(), CielError> {
     let nf = s.starts.len() - 1;
-    // Shape checks: faces of fewer than 3 vertices (then the per-face scan,
-    // in face order), else repeated vertices found through local ids.
     if s.starts.windows(2).any(|w| w[1] - w[0] < 3) {
         for f in 0..nf {
             let face = &s.ids[s.starts[f] as usize..s.starts[f + 1] as usize];
@@ -771,6 +765,67 @@ fn check_cell(
     if face_keys_clash(s) {
         duplicate_faces_sorted(cell, s)?;
     }
+    Ok(())
+}
+
+/// Convexity: whether some vertex lies more than [`CONVEXITY_TOLERANCE`] ×
+/// `ext` outside a face plane (or a face has a zero normal), on the
+/// outward loops and the vertex positions (relative to the first) in `s`.
+#[inline]
+fn is_non_convex(s: &mut Scratch, ext: f64) -> bool {
+    let mut non_convex = false;
+    for (k, col) in s.xyz.iter_mut().enumerate() {
+        col.clear();
+        col.extend(s.pts.iter().map(|p| p[k]));
+    }
+    'faces: for w in s.starts.windows(2) {
+        let face = &s.lid[w[0] as usize..w[1] as usize];
+        let mut nrm = [0.0; 3];
+        let mut c = [0.0; 3];
+        for (k, &l) in face.iter().enumerate() {
+            let a = s.pts[l as usize];
+            let b = s.pts[face[if k + 1 == face.len() { 0 } else { k + 1 }] as usize];
+            nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
+            nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
+            nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
+            for d in 0..3 {
+                c[d] += a[d];
+            }
+        }
+        let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
+        if len == 0.0 {
+            non_convex = true;
+            break;
+        }
+        let inv = 1.0 / face.len() as f64;
+        let d0 = (nrm[0] * c[0] + nrm[1] * c[1] + nrm[2] * c[2]) * inv;
+        let tol = CONVEXITY_TOLERANCE * ext * len;
+        // Counted without an early exit so that the loop vectorises.
+        let [xs, ys, zs] = &s.xyz;
+        let n = xs.len();
+        let (ys, zs) = (&ys[..n], &zs[..n]);
+        let mut outside = 0u32;
+        for i in 0..n {
+            outside += (nrm[0] * xs[i] + nrm[1] * ys[i] + nrm[2] * zs[i] - d0 > tol) as u32;
+        }
+        if outside > 0 {
+            non_convex = true;
+            break 'faces;
+        }
+    }
+    non_convex
+}
+
+/// Checks and orients the loops of one cell held in `s` (see the module
+/// docs of [`super`]); on success `s.ids`/`s.starts` hold the outward loops
+/// and `s.mate` the local `mate_face`. Returns (class, flipped, non-convex).
+fn check_cell(
+    cell: usize,
+    points: &[[f64; 3]],
+    s: &mut Scratch,
+) -> Result<(CellClass, usize, bool), CielError> {
+    let nf = s.starts.len() - 1;
+    shape_checks(cell, s)?;
     pair_edges(cell, s)?;
     let mut flipped = orient(cell, s)?;
     if flipped > 0 {
@@ -819,47 +874,7 @@ fn check_cell(
     if flipped > 0 {
         pair_edges(cell, s)?;
     }
-    // Convexity: every vertex on the inner side of every face plane.
-    let mut non_convex = false;
-    for (k, col) in s.xyz.iter_mut().enumerate() {
-        col.clear();
-        col.extend(s.pts.iter().map(|p| p[k]));
-    }
-    'faces: for w in s.starts.windows(2) {
-        let face = &s.lid[w[0] as usize..w[1] as usize];
-        let mut nrm = [0.0; 3];
-        let mut c = [0.0; 3];
-        for (k, &l) in face.iter().enumerate() {
-            let a = s.pts[l as usize];
-            let b = s.pts[face[if k + 1 == face.len() { 0 } else { k + 1 }] as usize];
-            nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
-            nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
-            nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
-            for d in 0..3 {
-                c[d] += a[d];
-            }
-        }
-        let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
-        if len == 0.0 {
-            non_convex = true;
-            break;
-        }
-        let inv = 1.0 / face.len() as f64;
-        let d0 = (nrm[0] * c[0] + nrm[1] * c[1] + nrm[2] * c[2]) * inv;
-        let tol = CONVEXITY_TOLERANCE * ext * len;
-        // Counted without an early exit so that the loop vectorises.
-        let [xs, ys, zs] = &s.xyz;
-        let n = xs.len();
-        let (ys, zs) = (&ys[..n], &zs[..n]);
-        let mut outside = 0u32;
-        for i in 0..n {
-            outside += (nrm[0] * xs[i] + nrm[1] * ys[i] + nrm[2] * zs[i] - d0 > tol) as u32;
-        }
-        if outside > 0 {
-            non_convex = true;
-            break 'faces;
-        }
-    }
+    let non_convex = is_non_convex(s, ext);
     // mate_face: after orientation every edge is used both ways.
     if let Some(&(_, h2, _)) = s.pairs.iter().find(|p| p.2) {
         // Cannot happen after propagation; reported rather than trusted.
@@ -945,55 +960,158 @@ fn build_chunk(
     Ok(out)
 }
 
-/// Is `h` the smallest half-edge id of its fan?
-#[inline]
-fn is_rep(h: u32, mate_face: &[i16], mate_cell: &[u32]) -> bool {
-    let mf = |x: u32| (x as i64 + mate_face[x as usize] as i64) as u32;
-    let limit = mate_cell.len();
-    let mut x = h;
-    let mut n = 0;
-    loop {
-        let y = mate_cell[mf(x) as usize];
-        if y == h {
-            return true;
+/// The cells of the `k`-th chunk of `n` cells.
+fn chunk_range(k: usize, n: usize) -> std::ops::Range<usize> {
+    k * CHUNK_CELLS..((k + 1) * CHUNK_CELLS).min(n)
+}
+
+/// The per-cell phase's output: the final arrays and the counts.
+struct CellPhase {
+    origins: Vec<u32>,
+    mate_face: Vec<i16>,
+    cell_start: Vec<u32>,
+    faces: Vec<FaceRec>,
+    counts: CielCounts,
+    non_convex_cells: Vec<u32>,
+}
+
+impl CellPhase {
+    /// 1. Per chunk of cells, in parallel, straight into the final arrays
+    /// at offsets from the exact per-cell bounds; the first error in cell
+    /// order wins. 2. The gaps closed ([`CellPhase::close_gaps`]).
+    fn run(
+        cells: &Cells,
+        catalog: &Catalog,
+        prisms: &[(u8, u16)],
+        points: &[[f64; 3]],
+        hidden: Option<&[bool]>,
+    ) -> Result<Self, CielError> {
+        let n = cells.len();
+        let nchunks = n.div_ceil(CHUNK_CELLS);
+        let bounds: Vec<(usize, usize)> = (0..nchunks)
+            .into_par_iter()
+            .map(|k| {
+                chunk_range(k, n).fold((0, 0), |(h, f), c| {
+                    let (ch, cf) = cell_bounds(cells, c, catalog, prisms, hidden);
+                    (h + ch, f + cf)
+                })
+            })
+            .collect();
+        let he_bound: usize = bounds.iter().map(|b| b.0).sum();
+        let face_bound: usize = bounds.iter().map(|b| b.1).sum();
+        if he_bound >= (1usize << 31) - 1 {
+            return Err(CielError::TooLarge(format!("{he_bound} half-edges")));
         }
-        if y == NONE {
-            break;
+        let mut phase = CellPhase {
+            origins: vec![0u32; he_bound],
+            mate_face: vec![0i16; he_bound],
+            cell_start: vec![0u32; n + 1],
+            faces: vec![[0; 4]; face_bound],
+            counts: CielCounts::default(),
+            non_convex_cells: Vec::new(),
+        };
+        let he_lens: Vec<usize> = bounds.iter().map(|b| b.0).collect();
+        let face_lens: Vec<usize> = bounds.iter().map(|b| b.1).collect();
+        let cell_lens: Vec<usize> = (0..nchunks).map(|k| chunk_range(k, n).len()).collect();
+        let mut he_bases = Vec::with_capacity(nchunks);
+        let mut acc = 0usize;
+        for &l in &he_lens {
+            he_bases.push(acc);
+            acc += l;
         }
-        if y < h {
-            return false;
-        }
-        x = y;
-        n += 1;
-        if n > limit {
-            return true;
-        }
+        let parts: Vec<ChunkParts> = split_lengths(&mut phase.origins, &he_lens)
+            .into_iter()
+            .zip(split_lengths(&mut phase.mate_face, &he_lens))
+            .zip(split_lengths(&mut phase.faces, &face_lens))
+            .zip(split_lengths(&mut phase.cell_start[..n], &cell_lens))
+            .zip(&he_bases)
+            .map(|((((o, m), f), c), &base)| ChunkParts {
+                base: base as u32,
+                origins: o,
+                mate_face: m,
+                faces: f,
+                cell_start: c,
+            })
+            .collect();
+        let chunks: Vec<Result<ChunkOut, CielError>> = parts
+            .into_par_iter()
+            .enumerate()
+            .map(|(k, p)| build_chunk(chunk_range(k, n), cells, catalog, prisms, points, hidden, p))
+            .collect();
+        let chunks: Vec<ChunkOut> = chunks.into_iter().collect::<Result<_, _>>()?;
+        phase.close_gaps(&chunks, &he_bases, &face_lens)?;
+        phase.tally(&chunks);
+        Ok(phase)
     }
-    // Open fan: the other way from h.
-    let mut x = h;
-    loop {
-        let mc = mate_cell[x as usize];
-        if mc == NONE {
-            return true;
+
+    /// Closes the gaps left by cells found dead (rare): chunks slide down
+    /// in order, their face and cell starts shifted with them.
+    fn close_gaps(
+        &mut self,
+        chunks: &[ChunkOut],
+        he_bases: &[usize],
+        face_lens: &[usize],
+    ) -> Result<(), CielError> {
+        let n = self.cell_start.len() - 1;
+        let mut total = 0usize;
+        let mut nfaces = 0usize;
+        let mut face_base = 0usize;
+        for (k, ch) in chunks.iter().enumerate() {
+            let (hb, fb) = (he_bases[k], face_base);
+            face_base += face_lens[k];
+            if hb != total || fb != nfaces {
+                let shift = (hb - total) as u32;
+                self.origins.copy_within(hb..hb + ch.half_edges, total);
+                self.mate_face.copy_within(hb..hb + ch.half_edges, total);
+                self.faces.copy_within(fb..fb + ch.faces, nfaces);
+                for f in &mut self.faces[nfaces..nfaces + ch.faces] {
+                    f[START] -= shift;
+                }
+                for s in &mut self.cell_start[chunk_range(k, n)] {
+                    *s -= shift;
+                }
+            }
+            total += ch.half_edges;
+            nfaces += ch.faces;
         }
-        x = mf(mc);
-        if x < h {
-            return false;
+        self.origins.truncate(total);
+        self.mate_face.truncate(total);
+        self.faces.truncate(nfaces);
+        if total == 0 {
+            return Err(CielError::NoCells);
         }
-        n += 1;
-        if n > limit {
-            return true;
+        self.cell_start[n] = total as u32;
+        Ok(())
+    }
+
+    /// Sums the chunks' counts and gathers their non-convex cells.
+    fn tally(&mut self, chunks: &[ChunkOut]) {
+        let counts = &mut self.counts;
+        for ch in chunks {
+            for k in 0..5 {
+                counts.class_counts[k] += ch.class_counts[k];
+            }
+            counts.hidden += ch.hidden;
+            counts.flipped_faces += ch.flipped;
+            counts.non_convex += ch.non_convex.len();
+            self.non_convex_cells.extend_from_slice(&ch.non_convex);
         }
+        counts.faces = self.faces.len();
     }
 }
 
-/// Cell and face index (within the cell) of global half-edge `h`, for errors.
-fn locate(cell_start: &[u32], origins: &[u32], h: u32) -> (usize, usize) {
-    let c = cell_start.partition_point(|&s| s <= h) - 1;
-    let f = (cell_start[c]..=h)
-        .filter(|&x| origins[x as usize] & FIRST_IN_FACE != 0)
-        .count();
-    (c, f.saturating_sub(1))
+/// Per block of `1 << LOOKUP_SHIFT` half-edges, the cell of its first.
+fn cell_lookup(cell_start: &[u32], total: usize) -> Vec<u32> {
+    let mut cell_lookup = Vec::with_capacity((total >> LOOKUP_SHIFT) + 1);
+    let mut c = 0usize;
+    for b in 0..=((total - 1) >> LOOKUP_SHIFT) {
+        let h = (b << LOOKUP_SHIFT) as u32;
+        while cell_start[c + 1] <= h {
+            c += 1;
+        }
+        cell_lookup.push(c as u32);
+    }
+    cell_lookup
 }
 
 impl Ciel {
@@ -1014,240 +1132,35 @@ impl Ciel {
                 &structured_cells
             }
         };
-        let n = cells.len();
         // Prism meta-cells only when the grid has prisms.
         let prisms: Vec<(u8, u16)> = [vtk_type::PENTAGONAL_PRISM, vtk_type::HEXAGONAL_PRISM]
             .iter()
             .filter(|&&t| cells.types.contains(&t))
             .filter_map(|&t| catalog.for_vtk_type(t).map(|m| (t, m)))
             .collect();
-        // 1. Per chunk of cells, in parallel, straight into the final
-        //    arrays at offsets from the exact per-cell bounds; the first
-        //    error in cell order wins.
-        let nchunks = n.div_ceil(CHUNK_CELLS);
-        let chunk_range = |k: usize| k * CHUNK_CELLS..((k + 1) * CHUNK_CELLS).min(n);
-        let bounds: Vec<(usize, usize)> = (0..nchunks)
-            .into_par_iter()
-            .map(|k| {
-                chunk_range(k).fold((0, 0), |(h, f), c| {
-                    let (ch, cf) = cell_bounds(cells, c, &catalog, &prisms, hidden);
-                    (h + ch, f + cf)
-                })
-            })
-            .collect();
-        let he_bound: usize = bounds.iter().map(|b| b.0).sum();
-        let face_bound: usize = bounds.iter().map(|b| b.1).sum();
-        if he_bound >= (1usize << 31) - 1 {
-            return Err(CielError::TooLarge(format!("{he_bound} half-edges")));
-        }
-        let mut origins = vec![0u32; he_bound];
-        let mut mate_face = vec![0i16; he_bound];
-        let mut cell_start = vec![0u32; n + 1];
-        let mut faces: Vec<FaceRec> = vec![[0; 4]; face_bound];
-        let he_lens: Vec<usize> = bounds.iter().map(|b| b.0).collect();
-        let face_lens: Vec<usize> = bounds.iter().map(|b| b.1).collect();
-        let cell_lens: Vec<usize> = (0..nchunks).map(|k| chunk_range(k).len()).collect();
-        let mut he_bases = Vec::with_capacity(nchunks);
-        let mut acc = 0usize;
-        for &l in &he_lens {
-            he_bases.push(acc);
-            acc += l;
-        }
-        let parts: Vec<ChunkParts> = split_lengths(&mut origins, &he_lens)
-            .into_iter()
-            .zip(split_lengths(&mut mate_face, &he_lens))
-            .zip(split_lengths(&mut faces, &face_lens))
-            .zip(split_lengths(&mut cell_start[..n], &cell_lens))
-            .zip(&he_bases)
-            .map(|((((o, m), f), c), &base)| ChunkParts {
-                base: base as u32,
-                origins: o,
-                mate_face: m,
-                faces: f,
-                cell_start: c,
-            })
-            .collect();
-        let chunks: Vec<Result<ChunkOut, CielError>> = parts
-            .into_par_iter()
-            .enumerate()
-            .map(|(k, p)| build_chunk(chunk_range(k), cells, &catalog, &prisms, points, hidden, p))
-            .collect();
-        let chunks: Vec<ChunkOut> = chunks.into_iter().collect::<Result<_, _>>()?;
-        // 2. Close the gaps left by cells found dead (rare): chunks slide
-        //    down in order, their face and cell starts shifted with them.
-        let mut total = 0usize;
-        let mut nfaces = 0usize;
-        let mut face_base = 0usize;
-        for (k, ch) in chunks.iter().enumerate() {
-            let (hb, fb) = (he_bases[k], face_base);
-            face_base += face_lens[k];
-            if hb != total || fb != nfaces {
-                let shift = (hb - total) as u32;
-                origins.copy_within(hb..hb + ch.half_edges, total);
-                mate_face.copy_within(hb..hb + ch.half_edges, total);
-                faces.copy_within(fb..fb + ch.faces, nfaces);
-                for f in &mut faces[nfaces..nfaces + ch.faces] {
-                    f[START] -= shift;
-                }
-                for s in &mut cell_start[chunk_range(k)] {
-                    *s -= shift;
-                }
-            }
-            total += ch.half_edges;
-            nfaces += ch.faces;
-        }
-        origins.truncate(total);
-        mate_face.truncate(total);
-        faces.truncate(nfaces);
-        if total == 0 {
-            return Err(CielError::NoCells);
-        }
-        let mut counts = CielCounts::default();
-        let mut non_convex_cells = Vec::new();
-        for ch in &chunks {
-            for k in 0..5 {
-                counts.class_counts[k] += ch.class_counts[k];
-            }
-            counts.hidden += ch.hidden;
-            counts.flipped_faces += ch.flipped;
-            counts.non_convex += ch.non_convex.len();
-            non_convex_cells.extend_from_slice(&ch.non_convex);
-        }
-        drop(chunks);
-        cell_start[n] = total as u32;
-        counts.faces = nfaces;
+        let CellPhase {
+            origins,
+            mate_face,
+            cell_start,
+            faces,
+            mut counts,
+            non_convex_cells,
+        } = CellPhase::run(cells, &catalog, &prisms, points, hidden)?;
+        let total = origins.len();
         // 3. mate_cell: faces bucketed by smallest vertex (counting sort).
-        let (bstart, bucket) = group_by_key(np, &FacesByVertex(&faces));
-        let face_end = |i: usize| faces.get(i + 1).map_or(total as u32, |g| g[START]);
-        let mate_cell: Vec<AtomicU32> = (0..total)
-            .into_par_iter()
-            .map(|_| AtomicU32::new(NONE))
-            .collect();
-        let org = |h: u32| origins[h as usize] & VERTEX_MASK;
-        let vchunk = 4096usize;
-        let results: Vec<Result<(), CielError>> = (0..np.div_ceil(vchunk))
-            .into_par_iter()
-            .map(|k| {
-                let mut group: Vec<(u32, u32, u32)> = Vec::new();
-                for v in k * vchunk..((k + 1) * vchunk).min(np) {
-                    let b = &bucket[bstart[v] as usize..bstart[v + 1] as usize];
-                    if b.len() < 2 {
-                        continue;
-                    }
-                    group.clear();
-                    group.extend(b.iter().map(|&i| {
-                        let f = &faces[i as usize];
-                        (f[LO], f[HI], i)
-                    }));
-                    group.sort_unstable();
-                    let mut i = 0;
-                    while i < group.len() {
-                        let mut j = i + 1;
-                        while j < group.len() && group[j].0 == group[i].0 && group[j].1 == group[i].1
-                        {
-                            j += 1;
-                        }
-                        let g = &group[i..j];
-                        i = j;
-                        if g.len() < 2 {
-                            continue;
-                        }
-                        let loop_of = |i: u32| -> std::ops::Range<u32> {
-                            faces[i as usize][START]..face_end(i as usize)
-                        };
-                        // (Two faces of one cell never match: per-cell
-                        // duplicates are rejected before.)
-                        if g.len() == 2 && try_mate(loop_of(g[0].2), loop_of(g[1].2), org, &mate_cell)
-                        {
-                            continue;
-                        }
-                        // General case: group the faces by vertex set.
-                        let mut sets: Vec<(Vec<u32>, u32)> = g
-                            .iter()
-                            .map(|x| {
-                                let r = loop_of(x.2);
-                                let mut s: Vec<u32> = r.clone().map(org).collect();
-                                s.sort_unstable();
-                                (s, x.2)
-                            })
-                            .collect();
-                        sets.sort();
-                        let mut a = 0;
-                        while a < sets.len() {
-                            let mut b = a + 1;
-                            while b < sets.len() && sets[b].0 == sets[a].0 {
-                                b += 1;
-                            }
-                            let bad = |f: u32, why: String| {
-                                let (cell, face) =
-                                    locate(&cell_start, &origins, faces[f as usize][START]);
-                                CielError::BadSharedFace { cell, face, why }
-                            };
-                            match b - a {
-                                1 => {}
-                                2 => {
-                                    let (f, h) = (sets[a].1, sets[a + 1].1);
-                                    if !try_mate(loop_of(f), loop_of(h), org, &mate_cell) {
-                                        let (oc, of) =
-                                            locate(&cell_start, &origins, faces[h as usize][START]);
-                                        return Err(bad(
-                                            f,
-                                            format!(
-                                                "shared with cell {oc} (face {of}) in the same direction or another vertex order"
-                                            ),
-                                        ));
-                                    }
-                                }
-                                k => {
-                                    return Err(bad(sets[a].1, format!("face shared by {k} cells")));
-                                }
-                            }
-                            a = b;
-                        }
-                    }
-                }
-                Ok(())
-            })
-            .collect();
-        for r in results {
-            r?;
+        let mate_cell = Linked {
+            faces: &faces,
+            origins: &origins,
+            cell_start: &cell_start,
+            total,
         }
-        drop(bucket);
-        drop(bstart);
+        .mate_cells(np)?;
         drop(faces);
-        let mate_cell: Vec<u32> = mate_cell.into_iter().map(AtomicU32::into_inner).collect();
         counts.border_half_edges = mate_cell.par_iter().filter(|&&m| m == NONE).count();
         // 4. Vertex cycles: representatives (smallest id of each fan), CSR by origin.
-        let words = total.div_ceil(64);
-        let rep_bits: Vec<u64> = (0..words)
-            .into_par_iter()
-            .map(|w| {
-                let mut bits = 0u64;
-                for b in 0..64 {
-                    let h = w * 64 + b;
-                    if h < total && is_rep(h as u32, &mate_face, &mate_cell) {
-                        bits |= 1 << b;
-                    }
-                }
-                bits
-            })
-            .collect();
-        let reps_by_origin = RepsByOrigin {
-            bits: &rep_bits,
-            origins: &origins,
-        };
-        let (vertex_start, vertex_edges) = group_by_key(np, &reps_by_origin);
-        let reps = vertex_edges.len();
-        counts.edges = reps / 2;
-        let mut cell_lookup = Vec::with_capacity((total >> LOOKUP_SHIFT) + 1);
-        let mut c = 0usize;
-        for b in 0..=((total - 1) >> LOOKUP_SHIFT) {
-            let h = (b << LOOKUP_SHIFT) as u32;
-            while cell_start[c + 1] <= h {
-                c += 1;
-            }
-            cell_lookup.push(c as u32);
-        }
+        let (vertex_start, vertex_edges) = vertex_cycles(np, &origins, &mate_face, &mate_cell);
+        counts.edges = vertex_edges.len() / 2;
+        let cell_lookup = cell_lookup(&cell_start, total);
         Ok(Ciel {
             origin: grid.origin(),
             positions: grid.rebased_positions(),
@@ -1262,165 +1175,6 @@ impl Ciel {
             counts,
         })
     }
-}
-
-/// Items with keys, visited by ranges of units (see [`group_by_key`]).
-trait KeyedItems: Sync {
-    /// Units to split among tasks (items, or words of a bit set of items).
-    fn units(&self) -> usize;
-    /// Calls `f(item, key)` for the items of units `r`, in increasing item order.
-    fn each(&self, r: std::ops::Range<usize>, f: impl FnMut(u32, u32));
-}
-
-/// Faces keyed by their smallest vertex.
-struct FacesByVertex<'a>(&'a [FaceRec]);
-
-impl KeyedItems for FacesByVertex<'_> {
-    fn units(&self) -> usize {
-        self.0.len()
-    }
-    fn each(&self, r: std::ops::Range<usize>, mut f: impl FnMut(u32, u32)) {
-        for i in r.clone() {
-            f(i as u32, self.0[i][M]);
-        }
-    }
-}
-
-/// Representative half-edges (a bit set, 64 per word) keyed by origin.
-struct RepsByOrigin<'a> {
-    bits: &'a [u64],
-    origins: &'a [u32],
-}
-
-impl KeyedItems for RepsByOrigin<'_> {
-    fn units(&self) -> usize {
-        self.bits.len()
-    }
-    fn each(&self, r: std::ops::Range<usize>, mut f: impl FnMut(u32, u32)) {
-        for w in r {
-            let mut b = self.bits[w];
-            while b != 0 {
-                let h = w * 64 + b.trailing_zeros() as usize;
-                b &= b - 1;
-                f(h as u32, self.origins[h] & VERTEX_MASK);
-            }
-        }
-    }
-}
-
-/// Items grouped by key, as a stable counting sort run in parallel: unit
-/// ranges are counted per key, each range's offsets follow from a prefix
-/// sum over keys (in key blocks), then each range places its items. Returns
-/// `start` (`keys + 1` offsets) and the item ids, increasing within each
-/// key.
-fn group_by_key(keys: usize, items: &impl KeyedItems) -> (Vec<u32>, Vec<u32>) {
-    let units = items.units();
-    let parts = rayon::current_num_threads()
-        .clamp(1, 8)
-        .min(units.div_ceil(1 << 14).max(1));
-    let range = |t: usize| t * units / parts..(t + 1) * units / parts;
-    let mut offsets: Vec<Vec<u32>> = (0..parts)
-        .into_par_iter()
-        .map(|t| {
-            let mut count = vec![0u32; keys];
-            items.each(range(t), |_, k| count[k as usize] += 1);
-            count
-        })
-        .collect();
-    const BLOCK: usize = 1 << 14;
-    let block_totals: Vec<u32> = (0..keys.div_ceil(BLOCK))
-        .into_par_iter()
-        .map(|b| {
-            let r = b * BLOCK..((b + 1) * BLOCK).min(keys);
-            offsets
-                .iter()
-                .map(|c| c[r.clone()].iter().sum::<u32>())
-                .sum()
-        })
-        .collect();
-    let mut acc = 0u32;
-    let block_bases: Vec<u32> = block_totals
-        .iter()
-        .map(|&t| {
-            let b = acc;
-            acc += t;
-            b
-        })
-        .collect();
-    let total = acc;
-    let mut start = vec![0u32; keys + 1];
-    let mut per_block: Vec<Vec<&mut [u32]>> = block_bases.iter().map(|_| Vec::new()).collect();
-    for c in offsets.iter_mut() {
-        for (b, s) in c.chunks_mut(BLOCK).enumerate() {
-            per_block[b].push(s);
-        }
-    }
-    per_block
-        .into_par_iter()
-        .zip(start[..keys].par_chunks_mut(BLOCK))
-        .zip(block_bases)
-        .for_each(|((mut counts, st), mut acc)| {
-            for (i, s) in st.iter_mut().enumerate() {
-                *s = acc;
-                for c in counts.iter_mut() {
-                    let n = c[i];
-                    c[i] = acc;
-                    acc += n;
-                }
-            }
-        });
-    start[keys] = total;
-    let out: Vec<AtomicU32> = (0..total as usize)
-        .into_par_iter()
-        .map(|_| AtomicU32::new(0))
-        .collect();
-    offsets
-        .into_par_iter()
-        .enumerate()
-        .for_each(|(t, mut next)| {
-            items.each(range(t), |i, k| {
-                let slot = &mut next[k as usize];
-                out[*slot as usize].store(i, Ordering::Relaxed);
-                *slot += 1;
-            });
-        });
-    (start, out.into_iter().map(AtomicU32::into_inner).collect())
-}
-
-/// Mates the half-edges of loops `f` and `g` (global half-edge ranges) if
-/// `g` is `f` reversed; returns whether it did.
-fn try_mate(
-    f: std::ops::Range<u32>,
-    g: std::ops::Range<u32>,
-    org: impl Fn(u32) -> u32,
-    mate_cell: &[AtomicU32],
-) -> bool {
-    let len = f.end - f.start;
-    if g.end - g.start != len {
-        return false;
-    }
-    let v0 = org(f.start);
-    let Some(j0) = (g.start..g.end).position(|h| org(h) == v0) else {
-        return false;
-    };
-    let j0 = j0 as u32;
-    // Reversed: g[j0 - i] == f[i].
-    let mut j = j0;
-    for i in 0..len {
-        if org(g.start + j) != org(f.start + i) {
-            return false;
-        }
-        j = if j == 0 { len - 1 } else { j - 1 };
-    }
-    // f_i (f[i] → f[i+1]) mates g's half-edge from f[i+1] to f[i], at j0 - i - 1.
-    let mut j = if j0 == 0 { len - 1 } else { j0 - 1 };
-    for i in 0..len {
-        let (fi, gi) = (f.start + i, g.start + j);
-        mate_cell[fi as usize].store(gi, Ordering::Relaxed);
-        mate_cell[gi as usize].store(fi, Ordering::Relaxed);
-        j = if j == 0 { len - 1 } else { j - 1 };
-    }
-    true
 }
 
 #[cfg(test)]

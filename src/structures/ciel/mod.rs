@@ -60,6 +60,7 @@ use crate::grid::{Cells, hex_corner_offsets, vtk_type};
 use crate::structures::StructureError;
 
 mod build;
+mod link;
 mod sweep;
 
 pub(crate) use build::polyhedron_faces;
