@@ -976,9 +976,9 @@ struct CellPhase {
 }
 
 impl CellPhase {
-    /// 1. Per chunk of cells, in parallel, straight into the final arrays
-    /// at offsets from the exact per-cell bounds; the first error in cell
-    /// order wins. 2. The gaps closed ([`CellPhase::close_gaps`]).
+    /// Per chunk of cells, in parallel, straight into the final arrays at
+    /// offsets from the exact per-cell bounds (the first error in cell order
+    /// wins); then the gaps closed ([`CellPhase::close_gaps`]).
     fn run(
         cells: &Cells,
         catalog: &Catalog,
