@@ -4,7 +4,7 @@
 //! A polyhedral cell (`VTK_POLYHEDRON`) is *non-convex* when, with its faces
 //! oriented outward, some vertex lies more than [`CONVEXITY_TOLERANCE`] ×
 //! its extent outside a face plane (the test the CIEL build counts with,
-//! read through `ciel::polyhedron_faces`; non-planar faces are caught too). Such a cell is replaced by
+//! read through `polyhedron::polyhedron_faces`; non-planar faces are caught too). Such a cell is replaced by
 //! pieces coned from one interior point `p` of the cell:
 //!
 //! - each face that is planar and convex (within tolerance) becomes the base
@@ -47,7 +47,7 @@ use crate::extract::EmitContext;
 use crate::field::ScalarField;
 use crate::grid::{Grid, Property};
 use crate::metacell::{Catalog, MAX_META_VERTICES};
-use crate::structures::ciel::CONVEXITY_TOLERANCE;
+use crate::structures::polyhedron::CONVEXITY_TOLERANCE;
 use crate::sweep::{CellGraph, Lattice};
 use split::split_with;
 

@@ -14,8 +14,8 @@ use super::{
     sub,
 };
 use crate::grid::{Cells, Grid, Property, Topology, is_lower_dimensional, vtk_type};
-use crate::structures::ciel::{CONVEXITY_TOLERANCE, polyhedron_faces};
 use crate::structures::is_sweepable;
+use crate::structures::polyhedron::{CONVEXITY_TOLERANCE, polyhedron_faces};
 
 /// A non-convex polyhedron to split: its cell and its faces, oriented
 /// outward.
