@@ -410,14 +410,6 @@ impl Ciel {
         self.cell_start[c as usize]..self.cell_start[c as usize + 1]
     }
 
-    /// Calls `f` with the representative half-edges around vertex `v`.
-    #[inline(always)]
-    pub fn for_each_around_vertex(&self, v: u32, mut f: impl FnMut(u32)) {
-        for &h in self.around_vertex(v) {
-            f(h);
-        }
-    }
-
     /// Calls `f` with every half-edge of the fan of `h` (one per cell
     /// around that edge, each once for a manifold fan).
     #[inline(always)]

@@ -303,38 +303,7 @@ fn newell_by(len: usize, pt: impl Fn(usize) -> [f64; 3]) -> [f64; 3] {
     n
 }
 
-type P3 = [f64; 3];
-
-fn sub(a: P3, b: P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn add(a: P3, b: P3) -> P3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn scale(a: P3, s: f64) -> P3 {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-fn dot(a: P3, b: P3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: P3, b: P3) -> P3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn norm(a: P3) -> f64 {
-    dot(a, a).sqrt()
-}
-fn mean(pts: impl ExactSizeIterator<Item = P3>) -> P3 {
-    let n = pts.len() as f64;
-    let mut m = [0.0; 3];
-    for p in pts {
-        m = add(m, p);
-    }
-    scale(m, 1.0 / n)
-}
+use crate::vec3::{P3, add, cross, dot, mean, norm, scale, sub};
 
 /// A face loop rotated to start at its smallest id, in the direction whose
 /// second vertex is the smaller neighbour; and whether `face` runs in that

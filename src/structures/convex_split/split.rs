@@ -8,14 +8,14 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 
 use super::{
-    Element, FacePlan, FaceTable, P3, SplitError, SplitGrid, SplitMap, SplitReport, Star, add,
-    canonical, canonical_at, canonical_start, cone_volume, cross, dot, ear_clip, element_plane,
-    extend_point_property, face_is_bad, fan_point, gather_tuples, kernel_point, mean, norm, scale,
-    sub,
+    Element, FacePlan, FaceTable, SplitError, SplitGrid, SplitMap, SplitReport, Star, canonical,
+    canonical_at, canonical_start, cone_volume, ear_clip, element_plane, extend_point_property,
+    face_is_bad, fan_point, gather_tuples, kernel_point,
 };
 use crate::grid::{Cells, Grid, Property, Topology, is_lower_dimensional, vtk_type};
 use crate::structures::is_sweepable;
 use crate::structures::polyhedron::{CONVEXITY_TOLERANCE, polyhedron_faces};
+use crate::vec3::{P3, add, cross, dot, mean, norm, scale, sub};
 
 /// A non-convex polyhedron to split: its cell and its faces, oriented
 /// outward.
