@@ -28,4 +28,5 @@ pub mod py;
 pub mod report;
 pub mod structures;
 pub mod sweep;
+pub(crate) mod vec3;
 pub mod voronoi;

@@ -17,6 +17,7 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 
 use crate::grid::{Cells, Grid, Property, Topology};
+use crate::vec3::{dot, sub};
 
 /// A polyhedron vertex: position and the three planes through it.
 #[derive(Clone, Copy, Debug)]
@@ -30,13 +31,6 @@ struct Vert {
 struct Poly {
     verts: Vec<Vert>,
     faces: Vec<(u32, Vec<u32>)>,
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// The unit box with plane ids `base + face` (−x, +x, −y, +y, −z, +z).

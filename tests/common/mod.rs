@@ -199,3 +199,177 @@ fn is_boundary_face(b: &[u32], dims: [usize; 3]) -> bool {
         c.iter().all(|&x| x == 0) || c.iter().all(|&x| x == lim)
     })
 }
+
+/// A random polyhedral grid: a jittered structured grid whose hexahedra are
+/// grouped into 2×2×1 blocks (18-vertex, 16-face polyhedra, beyond the
+/// catalog), with the rest as single hexahedra given either as typed cells
+/// or as 6-face polyhedra; holes hidden by the ghost array.
+pub fn polyhedral(n: [usize; 3], jitter: f64, holes: f64, rng: &mut Rng) -> Grid {
+    let s = structured(n, jitter, holes, rng);
+    let Topology::Structured { dims } = s.topology else {
+        unreachable!()
+    };
+    let (npi, npj) = (dims[0], dims[1]);
+    let pid = |i: usize, j: usize, k: usize| (i + j * npi + k * npi * npj) as u32;
+    let hidden_in = s.hidden_cells();
+    let cid = |i: usize, j: usize, k: usize| i + j * n[0] + k * n[0] * n[1];
+    let is_hidden = |i, j, k| hidden_in.as_ref().is_some_and(|h| h[cid(i, j, k)]);
+    let mut cells = Cells::default();
+    let mut ghost = Vec::new();
+    let mut done = vec![false; n[0] * n[1] * n[2]];
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                if done[cid(i, j, k)] {
+                    continue;
+                }
+                let block = i % 2 == 0
+                    && j % 2 == 0
+                    && i + 1 < n[0]
+                    && j + 1 < n[1]
+                    && rng.f64() < 0.6
+                    && (0..2).all(|a| (0..2).all(|b| !done[cid(i + a, j + b, k)]));
+                let (wi, wj) = if block { (2, 2) } else { (1, 1) };
+                let hid = (0..wi).any(|a| (0..wj).any(|b| is_hidden(i + a, j + b, k)));
+                for a in 0..wi {
+                    for b in 0..wj {
+                        done[cid(i + a, j + b, k)] = true;
+                    }
+                }
+                ghost.push(if hid { 32.0 } else { 0.0 });
+                if !block && rng.f64() < 0.5 {
+                    let ids = [
+                        pid(i, j, k),
+                        pid(i + 1, j, k),
+                        pid(i + 1, j + 1, k),
+                        pid(i, j + 1, k),
+                        pid(i, j, k + 1),
+                        pid(i + 1, j, k + 1),
+                        pid(i + 1, j + 1, k + 1),
+                        pid(i, j + 1, k + 1),
+                    ];
+                    cells.push(vtk_type::HEXAHEDRON, &ids);
+                    continue;
+                }
+                // Faces of the (wi × wj × 1) block, split per unit square, with
+                // a random orientation (the build must orient them).
+                let mut faces: Vec<Vec<u32>> = Vec::new();
+                for kk in [k, k + 1] {
+                    for a in 0..wi {
+                        for b in 0..wj {
+                            faces.push(vec![
+                                pid(i + a, j + b, kk),
+                                pid(i + a + 1, j + b, kk),
+                                pid(i + a + 1, j + b + 1, kk),
+                                pid(i + a, j + b + 1, kk),
+                            ]);
+                        }
+                    }
+                }
+                for ii in [i, i + wi] {
+                    for b in 0..wj {
+                        faces.push(vec![
+                            pid(ii, j + b, k),
+                            pid(ii, j + b + 1, k),
+                            pid(ii, j + b + 1, k + 1),
+                            pid(ii, j + b, k + 1),
+                        ]);
+                    }
+                }
+                for jj in [j, j + wj] {
+                    for a in 0..wi {
+                        faces.push(vec![
+                            pid(i + a, jj, k),
+                            pid(i + a + 1, jj, k),
+                            pid(i + a + 1, jj, k + 1),
+                            pid(i + a, jj, k + 1),
+                        ]);
+                    }
+                }
+                for f in faces.iter_mut() {
+                    if rng.f64() < 0.5 {
+                        f.reverse();
+                    }
+                    let r = rng.below(f.len());
+                    f.rotate_left(r);
+                }
+                cells.push_polyhedron(&faces);
+            }
+        }
+    }
+    let mut cell_data = Vec::new();
+    if ghost.iter().any(|&g| g != 0.0) {
+        cell_data.push(Property::scalar("vtkGhostType", ghost));
+    }
+    Grid {
+        points: s.points,
+        topology: Topology::Unstructured(cells),
+        point_data: s.point_data,
+        cell_data,
+    }
+}
+
+/// A grid of one polyhedron with the given faces.
+pub fn one_cell(faces: &[Vec<u32>], points: Vec<[f64; 3]>) -> Grid {
+    let mut cells = Cells::default();
+    cells.push_polyhedron(faces);
+    Grid {
+        points,
+        topology: Topology::Unstructured(cells),
+        point_data: vec![],
+        cell_data: vec![],
+    }
+}
+
+/// The unit cube's corners, corner `i` at the bits of `i`.
+pub fn cube_points() -> Vec<[f64; 3]> {
+    (0..8)
+        .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
+        .collect()
+}
+
+/// The unit cube's faces as loops over [`cube_points`].
+pub fn cube_faces() -> Vec<Vec<u32>> {
+    vec![
+        vec![0, 2, 3, 1],
+        vec![4, 5, 7, 6],
+        vec![0, 1, 5, 4],
+        vec![2, 6, 7, 3],
+        vec![0, 4, 6, 2],
+        vec![1, 3, 7, 5],
+    ]
+}
+
+/// `STRATASWEEP_DATA`, or `None` after a loud skip notice naming `test`.
+pub fn data_dir(test: &str) -> Option<std::path::PathBuf> {
+    match std::env::var_os("STRATASWEEP_DATA") {
+        Some(d) => Some(std::path::PathBuf::from(d)),
+        None => {
+            eprintln!(
+                "\n*** SKIP {test}: STRATASWEEP_DATA is not set (real grids not tested) ***\n"
+            );
+            None
+        }
+    }
+}
+
+/// Slices `grid` along `axis` at `count` levels by the sweep and by the
+/// brute force, checks that they cut the same cells per level, and returns
+/// the sweep's result.
+pub fn sweep_matches_brute_force(
+    grid: &stratasweep::grid::Grid,
+    s: &stratasweep::structures::Structure,
+    axis: usize,
+    count: usize,
+    what: &str,
+) -> stratasweep::pipeline::SliceResult {
+    let mut req = axis_request(axis, count);
+    let a = stratasweep::pipeline::slice(grid, s, &req, &|_| {}).unwrap();
+    req.brute_force = true;
+    let b = stratasweep::pipeline::slice(grid, s, &req, &|_| {}).unwrap();
+    let cells = |r: &stratasweep::pipeline::SliceResult| {
+        r.stats.iter().map(|s| s.cells).collect::<Vec<_>>()
+    };
+    assert_eq!(cells(&a), cells(&b), "{what}: axis {axis}");
+    a
+}

@@ -58,11 +58,12 @@ use crate::extract::{EmitContext, LevelMesh, face_above_connected, prefetch};
 use crate::field::ScalarField;
 use crate::grid::{Cells, hex_corner_offsets, vtk_type};
 use crate::structures::StructureError;
+use crate::structures::polyhedron::{PolyhedronError, parse_faces_into};
 
 mod build;
+mod link;
 mod sweep;
 
-pub(crate) use build::polyhedron_faces;
 pub use sweep::{CielSweeper, brute_force, minima};
 
 /// "No half-edge" marker.
@@ -79,8 +80,7 @@ pub const MAX_CELL_HALF_EDGES: usize = 1 << 15;
 pub const BYTES_PER_HALF_EDGE: usize = 10;
 /// log2 of the number of half-edges per entry of the cell lookup table.
 pub(crate) const LOOKUP_SHIFT: u32 = 6;
-/// Relative tolerance of the convexity test (times the cell's extent).
-pub const CONVEXITY_TOLERANCE: f64 = 1e-6;
+pub use crate::structures::polyhedron::CONVEXITY_TOLERANCE;
 
 /// Bad polyhedral input, naming the cell and face.
 #[derive(Debug, Error, PartialEq, Eq)]
@@ -176,6 +176,38 @@ pub enum CielError {
     NoCells,
 }
 
+impl From<PolyhedronError> for CielError {
+    fn from(e: PolyhedronError) -> Self {
+        match e {
+            PolyhedronError::FaceStream { cell, why } => CielError::FaceStream { cell, why },
+            PolyhedronError::ShortFace { cell, face, len } => {
+                CielError::ShortFace { cell, face, len }
+            }
+            PolyhedronError::RepeatedFaceVertex { cell, face, vertex } => {
+                CielError::RepeatedFaceVertex { cell, face, vertex }
+            }
+            PolyhedronError::DuplicateFace { cell, face, other } => {
+                CielError::DuplicateFace { cell, face, other }
+            }
+            PolyhedronError::Open { cell, face, a, b } => CielError::Open { cell, face, a, b },
+            PolyhedronError::NonManifoldEdge {
+                cell,
+                face,
+                a,
+                b,
+                count,
+            } => CielError::NonManifoldEdge {
+                cell,
+                face,
+                a,
+                b,
+                count,
+            },
+            PolyhedronError::Orientation { cell, face } => CielError::Orientation { cell, face },
+        }
+    }
+}
+
 impl From<CielError> for StructureError {
     fn from(e: CielError) -> Self {
         match e {
@@ -250,7 +282,7 @@ pub struct Ciel {
 /// face loops. Never panics: malformed streams are errors naming the cell.
 pub fn parse_face_stream(cell: usize, stream: &[u32]) -> Result<Vec<Vec<u32>>, CielError> {
     let (mut ids, mut starts) = (Vec::new(), Vec::new());
-    build::parse_faces_into(cell, stream, &mut ids, &mut starts)?;
+    parse_faces_into(cell, stream, &mut ids, &mut starts)?;
     Ok(starts
         .windows(2)
         .map(|w| ids[w[0] as usize..w[1] as usize].to_vec())
@@ -376,14 +408,6 @@ impl Ciel {
     /// Half-edges of cell `c`.
     pub fn cell_half_edges(&self, c: u32) -> std::ops::Range<u32> {
         self.cell_start[c as usize]..self.cell_start[c as usize + 1]
-    }
-
-    /// Calls `f` with the representative half-edges around vertex `v`.
-    #[inline(always)]
-    pub fn for_each_around_vertex(&self, v: u32, mut f: impl FnMut(u32)) {
-        for &h in self.around_vertex(v) {
-            f(h);
-        }
     }
 
     /// Calls `f` with every half-edge of the fan of `h` (one per cell

@@ -1,0 +1,600 @@
+//! The split's passes: find the non-convex polyhedra, share their faces in
+//! one table, plan each face (whole, fan, ears), find each cell's star
+//! point in parallel, cut the cells into pieces, then assemble the output
+//! grid and carry the properties over.
+
+use std::collections::HashMap;
+
+use rayon::prelude::*;
+
+use super::{
+    Element, FacePlan, FaceTable, SplitError, SplitGrid, SplitMap, SplitReport, Star, canonical,
+    canonical_at, canonical_start, cone_volume, ear_clip, element_plane, extend_point_property,
+    face_is_bad, fan_point, gather_tuples, kernel_point,
+};
+use crate::grid::{Cells, Grid, Property, Topology, is_lower_dimensional, vtk_type};
+use crate::structures::is_sweepable;
+use crate::structures::polyhedron::{CONVEXITY_TOLERANCE, polyhedron_faces};
+use crate::vec3::{P3, add, cross, dot, mean, norm, scale, sub};
+
+/// A non-convex polyhedron to split: its cell and its faces, oriented
+/// outward.
+type Found = (usize, Vec<Vec<u32>>);
+
+/// A split cell's boundary elements (with the face each comes from), its
+/// vertices, and where its pieces meet.
+type CellStar = (Vec<(usize, Element)>, Vec<u32>, Star);
+
+/// The pieces of one split cell: (VTK type, ids) each.
+type Pieces = (usize, Vec<(u8, Vec<u32>)>);
+
+/// The new vertices of a split: positions, and per vertex the input
+/// vertices whose mean gives its point-property values.
+#[derive(Default)]
+struct NewPoints {
+    points: Vec<P3>,
+    mean_offsets: Vec<u32>,
+    mean_ids: Vec<u32>,
+}
+
+impl NewPoints {
+    /// Appends a new vertex, the mean of `ids`.
+    fn push(&mut self, p: P3, ids: &[u32]) {
+        self.points.push(p);
+        self.mean_ids.extend_from_slice(ids);
+        self.mean_offsets.push(self.mean_ids.len() as u32);
+    }
+}
+
+/// [`super::split_non_convex`], with the point and cell data carried over
+/// when `properties` is set.
+pub(super) fn split_with(
+    grid: &Grid,
+    hidden: Option<&[bool]>,
+    properties: bool,
+) -> Result<Option<SplitGrid>, SplitError> {
+    let Topology::Unstructured(cells) = &grid.topology else {
+        return Ok(None);
+    };
+    if !cells.types.contains(&vtk_type::POLYHEDRON) {
+        return Ok(None);
+    }
+    let points = &grid.points;
+    let is_hidden = |c: usize| hidden.is_some_and(|h| h.get(c).copied().unwrap_or(false));
+    let found = find_non_convex(cells, points, &is_hidden);
+    if found.is_empty() {
+        return Ok(None);
+    }
+    let n = cells.len();
+    let mut split = vec![false; n];
+    for (c, _) in &found {
+        split[*c] = true;
+    }
+    let (mut table, face_ids) = FaceTable::build(&found);
+    let mut report = SplitReport {
+        non_convex: found.len(),
+        ..Default::default()
+    };
+    let mut new = NewPoints {
+        mean_offsets: vec![0],
+        ..Default::default()
+    };
+    let ctx = PlanContext {
+        cells,
+        points,
+        split: &split,
+        is_hidden: &is_hidden,
+    };
+    ctx.plan_faces(&found, &face_ids, &mut table, &mut new, &mut report)?;
+    // Cells: boundary elements and star point, per cell in parallel (they
+    // read only the cell, its faces' plans and the face points made above);
+    // then, in cell order, apex ids and pieces (ids as before).
+    let np0 = points.len();
+    let fan_points = &new.points;
+    let cpos = |v: u32| -> P3 {
+        if (v as usize) < np0 {
+            points[v as usize]
+        } else {
+            fan_points[v as usize - np0]
+        }
+    };
+    let stars: Vec<Result<CellStar, SplitError>> = found
+        .par_iter()
+        .zip(face_ids.par_iter())
+        .map(|((c, faces), ids)| cell_star(*c, faces, ids, &table, points, &cpos))
+        .collect();
+    let pieces_of = cut_cells(&found, stars, np0, &mut new, &mut report)?;
+    report.new_vertices = new.points.len();
+    if np0 + new.points.len() >= u32::MAX as usize / 4 {
+        return Err(SplitError::TooLarge(format!(
+            "{} points",
+            np0 + new.points.len()
+        )));
+    }
+    let (out, source) = assemble(cells, &pieces_of)?;
+    let mut all_points = Vec::with_capacity(np0 + new.points.len());
+    all_points.extend_from_slice(points);
+    all_points.extend_from_slice(&new.points);
+    let map = SplitMap {
+        source,
+        is_split: split,
+        input_points: np0,
+        input_cells: n,
+        mean_offsets: new.mean_offsets,
+        mean_ids: new.mean_ids,
+        report,
+    };
+    let (point_data, cell_data) = if properties {
+        carry_properties(grid, &map)
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    Ok(Some(SplitGrid {
+        grid: Grid {
+            points: all_points,
+            topology: Topology::Unstructured(out),
+            point_data,
+            cell_data,
+        },
+        map,
+    }))
+}
+
+/// Non-convex polyhedra, with their faces oriented outward (CIEL's
+/// build_cell), in cell order.
+fn find_non_convex(
+    cells: &Cells,
+    points: &[P3],
+    is_hidden: &(dyn Fn(usize) -> bool + Sync),
+) -> Vec<Found> {
+    (0..cells.len())
+        .into_par_iter()
+        .filter(|&c| cells.types[c] == vtk_type::POLYHEDRON && !is_hidden(c))
+        .filter_map(|c| {
+            let cf = polyhedron_faces(c, cells.faces_of(c), points).ok()?;
+            (is_sweepable(cf.class) && cf.non_convex).then(|| {
+                let faces = cf
+                    .starts
+                    .windows(2)
+                    .map(|w| cf.ids[w[0] as usize..w[1] as usize].to_vec())
+                    .collect();
+                (c, faces)
+            })
+        })
+        .collect()
+}
+
+impl FaceTable {
+    /// The canonical faces of the split cells, and per split cell its
+    /// faces' entries in the table (one lookup per face; a key is allocated
+    /// only for a face not seen before).
+    fn build(found: &[Found]) -> (Self, Vec<Vec<usize>>) {
+        let mut table = FaceTable {
+            index: HashMap::default(),
+            split_uses: Vec::new(),
+            plan: Vec::new(),
+        };
+        let mut k: Vec<u32> = Vec::new();
+        let face_ids: Vec<Vec<usize>> = found
+            .iter()
+            .map(|(_, faces)| {
+                faces
+                    .iter()
+                    .map(|f| {
+                        k.clear();
+                        k.extend_from_slice(f);
+                        k.sort_unstable();
+                        let i = match table.index.get(&k[..]) {
+                            Some(&i) => i,
+                            None => {
+                                let i = table.split_uses.len();
+                                table.index.insert(k.clone(), i);
+                                table.split_uses.push(0);
+                                table.plan.push(None);
+                                i
+                            }
+                        };
+                        table.split_uses[i] = table.split_uses[i].saturating_add(1);
+                        i
+                    })
+                    .collect()
+            })
+            .collect();
+        (table, face_ids)
+    }
+}
+
+/// What the face plans read of the input grid.
+struct PlanContext<'a> {
+    cells: &'a Cells,
+    points: &'a [P3],
+    split: &'a [bool],
+    is_hidden: &'a dyn Fn(usize) -> bool,
+}
+
+impl PlanContext<'_> {
+    /// Plans every face of the split cells, in first-use order (new vertex
+    /// ids are deterministic): whole when planar and convex, or when it is
+    /// used by one split cell and shared with a live cell that is not
+    /// split; else a fan from a new vertex, or ear clipping.
+    fn plan_faces(
+        &self,
+        found: &[Found],
+        face_ids: &[Vec<usize>],
+        table: &mut FaceTable,
+        new: &mut NewPoints,
+        report: &mut SplitReport,
+    ) -> Result<(), SplitError> {
+        let pos = |v: u32| self.points[v as usize];
+        // Loops per face entry (first occurrence, canonical).
+        let mut loops: Vec<Vec<u32>> = vec![Vec::new(); table.split_uses.len()];
+        for ((_, faces), ids) in found.iter().zip(face_ids) {
+            for (f, &i) in faces.iter().zip(ids) {
+                if loops[i].is_empty() {
+                    loops[i] = canonical(f).0;
+                }
+            }
+        }
+        // Bad faces (non-planar or non-convex).
+        let bad: Vec<bool> = loops
+            .iter()
+            .map(|l| {
+                let pts: Vec<P3> = l.iter().map(|&v| pos(v)).collect();
+                face_is_bad(&pts)
+            })
+            .collect();
+        let incident = self.incident_to_marked(&loops, &bad, &table.split_uses);
+        let shared_with_unsplit = |l: &[u32]| {
+            let lo = incident.partition_point(|e| e.0 < l[0]);
+            incident[lo..]
+                .iter()
+                .take_while(|e| e.0 == l[0])
+                .any(|&(_, c)| {
+                    let ids = self.cells.cell(c as usize);
+                    l.iter().all(|v| ids.contains(v))
+                })
+        };
+        let np0 = self.points.len();
+        for ((c, faces), ids) in found.iter().zip(face_ids) {
+            for (fi, &i) in ids.iter().enumerate().take(faces.len()) {
+                if table.plan[i].is_some() {
+                    continue;
+                }
+                let l = &loops[i];
+                let plan = if !bad[i] {
+                    FacePlan::Whole
+                } else if table.split_uses[i] == 1 && shared_with_unsplit(l) {
+                    report.kept_faces += 1;
+                    FacePlan::Whole
+                } else {
+                    report.triangulated_faces += 1;
+                    let pts: Vec<P3> = l.iter().map(|&v| pos(v)).collect();
+                    if let Some(q) = fan_point(&pts) {
+                        let id = np0 + new.points.len();
+                        new.push(q, l);
+                        FacePlan::Fan(id as u32)
+                    } else if let Some(t) = ear_clip(l, &pts) {
+                        FacePlan::Ears(t)
+                    } else {
+                        return Err(SplitError::Face { cell: *c, face: fi });
+                    }
+                };
+                table.plan[i] = Some(plan);
+            }
+        }
+        Ok(())
+    }
+
+    /// (vertex, cell), sorted, for the live cells that are not split and
+    /// the first vertex of each bad face used by one split cell: the cells
+    /// that may share such a face.
+    fn incident_to_marked(
+        &self,
+        loops: &[Vec<u32>],
+        bad: &[bool],
+        split_uses: &[u8],
+    ) -> Vec<(u32, u32)> {
+        let mut marked = vec![false; self.points.len()];
+        for (i, l) in loops.iter().enumerate() {
+            if bad[i] && split_uses[i] == 1 {
+                marked[l[0] as usize] = true;
+            }
+        }
+        let mut incident: Vec<(u32, u32)> = Vec::new();
+        for c in 0..self.cells.len() {
+            if self.split[c] || (self.is_hidden)(c) || is_lower_dimensional(self.cells.types[c]) {
+                continue;
+            }
+            for &v in self.cells.cell(c) {
+                if marked.get(v as usize).copied().unwrap_or(false) {
+                    incident.push((v, c as u32));
+                }
+            }
+        }
+        incident.sort_unstable();
+        incident
+    }
+}
+
+/// The boundary elements of split cell `c` after its faces' plans, oriented
+/// outward, with the face each comes from.
+fn boundary_elements(
+    faces: &[Vec<u32>],
+    ids: &[usize],
+    table: &FaceTable,
+) -> Vec<(usize, Element)> {
+    let mut elems: Vec<(usize, Element)> = Vec::new();
+    for (fi, (f, &i)) in faces.iter().zip(ids).enumerate() {
+        let (i0, same) = canonical_start(f);
+        let orient = |t: [u32; 3]| if same { t } else { [t[0], t[2], t[1]] };
+        match table.plan[i].as_ref().expect("planned") {
+            FacePlan::Whole => elems.push((fi, Element::Base(f.clone()))),
+            FacePlan::Fan(q) => {
+                let k = f.len();
+                let can = |j: usize| canonical_at(f, i0, same, j % k);
+                for j in 0..k {
+                    elems.push((fi, Element::Tri(orient([*q, can(j), can(j + 1)]))));
+                }
+            }
+            FacePlan::Ears(tris) => {
+                for &t in tris {
+                    elems.push((fi, Element::Tri(orient(t))));
+                }
+            }
+        }
+    }
+    elems
+}
+
+/// Volume centroid of the closed boundary `elems` (cones from `vm`).
+fn volume_centroid(elems: &[(usize, Element)], vm: P3, cpos: &dyn Fn(u32) -> P3) -> P3 {
+    let mut vol = 0.0;
+    let mut acc = [0.0; 3];
+    for (_, e) in elems {
+        let ids: &[u32] = match e {
+            Element::Base(ids) => ids,
+            Element::Tri(t) => t,
+        };
+        let p0 = cpos(ids[0]);
+        for j in 1..ids.len() - 1 {
+            let (pj, pk) = (cpos(ids[j]), cpos(ids[j + 1]));
+            let w = dot(sub(p0, vm), cross(sub(pj, vm), sub(pk, vm))) / 6.0;
+            vol += w;
+            acc = add(acc, scale(add(add(add(p0, pj), pk), vm), w / 4.0));
+        }
+    }
+    scale(acc, 1.0 / vol)
+}
+
+/// Split cell `c`'s boundary elements, vertices and star point: the first
+/// of its volume centroid, vertex mean and kernel point that sees every
+/// element, else a vertex that sees every face it is not on (its faces
+/// through it then get no piece); an error when there is none.
+fn cell_star(
+    c: usize,
+    faces: &[Vec<u32>],
+    ids: &[usize],
+    table: &FaceTable,
+    points: &[P3],
+    cpos: &(dyn Fn(u32) -> P3 + Sync),
+) -> Result<CellStar, SplitError> {
+    let mut elems = boundary_elements(faces, ids, table);
+    let mut verts: Vec<u32> = faces.iter().flatten().copied().collect();
+    verts.sort_unstable();
+    verts.dedup();
+    let vm = mean(verts.iter().map(|&v| points[v as usize]));
+    let ext = verts
+        .iter()
+        .map(|&v| norm(sub(points[v as usize], vm)))
+        .fold(0.0, f64::max);
+    let tol = CONVEXITY_TOLERANCE * ext;
+    let planes: Vec<(usize, Option<(P3, P3)>)> = elems
+        .iter()
+        .map(|(fi, e)| (*fi, element_plane(e, cpos)))
+        .collect();
+    let centroid = volume_centroid(&elems, vm, cpos);
+    // The first element a point does not see, if any.
+    let hidden_from = |p: P3| {
+        planes.iter().find_map(|(fi, pl)| match pl {
+            Some((o, nh)) if dot(sub(p, *o), *nh) < -tol => None,
+            _ => Some(*fi),
+        })
+    };
+    let mut best_face = hidden_from(centroid);
+    let mut apex = best_face.is_none().then_some(centroid);
+    if apex.is_none() && hidden_from(vm).is_none() {
+        apex = Some(vm);
+    }
+    if apex.is_none() && planes.iter().all(|(_, p)| p.is_some()) {
+        let pl: Vec<(P3, P3)> = planes.iter().map(|(_, p)| p.expect("plane")).collect();
+        if let Some(k) = kernel_point(&pl, 2.0 * tol, 1e-9 * ext) {
+            match hidden_from(k) {
+                None => apex = Some(k),
+                Some(f) => best_face = Some(f),
+            }
+        }
+    }
+    let star = match apex {
+        Some(apex) => {
+            debug_assert!(elems.iter().all(|(_, e)| cone_volume(e, apex, cpos) > 0.0));
+            Star::Apex(apex)
+        }
+        // No interior point: pull from a vertex that sees every face
+        // it is not on (thin slivers between warped faces).
+        None => match verts.iter().copied().find(|&v| {
+            planes.iter().all(|(fi, pl)| {
+                faces[*fi].contains(&v)
+                    || matches!(pl, Some((o, nh)) if dot(sub(points[v as usize], *o), *nh) < -tol)
+            })
+        }) {
+            Some(v) => {
+                elems.retain(|(fi, _)| !faces[*fi].contains(&v));
+                Star::Vertex(v)
+            }
+            None => {
+                return Err(SplitError::NotStarShaped {
+                    cell: c,
+                    face: best_face.unwrap_or(0),
+                });
+            }
+        },
+    };
+    Ok((elems, verts, star))
+}
+
+/// In cell order: each split cell's apex id (a new vertex, or the pulled
+/// vertex) and its pieces; the first failing cell in cell order is the
+/// error, as a sequential loop would give.
+fn cut_cells(
+    found: &[Found],
+    stars: Vec<Result<CellStar, SplitError>>,
+    np0: usize,
+    new: &mut NewPoints,
+    report: &mut SplitReport,
+) -> Result<Vec<Pieces>, SplitError> {
+    let mut pieces_of: Vec<Pieces> = Vec::with_capacity(found.len());
+    for ((c, _), star) in found.iter().zip(stars) {
+        let (elems, verts, star) = star?;
+        let p = match star {
+            Star::Apex(apex) => {
+                new.push(apex, &verts);
+                (np0 + new.points.len() - 1) as u32
+            }
+            Star::Vertex(v) => {
+                report.vertex_pulled += 1;
+                v
+            }
+        };
+        let mut out = Vec::with_capacity(elems.len());
+        for (_, e) in elems {
+            out.push(match e {
+                Element::Tri([a, b, c]) => (vtk_type::TETRA, vec![a, c, b, p]),
+                Element::Base(ids) if ids.len() == 3 => {
+                    (vtk_type::TETRA, vec![ids[0], ids[2], ids[1], p])
+                }
+                Element::Base(ids) if ids.len() == 4 => {
+                    (vtk_type::PYRAMID, vec![ids[0], ids[3], ids[2], ids[1], p])
+                }
+                Element::Base(mut ids) => {
+                    // A polyhedron: the base loop, then the apex.
+                    ids.push(p);
+                    (vtk_type::POLYHEDRON, ids)
+                }
+            });
+        }
+        report.pieces += out.len();
+        pieces_of.push((*c, out));
+    }
+    Ok(pieces_of)
+}
+
+/// Copies the input cells `a..b` (a run of unsplit cells) in bulk.
+fn copy_run(cells: &Cells, out: &mut Cells, source: &mut Vec<u32>, a: usize, b: usize) {
+    if a == b {
+        return;
+    }
+    out.types.extend_from_slice(&cells.types[a..b]);
+    let (ca, cb) = (cells.offsets[a], cells.offsets[b]);
+    let shift = out.connectivity.len() as u32;
+    out.connectivity
+        .extend_from_slice(&cells.connectivity[ca as usize..cb as usize]);
+    out.offsets
+        .extend(cells.offsets[a + 1..=b].iter().map(|&o| o - ca + shift));
+    let fs = out.face_stream.len() as u32;
+    if cells.face_offsets.is_empty() {
+        out.face_offsets.extend(std::iter::repeat_n(fs, b - a));
+    } else {
+        let (fa, fb) = (cells.face_offsets[a], cells.face_offsets[b]);
+        out.face_stream
+            .extend_from_slice(&cells.face_stream[fa as usize..fb as usize]);
+        out.face_offsets
+            .extend(cells.face_offsets[a + 1..=b].iter().map(|&o| o - fa + fs));
+    }
+    source.extend(a as u32..b as u32);
+}
+
+/// The output cells: runs of unsplit cells copied in bulk, the pieces in
+/// place of their cell; and the source cell of each output cell.
+fn assemble(cells: &Cells, pieces_of: &[Pieces]) -> Result<(Cells, Vec<u32>), SplitError> {
+    let n = cells.len();
+    let piece_stream = |ids: &[u32]| 2 + 4 * (ids.len() - 1) + ids.len() - 1;
+    let (mut out_cells, mut out_conn, mut out_stream) = (n, cells.connectivity.len(), 0usize);
+    let stream_of = |c: usize| cells.faces_of(c).len();
+    out_stream += cells.face_stream.len();
+    for (c, pieces) in pieces_of {
+        out_cells += pieces.len() - 1;
+        out_conn -= cells.cell(*c).len();
+        out_stream -= stream_of(*c);
+        for (t, ids) in pieces {
+            out_conn += ids.len();
+            if *t == vtk_type::POLYHEDRON {
+                out_stream += piece_stream(ids);
+            }
+        }
+    }
+    if out_cells >= u32::MAX as usize {
+        return Err(SplitError::TooLarge(format!("{out_cells} cells")));
+    }
+    let mut out = Cells {
+        types: Vec::with_capacity(out_cells),
+        offsets: Vec::with_capacity(out_cells + 1),
+        connectivity: Vec::with_capacity(out_conn),
+        face_offsets: Vec::with_capacity(out_cells + 1),
+        face_stream: Vec::with_capacity(out_stream),
+    };
+    out.offsets.push(0);
+    out.face_offsets.push(0);
+    let mut source = Vec::with_capacity(out_cells);
+    let mut done = 0;
+    for (c, pieces) in pieces_of {
+        copy_run(cells, &mut out, &mut source, done, *c);
+        for (t, ids) in pieces {
+            if *t == vtk_type::POLYHEDRON {
+                let (apex, base) = ids.split_last().expect("base and apex");
+                let k = base.len();
+                let mut faces = vec![base.to_vec()];
+                for j in 0..k {
+                    faces.push(vec![base[(j + 1) % k], base[j], *apex]);
+                }
+                out.push_polyhedron(&faces);
+            } else {
+                out.push(*t, ids);
+            }
+            source.push(*c as u32);
+        }
+        done = c + 1;
+    }
+    copy_run(cells, &mut out, &mut source, done, n);
+    debug_assert_eq!(
+        (
+            out.types.len(),
+            out.connectivity.len(),
+            out.face_stream.len()
+        ),
+        (out_cells, out_conn, out_stream)
+    );
+    Ok((out, source))
+}
+
+/// The input's point data extended to the new vertices (means) and its
+/// cell data gathered per output cell.
+fn carry_properties(grid: &Grid, map: &SplitMap) -> (Vec<Property>, Vec<Property>) {
+    let point_data = grid
+        .point_data
+        .iter()
+        .map(|p| extend_point_property(p, map))
+        .collect();
+    let cell_data = grid
+        .cell_data
+        .iter()
+        .map(|p| {
+            let values = gather_tuples(&map.source, &p.values, p.components.max(1));
+            Property {
+                name: p.name.clone(),
+                components: p.components,
+                values,
+            }
+        })
+        .collect();
+    (point_data, cell_data)
+}
