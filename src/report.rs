@@ -322,6 +322,9 @@ pub fn info_json(grid: &Grid, s: &Structure, c: &InfoContext) -> Value {
     }
     let (bow_ties, n_bow_ties) = crate::structures::cell_check::self_intersecting_cells(grid, 20);
     out["self_intersecting_cells"] = json!({"count": n_bow_ties, "first": bow_ties});
+    let (flipped, n_flipped, n_faces) =
+        crate::structures::cell_check::reoriented_polyhedra(grid, 20);
+    out["reoriented_polyhedra"] = json!({"count": n_flipped, "faces": n_faces, "first": flipped});
     // Non-convex polyhedra split into convex pieces before building.
     out["convex_split"] = s.split().map_or(Value::Null, |m| {
         let r = &m.report;

@@ -683,3 +683,77 @@ fn class3_bow_tie_test_against_simple_quads() {
     // Collapsed (two points equal) is not a bow-tie (repeated vertex instead).
     assert!(!quad_is_bow_tie([sq[0], sq[1], sq[1], sq[3]]));
 }
+
+/// Two unit cubes as VTK polyhedra, the second shifted along x; `flip`
+/// reverses that cube's first face loop (given inward).
+fn two_polyhedra(flip: bool) -> stratasweep::grid::Grid {
+    use stratasweep::grid::{Cells, Grid, Topology};
+    let mut points: Vec<[f64; 3]> = (0..8)
+        .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
+        .collect();
+    points.extend((0..8).map(|i| {
+        [
+            2.0 + (i & 1) as f64,
+            ((i >> 1) & 1) as f64,
+            ((i >> 2) & 1) as f64,
+        ]
+    }));
+    let cube = |o: u32| -> Vec<Vec<u32>> {
+        [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ]
+        .iter()
+        .map(|f| f.iter().map(|v| v + o).collect())
+        .collect()
+    };
+    let mut cells = Cells::default();
+    cells.push_polyhedron(&cube(0));
+    let mut second = cube(8);
+    if flip {
+        second[0].reverse();
+    }
+    cells.push_polyhedron(&second);
+    Grid {
+        points,
+        topology: Topology::Unstructured(cells),
+        point_data: vec![],
+        cell_data: vec![],
+    }
+}
+
+#[test]
+fn class3_a_face_given_inward_is_reported_as_reoriented() {
+    let d = Dir::new("inward");
+    let ok = d.p("ok.vtu");
+    let bad = d.p("inward.vtu");
+    stratasweep::io::writers::write_vtk_xml_grid(&ok, &two_polyhedra(false)).unwrap();
+    stratasweep::io::writers::write_vtk_xml_grid(&bad, &two_polyhedra(true)).unwrap();
+    let before = d.snapshot();
+    let info = |f: &str| -> serde_json::Value {
+        let o = run(&["info", f, "--json"]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    assert_eq!(
+        info(&ok)["reoriented_polyhedra"],
+        serde_json::json!({"count": 0, "faces": 0, "first": []})
+    );
+    let b = info(&bad);
+    assert_eq!(
+        b["reoriented_polyhedra"],
+        serde_json::json!({"count": 1, "faces": 1, "first": [1]})
+    );
+    // Re-oriented, both cubes are valid and sliced whole.
+    assert_eq!(b["live_cells"], 2, "{b}");
+    let text = String::from_utf8_lossy(&run(&["info", &bad]).stdout).to_string();
+    assert!(
+        text.contains("polyhedra with faces given inward (re-oriented outward before slicing): 1, 1 faces, first ids [1]"),
+        "{text}"
+    );
+    assert_eq!(d.snapshot(), before);
+}

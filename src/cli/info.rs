@@ -65,6 +65,13 @@ pub(crate) fn cmd_info(a: InfoArgs) -> Result<()> {
         println!("    {k:<18} {v}");
     }
     println!("  cell classes  {}", out["cell_classes"]);
+    let turned = &out["reoriented_polyhedra"];
+    if turned["count"].as_u64().unwrap_or(0) > 0 {
+        println!(
+            "  polyhedra with faces given inward (re-oriented outward before slicing): {}, {} faces, first ids {}",
+            turned["count"], turned["faces"], turned["first"]
+        );
+    }
     let bow_ties = &out["self_intersecting_cells"];
     if bow_ties["count"].as_u64().unwrap_or(0) > 0 {
         println!(

@@ -62,3 +62,33 @@ pub fn self_intersecting_cells(grid: &Grid, limit: usize) -> (Vec<usize>, usize)
     }
     (ids, total)
 }
+
+/// Polyhedra whose faces were not all given outward: the structures
+/// reverse those loops (orientation propagated across the cell's edges,
+/// then by the volume sign) before sweeping, and `info` says so. Returns the
+/// first `limit` such cells (input ids, ascending), how many there are, and
+/// how many faces were reversed in all. Polyhedra the checks refuse (open,
+/// non-manifold) are left to the build's own error.
+pub fn reoriented_polyhedra(grid: &Grid, limit: usize) -> (Vec<usize>, usize, usize) {
+    let Topology::Unstructured(cells) = &grid.topology else {
+        return (Vec::new(), 0, 0);
+    };
+    let (mut ids, mut total, mut faces) = (Vec::new(), 0, 0);
+    for c in 0..cells.len() {
+        if cells.types[c] != vtk_type::POLYHEDRON {
+            continue;
+        }
+        let stream = cells.faces_of(c);
+        let Ok(f) = crate::structures::polyhedron::polyhedron_faces(c, stream, &grid.points) else {
+            continue;
+        };
+        if f.flipped > 0 {
+            total += 1;
+            faces += f.flipped;
+            if ids.len() < limit {
+                ids.push(c);
+            }
+        }
+    }
+    (ids, total, faces)
+}

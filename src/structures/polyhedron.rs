@@ -515,6 +515,8 @@ pub(crate) struct CellFaces {
     pub(crate) non_convex: bool,
     /// Quality class.
     pub(crate) class: CellClass,
+    /// Faces whose loop was reversed to point outward.
+    pub(crate) flipped: usize,
 }
 
 /// Checks and orients polyhedron `cell`, given by its VTK face stream, as
@@ -526,12 +528,13 @@ pub(crate) fn polyhedron_faces(
 ) -> Result<CellFaces, PolyhedronError> {
     let mut s = Scratch::default();
     parse_faces_into(cell, stream, &mut s.ids, &mut s.starts)?;
-    let (class, _, non_convex) = check_cell(cell, points, &mut s)?;
+    let (class, flipped, non_convex) = check_cell(cell, points, &mut s)?;
     Ok(CellFaces {
         ids: s.ids,
         starts: s.starts,
         non_convex,
         class,
+        flipped,
     })
 }
 
