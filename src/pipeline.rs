@@ -56,6 +56,9 @@ pub enum PipelineError {
     /// A non-convex cell that cannot be split into convex pieces.
     #[error(transparent)]
     Split(#[from] SplitError),
+    /// The structure could not be built.
+    #[error(transparent)]
+    Build(#[from] crate::structures::BuildError),
 }
 
 /// How levels are placed.

@@ -7,9 +7,9 @@ use common::Rng;
 use std::collections::BTreeSet;
 use stratasweep::field::FieldSpec;
 use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
-use stratasweep::pipeline::{LevelSpec, PipelineError, SliceRequest, SliceResult, slice};
+use stratasweep::pipeline::{LevelSpec, SliceRequest, SliceResult, slice};
 use stratasweep::structures::convex_split::{SplitError, split_non_convex, split_non_convex_cells};
-use stratasweep::structures::{Structure, StructureChoice};
+use stratasweep::structures::{BuildError, Structure, StructureChoice};
 
 type P = [f64; 3];
 
@@ -610,7 +610,7 @@ fn non_star_shaped_cell_is_an_error_naming_it() {
             Err(e) => e,
             Ok(_) => panic!("{choice:?}: the U prism was accepted"),
         };
-        assert!(matches!(e, PipelineError::Split(_)), "{e:?}");
+        assert!(matches!(e, BuildError::Split(_)), "{e:?}");
         let msg = e.to_string();
         assert!(
             msg.contains("cell 1") && msg.contains("star-shaped"),

@@ -92,7 +92,7 @@ fn a_grid_over_the_limit_is_a_clear_error() {
     };
     let msg = e.to_string();
     assert!(
-        msg.contains("grid vertices") && msg.contains("--device cpu"),
+        msg.contains("grid vertices") && msg.contains("the CPU path"),
         "{msg}"
     );
 }

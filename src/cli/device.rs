@@ -1,6 +1,6 @@
 //! The GPU side of `slice` and `bench`: device choice and GPU emission.
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::ValueEnum;
 use stratasweep::gpu::context::ContextOptions;
 use stratasweep::gpu::context::GpuContext;
@@ -46,7 +46,9 @@ pub(crate) fn slice_gpu(
 ) -> Result<Option<SliceResult>> {
     let ctx = match device {
         DeviceArg::Cpu => return Ok(None),
-        DeviceArg::Gpu => open(adapter, quiet)?,
+        DeviceArg::Gpu => {
+            open(adapter, quiet).context("--device gpu (--device cpu slices on the CPU)")?
+        }
         DeviceArg::Auto => match open(adapter, quiet) {
             Ok(c) => c,
             Err(e @ GpuError::NoAdapter { .. }) => {
@@ -58,7 +60,8 @@ pub(crate) fn slice_gpu(
             Err(e) => return Err(e.into()),
         },
     };
-    let (r, t) = slice_on(Emitter::Gpu(&ctx), grid, s, req)?;
+    let (r, t) = slice_on(Emitter::Gpu(&ctx), grid, s, req)
+        .context("the GPU path (--device cpu slices on the CPU)")?;
     if !quiet {
         eprintln!(
             "GPU emission: upload {:.2} ms, count+scan {:.2} ms, emit {:.2} ms",

@@ -11,7 +11,7 @@ use thiserror::Error;
 pub enum GpuError {
     /// No adapter at all (or none matching `--adapter`).
     #[error(
-        "no GPU adapter{}: found [{}]. Install a Vulkan driver; without a GPU, Mesa's software rasteriser works (Debian/Ubuntu: `apt install mesa-vulkan-drivers`), or, for `slice` and `bench`, `--device cpu`",
+        "no GPU adapter{}: found [{}]. Install a Vulkan driver; without a GPU, Mesa's software rasteriser works (Debian/Ubuntu: `apt install mesa-vulkan-drivers`), or slice on the CPU",
         .wanted.as_ref().map(|w| format!(" matching '{w}'")).unwrap_or_default(),
         .available.join(", ")
     )]
@@ -31,7 +31,7 @@ pub enum GpuError {
     },
     /// A buffer would exceed a device limit.
     #[error(
-        "{what} needs {bytes} bytes but the adapter '{adapter}' allows at most {limit} bytes per {kind}; use fewer slices, a smaller grid or `--device cpu`"
+        "{what} needs {bytes} bytes but the adapter '{adapter}' allows at most {limit} bytes per {kind}; use fewer slices, a smaller grid or the CPU path"
     )]
     TooLarge {
         /// Which buffer.

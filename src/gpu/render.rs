@@ -367,7 +367,7 @@ pub fn slice_key(grid: &Grid, o: &RenderOptions, axis: usize) -> Result<SliceKey
                 ));
             };
             if o.iso.is_empty() {
-                return Err(RenderError::Options("iso mode needs --iso VALUES".into()));
+                return Err(RenderError::Options("iso mode needs isovalues".into()));
             }
             let mut iso = o.iso.clone();
             iso.sort_by(f64::total_cmp);
@@ -380,7 +380,9 @@ pub fn slice_key(grid: &Grid, o: &RenderOptions, axis: usize) -> Result<SliceKey
         }
         _ => {
             if o.slices == 0 {
-                return Err(RenderError::Options("--slices must be at least 1".into()));
+                return Err(RenderError::Options(
+                    "the slice count must be at least 1".into(),
+                ));
             }
             (
                 format!("axis {axis} {} {property:?}", o.slices),
@@ -588,7 +590,7 @@ impl<'c> Renderer<'c> {
         let d = Vec3::from_array(o.view_dir.map(|c| c as f32));
         if !d.is_finite() || d.length() <= 0.0 {
             return Err(RenderError::Options(
-                "--view-dir must be a non-zero vector".into(),
+                "the view direction must be a non-zero vector".into(),
             ));
         }
         if !(z_scale.is_finite() && z_scale > 0.0) {
@@ -604,7 +606,7 @@ impl<'c> Renderer<'c> {
             || h > self.ctx.limits.max_texture_dimension_2d
         {
             return Err(RenderError::Options(format!(
-                "--size {w}x{h}: each side must be 1..={}",
+                "image size {w}x{h}: each side must be 1..={}",
                 self.ctx.limits.max_texture_dimension_2d
             )));
         }
@@ -683,7 +685,7 @@ pub fn unit_distance(grid: &Grid, o: &RenderOptions, z_scale: f64) -> Result<f64
     match o.unit_distance {
         Some(u) if u > 0.0 && u.is_finite() => Ok(u),
         Some(u) => Err(RenderError::Options(format!(
-            "--unit-distance {u} must be positive"
+            "the unit distance {u} must be positive"
         ))),
         None => Ok(mean_cell_size(grid) * z_scale.cbrt()),
     }

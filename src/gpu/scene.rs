@@ -350,7 +350,7 @@ pub fn fit_camera(
     let d = Vec3::from_array(o.view_dir.map(|c| c as f32));
     if !d.is_finite() || d.length() <= 0.0 {
         return Err(RenderError::Options(
-            "--view-dir must be a non-zero vector".into(),
+            "the view direction must be a non-zero vector".into(),
         ));
     }
     let d = d.normalize();
@@ -361,7 +361,7 @@ pub fn fit_camera(
     };
     if up.cross(d).length() < 1e-6 {
         return Err(RenderError::Options(
-            "--up must not be parallel to --view-dir".into(),
+            "the up vector must not be parallel to the view direction".into(),
         ));
     }
     let (lo, hi) = grid.bounds();

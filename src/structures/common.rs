@@ -11,7 +11,7 @@ use crate::metacell::{MAX_META_VERTICES, MetaCell};
 pub enum StructureError {
     /// S-CGraph needs a structured grid.
     #[error(
-        "S-CGraph needs a structured (IJK) grid; this one is unstructured (use --structure cgraph)"
+        "S-CGraph needs a structured (IJK) grid; this one is unstructured (use the CGraph structure)"
     )]
     NotStructured,
     /// No cells at all.

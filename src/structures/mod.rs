@@ -18,13 +18,30 @@ pub use common::{
 };
 
 use crate::grid::{Grid, Topology};
-use crate::pipeline::PipelineError;
 use crate::sweep::CellGraph;
 use cgraph::CGraph;
 use ciel::Ciel;
 use convex_split::{Split, SplitMap, split_non_convex_cells};
 use cpgraph::{CpGraph, IjkLayout};
 use scgraph::SCGraph;
+
+/// Errors building a structure; every message names the cell or the
+/// reason.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    /// Invalid grid.
+    #[error(transparent)]
+    Grid(#[from] crate::grid::GridError),
+    /// The structure refuses a cell or the grid.
+    #[error(transparent)]
+    Structure(#[from] StructureError),
+    /// A non-convex cell that cannot be split into convex pieces.
+    #[error(transparent)]
+    Split(#[from] convex_split::SplitError),
+    /// The choice does not fit this grid.
+    #[error("{0}")]
+    Unsupported(String),
+}
 
 /// Which structure to build (`--structure`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,7 +77,7 @@ pub enum Structure {
 
 impl Structure {
     /// Builds the chosen structure (brute force uses the auto structure).
-    pub fn build(grid: &Grid, choice: StructureChoice) -> Result<Self, PipelineError> {
+    pub fn build(grid: &Grid, choice: StructureChoice) -> Result<Self, BuildError> {
         Self::build_with(grid, choice, None)
     }
 
@@ -71,11 +88,11 @@ impl Structure {
         grid: &Grid,
         choice: StructureChoice,
         layout: Option<&IjkLayout>,
-    ) -> Result<Self, PipelineError> {
+    ) -> Result<Self, BuildError> {
         grid.validate()?;
         let cp = match (choice, layout) {
             (StructureChoice::CpGraph, None) => {
-                return Err(PipelineError::Unsupported(
+                return Err(BuildError::Unsupported(
                     "the corner-point graph needs corner-point input (GRDECL, EGRID)".into(),
                 ));
             }
@@ -98,7 +115,7 @@ impl Structure {
         }
         let hidden = grid.hidden_cells();
         let structured = matches!(grid.topology, Topology::Structured { .. });
-        let ciel = |g: &Grid, h: Option<&[bool]>| -> Result<Ciel, PipelineError> {
+        let ciel = |g: &Grid, h: Option<&[bool]>| -> Result<Ciel, BuildError> {
             Ok(Ciel::build(g, h).map_err(StructureError::from)?)
         };
         match choice {
@@ -244,7 +261,7 @@ impl Structure {
 /// carries no properties (the structures read points and cells only); its
 /// hidden cells come from the map.
 type SplitForBuild = (Option<Grid>, Option<SplitMap>, Option<Vec<bool>>);
-fn split_for_build(grid: &Grid, hidden: Option<Vec<bool>>) -> Result<SplitForBuild, PipelineError> {
+fn split_for_build(grid: &Grid, hidden: Option<Vec<bool>>) -> Result<SplitForBuild, BuildError> {
     Ok(match split_non_convex_cells(grid, hidden.as_deref())? {
         Some(sp) => {
             let h = sp.map.hidden_cells(hidden.as_deref());
