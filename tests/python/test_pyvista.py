@@ -79,9 +79,17 @@ def test_faulted_explicit_structured_grid_slices_like_pyvista():
     s = grid.slice(axis="z", count=9)
     ours = np.array([x["area"] for x in s.stats["slices"]])
     visible = esg.cast_to_unstructured_grid()
+    keep = np.ones(visible.n_cells, dtype=bool)
     ghost = visible.cell_data.get("vtkGhostType")
     if ghost is not None:
-        visible = visible.extract_cells(np.flatnonzero((np.asarray(ghost) & 32) == 0))
+        keep &= (np.asarray(ghost) & 32) == 0
+    # Cells with a face that crosses itself are classed self_intersecting and
+    # not sliced; VTK slices them, so they leave its reference too (all of
+    # them: the count must fit the listed ids).
+    bow_ties = grid.info()["self_intersecting_cells"]
+    assert bow_ties["count"] == len(bow_ties["first"]), bow_ties
+    keep[bow_ties["first"]] = False
+    visible = visible.extract_cells(np.flatnonzero(keep))
     ref = vtk_slice_areas(visible, (0, 0, 1), s.level_values)
     assert ours.sum() > 0
     # Corner-point cells have warped (non-planar) faces, and pinched ones

@@ -1,0 +1,322 @@
+//! The streaming tokenizer over a fixed window: tokens, comments, quotes, `N*v` repeats, line numbers.
+
+use super::*;
+use super::{deck::*, number::*, records::*};
+
+// ---------------------------------------------------------------------------
+// Lexer
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Kind {
+    Slash,
+    Word,
+    Quoted,
+    Eof,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Tok {
+    pub(super) kind: Kind,
+    pub(super) start: usize,
+    pub(super) len: usize,
+    pub(super) line: usize,
+    /// Starts in the first column of its line.
+    pub(super) col0: bool,
+}
+
+pub(super) struct Lexer<'r> {
+    pub(super) r: Box<dyn Read + 'r>,
+    pub(super) buf: Vec<u8>,
+    pub(super) pos: usize,
+    pub(super) end: usize,
+    pub(super) eof: bool,
+    pub(super) line: usize,
+    pub(super) bol: bool,
+    pub(super) in_comment: bool,
+    pub(super) pushed: Option<Tok>,
+    pub(super) file: PathBuf,
+    pub(super) bytes: u64,
+    /// The input's length when known.
+    pub(super) len: Option<u64>,
+}
+
+impl<'r> Lexer<'r> {
+    /// Capacity to reserve for an array of `n` values before they are read:
+    /// `n`, but never more values than the input could spell out plainly
+    /// (two bytes each), so that a header alone (SPECGRID, DIMENS) never
+    /// costs more memory than the file's size. Repeats (`N*v`) grow the
+    /// array as their data arrives.
+    pub(super) fn reserve_hint(&self, n: usize) -> usize {
+        let most = self.len.map_or(1 << 20, |l| (l / 2) as usize + 1024);
+        n.min(most)
+    }
+
+    /// A lexer over `r`; `len` is the input's length when known (a file), so
+    /// that a small file gets a window of its size rather than [`WINDOW`]
+    /// zeroed bytes (decks include many small files).
+    pub(super) fn new(r: Box<dyn Read + 'r>, file: PathBuf, len: Option<u64>) -> Self {
+        let size = len.map_or(WINDOW, |n| {
+            usize::try_from(n.saturating_add(1))
+                .unwrap_or(WINDOW)
+                .clamp(2 * MAX_TOKEN, WINDOW)
+        });
+        Lexer {
+            r,
+            buf: vec![0; size],
+            pos: 0,
+            end: 0,
+            eof: false,
+            line: 1,
+            bol: true,
+            in_comment: false,
+            pushed: None,
+            file,
+            bytes: 0,
+            len,
+        }
+    }
+
+    pub(super) fn refill(&mut self) -> Result<(), GrdeclError> {
+        if self.eof {
+            return Ok(());
+        }
+        self.buf.copy_within(self.pos..self.end, 0);
+        self.end -= self.pos;
+        self.pos = 0;
+        while self.end < self.buf.len() {
+            match self.r.read(&mut self.buf[self.end..]) {
+                Ok(0) => {
+                    self.eof = true;
+                    break;
+                }
+                Ok(n) => {
+                    self.end += n;
+                    self.bytes += n as u64;
+                }
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    return Err(GrdeclError::Io {
+                        file: self.file.clone(),
+                        source: e,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn text(&self, t: &Tok) -> &[u8] {
+        &self.buf[t.start..t.start + t.len]
+    }
+
+    pub(super) fn text_string(&self, t: &Tok) -> String {
+        match t.kind {
+            Kind::Eof => "end of file".into(),
+            Kind::Slash => "/".into(),
+            _ => String::from_utf8_lossy(self.text(t)).into_owned(),
+        }
+    }
+
+    /// The repeat count `n` of token `t` (`n*...`) in keyword `kw`.
+    pub(super) fn repeat(&self, t: &Tok, kw: &str, n: &[u8]) -> Result<usize, GrdeclError> {
+        repeat_count(n).map_err(|why| GrdeclError::BadRepeat {
+            file: self.file.clone(),
+            line: t.line,
+            keyword: kw.into(),
+            token: self.text_string(t),
+            why,
+        })
+    }
+
+    pub(super) fn push_back(&mut self, t: Tok) {
+        self.pushed = Some(t);
+    }
+
+    pub(super) fn peek(&mut self) -> Result<Tok, GrdeclError> {
+        let t = self.next()?;
+        self.pushed = Some(t);
+        Ok(t)
+    }
+
+    pub(super) fn bad(&self, line: usize, keyword: &str, why: impl Into<String>) -> GrdeclError {
+        GrdeclError::BadRecord {
+            file: self.file.clone(),
+            line,
+            keyword: keyword.into(),
+            why: why.into(),
+        }
+    }
+
+    /// Plain numbers and `N*v` repeats straight from the window into
+    /// `sink`, until anything else (a default `N*`, a comment, `/`, a word,
+    /// the window's margin): then the general path takes over. Same results as `next` + `parse_number`.
+    #[inline]
+    pub(super) fn fast_values(&mut self, sink: &mut Sink) {
+        if self.pushed.is_some() || self.in_comment {
+            return;
+        }
+        let end = self.end;
+        let limit = if self.eof {
+            end
+        } else {
+            end.saturating_sub(MAX_TOKEN)
+        };
+        let b = &self.buf[..end];
+        let mut p = self.pos;
+        let mut line = self.line;
+        let mut bol = self.bol;
+        while p < limit {
+            let c = b[p];
+            if c <= b' ' {
+                if c == b'\n' {
+                    line += 1;
+                    bol = true;
+                } else {
+                    bol = false;
+                }
+                p += 1;
+                continue;
+            }
+            let Some((mut v, len)) = parse_prefix(&b[p..]) else {
+                break;
+            };
+            let mut q = p + len;
+            let mut count = 1;
+            if q < end && b[q] == b'*' {
+                // `N*v` with N a plain positive integer (as `repeat_count`
+                // takes it) and v a plain number; anything else (`N*`,
+                // errors) is left to the general path.
+                let n = &b[p..q];
+                if n.len() > 12 || !n.iter().all(u8::is_ascii_digit) {
+                    break;
+                }
+                count = n.iter().fold(0usize, |a, &c| a * 10 + (c - b'0') as usize);
+                let Some((w, l)) = parse_prefix(&b[q + 1..]) else {
+                    break;
+                };
+                if count == 0 {
+                    break;
+                }
+                v = w;
+                q += 1 + l;
+            }
+            if q < end && b[q] > b' ' && b[q] != b'/' {
+                break;
+            }
+            sink.push(v, count);
+            bol = false;
+            p = q;
+        }
+        self.pos = p;
+        self.line = line;
+        self.bol = bol;
+    }
+
+    /// The next token. Tokens stay valid until the next call to `next`.
+    pub(super) fn next(&mut self) -> Result<Tok, GrdeclError> {
+        if let Some(t) = self.pushed.take() {
+            return Ok(t);
+        }
+        loop {
+            if self.end - self.pos < MAX_TOKEN && !self.eof {
+                self.refill()?;
+            }
+            let end = self.end;
+            let b = &self.buf[..end];
+            let mut p = self.pos;
+            if self.in_comment {
+                while p < end && b[p] != b'\n' {
+                    p += 1;
+                }
+                self.pos = p;
+                if p == end {
+                    if self.eof {
+                        self.in_comment = false;
+                        continue;
+                    }
+                    continue;
+                }
+                self.in_comment = false;
+            }
+            while p < end {
+                let c = b[p];
+                if c == b'\n' {
+                    self.line += 1;
+                    self.bol = true;
+                } else if c <= b' ' {
+                    self.bol = false;
+                } else {
+                    break;
+                }
+                p += 1;
+            }
+            self.pos = p;
+            if p == end {
+                if self.eof {
+                    return Ok(Tok {
+                        kind: Kind::Eof,
+                        start: p,
+                        len: 0,
+                        line: self.line,
+                        col0: self.bol,
+                    });
+                }
+                continue;
+            }
+            let c = b[p];
+            if c == b'-' && p + 1 < end && b[p + 1] == b'-' {
+                self.in_comment = true;
+                self.bol = false;
+                continue;
+            }
+            let col0 = self.bol;
+            self.bol = false;
+            let line = self.line;
+            if c == b'/' {
+                self.pos = p + 1;
+                return Ok(Tok {
+                    kind: Kind::Slash,
+                    start: p,
+                    len: 1,
+                    line,
+                    col0,
+                });
+            }
+            if c == b'\'' || c == b'"' {
+                let Some(q) = b[p + 1..].iter().position(|&x| x == c || x == b'\n') else {
+                    return Err(self.bad(line, "", "unterminated quoted string"));
+                };
+                if b[p + 1 + q] != c {
+                    return Err(self.bad(line, "", "unterminated quoted string"));
+                }
+                self.pos = p + 2 + q;
+                return Ok(Tok {
+                    kind: Kind::Quoted,
+                    start: p + 1,
+                    len: q,
+                    line,
+                    col0,
+                });
+            }
+            let mut q = p;
+            while q < end {
+                let x = b[q];
+                if x <= b' ' || x == b'/' {
+                    break;
+                }
+                q += 1;
+            }
+            if q == end && !self.eof {
+                return Err(self.bad(line, "", format!("token longer than {MAX_TOKEN} bytes")));
+            }
+            self.pos = q;
+            return Ok(Tok {
+                kind: Kind::Word,
+                start: p,
+                len: q - p,
+                line,
+                col0,
+            });
+        }
+    }
+}
