@@ -64,6 +64,7 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
             q.seen[j / 64] |= 1 << (j % 64);
         }
     }
+    q.queue_minima(minima, levels, start);
     let LatticeQueues {
         entering,
         active,
@@ -71,19 +72,6 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
         scratch,
         seen,
     } = q;
-    if entering.len() < n {
-        entering.resize_with(n, Vec::new);
-    }
-    for e in &mut entering[..n] {
-        e.clear();
-    }
-    active.clear();
-    for m in minima {
-        let l = levels.partition_point(|&t| t <= m.lo);
-        if l < n && set_bit(seen, m.slot - start) {
-            entering[l].push(m.slot);
-        }
-    }
     let mut ids = [0u32; MAX_META_VERTICES];
     let mut nb_ids = [0u32; MAX_META_VERTICES];
     let mut phi = [0f32; MAX_META_VERTICES];

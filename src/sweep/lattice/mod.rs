@@ -94,6 +94,33 @@ impl LatticeQueues {
                 * 8
     }
 
+    /// Empties the per-level queues and the active queue for `levels`,
+    /// then queues each minimum at its entry level (the step where the
+    /// level first passes its lo) and marks it in `seen`. Every other cell
+    /// is queued by the first neighbour that enters (ARCHITECTURE.md,
+    /// invariants), so each cell is queued once.
+    pub(in crate::sweep) fn queue_minima(
+        &mut self,
+        minima: &[Minimum],
+        levels: &[f32],
+        start: u32,
+    ) {
+        let n = levels.len();
+        if self.entering.len() < n {
+            self.entering.resize_with(n, Vec::new);
+        }
+        for e in &mut self.entering[..n] {
+            e.clear();
+        }
+        self.active.clear();
+        for m in minima {
+            let l = levels.partition_point(|&t| t <= m.lo);
+            if l < n && set_bit(&mut self.seen, m.slot - start) {
+                self.entering[l].push(m.slot);
+            }
+        }
+    }
+
     /// Starts a sweep over the block of `len` slots from `start`: every
     /// slot is unseen but the dead ones (the complement of `live`).
     pub(super) fn begin_sweep(&mut self, live: &BitSet, start: u32, len: usize) {
@@ -263,6 +290,7 @@ pub(super) fn sweep_block_lattice(
     } = lattice.as_deref_mut().expect("set above");
     let len = stamps.len() as u32;
     q.begin_sweep(lat.live, start, len as usize);
+    q.queue_minima(minima, levels, start);
     let LatticeQueues {
         entering,
         active,
@@ -271,23 +299,6 @@ pub(super) fn sweep_block_lattice(
         seen,
         ..
     } = q;
-    if entering.len() < n {
-        entering.resize_with(n, Vec::new);
-    }
-    for e in &mut entering[..n] {
-        e.clear();
-    }
-    active.clear();
-    // Each cell is queued once, at the step where the level first passes
-    // its lo: the minima now, every other cell by the first neighbour
-    // that enters (see ARCHITECTURE.md, "entry levels"). A cell is marked
-    // in `seen` when it is queued.
-    for m in minima {
-        let l = levels.partition_point(|&t| t <= m.lo);
-        if l < n && set_bit(seen, m.slot - start) {
-            entering[l].push(m.slot);
-        }
-    }
     for (k, &t) in levels.iter().enumerate() {
         mesh.clear();
         // The cells queued for this step by earlier ones, read in slot
