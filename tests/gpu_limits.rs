@@ -1,7 +1,9 @@
 //! Large frames under artificially lowered limits: a frame whose output
 //! exceeds one storage binding is split into level chunks and gives the
-//! same statistics and the same image; a grid over the limit is a clear
-//! error, not a panic.
+//! same statistics and the same image; a binding too small for the
+//! meta-cell tables (which every grid part carries whole) is a clear
+//! error, not a panic. Grids over the limit are split into parts:
+//! `tests/gpu_grid_parts.rs`.
 
 mod gpu_common;
 
@@ -80,7 +82,7 @@ fn frames_over_the_binding_limit_are_chunked_by_levels() {
 }
 
 #[test]
-fn a_grid_over_the_limit_is_a_clear_error() {
+fn a_binding_too_small_for_the_tables_is_a_clear_error() {
     let Some(small) = lowered(8 * 1024) else {
         return;
     };
@@ -92,7 +94,7 @@ fn a_grid_over_the_limit_is_a_clear_error() {
     };
     let msg = e.to_string();
     assert!(
-        msg.contains("grid vertices") && msg.contains("the CPU path"),
+        msg.contains("meta-cell tables") && msg.contains("the CPU path"),
         "{msg}"
     );
 }

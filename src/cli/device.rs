@@ -64,10 +64,12 @@ pub(crate) fn slice_gpu(
         .context("the GPU path (--device cpu slices on the CPU)")?;
     if !quiet {
         eprintln!(
-            "GPU emission: upload {:.2} ms, count+scan {:.2} ms, emit {:.2} ms",
+            "GPU emission: upload {:.2} ms, count+scan {:.2} ms, emit {:.2} ms ({} level chunk(s), {} grid part(s))",
             t.upload * 1e3,
             t.count * 1e3,
-            t.emit * 1e3
+            t.emit * 1e3,
+            t.chunks,
+            t.grid_parts
         );
     }
     Ok(Some(r))

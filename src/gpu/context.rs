@@ -66,6 +66,18 @@ pub enum GpuError {
         /// What is missing.
         why: String,
     },
+    /// The device ran out of memory while allocating a buffer.
+    #[error(
+        "the GPU '{adapter}' ran out of memory allocating {what}: {why}; use fewer slices, a smaller window or grid, or the CPU path"
+    )]
+    OutOfMemory {
+        /// What was being allocated.
+        what: String,
+        /// wgpu's message.
+        why: String,
+        /// Adapter name.
+        adapter: String,
+    },
     /// A validation error, out-of-memory or device loss reported by wgpu.
     #[error("GPU error: {0}")]
     Device(String),
@@ -242,6 +254,25 @@ impl GpuContext {
             Some(e) => Err(GpuError::Device(e)),
             None => Ok(()),
         }
+    }
+
+    /// Runs `make` (buffer creation) inside an out-of-memory error scope:
+    /// an allocation the device cannot satisfy becomes
+    /// [`GpuError::OutOfMemory`] naming `what`, and a device lost before
+    /// or meanwhile its [`GpuError::Device`] message, never a panic.
+    pub fn allocate<T>(&self, what: &str, make: impl FnOnce() -> T) -> Result<T, GpuError> {
+        self.check()?;
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let out = make();
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::OutOfMemory {
+                what: what.into(),
+                why: e.to_string(),
+                adapter: self.name.clone(),
+            });
+        }
+        self.check()?;
+        Ok(out)
     }
 
     /// Checks that a storage buffer of `bytes` fits one binding and one buffer.

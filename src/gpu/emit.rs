@@ -11,6 +11,7 @@ use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, GpuError};
 use super::frame::FrameOutput;
+use super::grid_parts::{GridPart, split_frame, split_grid};
 use super::shaders;
 use super::shared::{ControlLayout, EmitParams, OutVertex};
 use super::tables::{Frame, GridBuffers, dispatch_size, emit_params};
@@ -32,12 +33,30 @@ pub struct EmitTimings {
     pub emit: f64,
     /// Level chunks the frame was split into (1 when it fit; 0 unset).
     pub chunks: usize,
+    /// Grid parts bound in turn (1 when the grid fit one storage binding).
+    pub grid_parts: usize,
+}
+
+/// One grid part's parameters and dispatch size within a frame.
+struct PartRun {
+    p: EmitParams,
+    groups: (u32, u32),
 }
 
 /// A growable GPU buffer.
 struct Grow {
     buf: wgpu::Buffer,
     cap: u64,
+}
+
+/// One grid part's buffers on the device (see [`super::grid_parts`]).
+struct PartGpu {
+    host: GridPart,
+    grid_buf: wgpu::Buffer,
+    attr: wgpu::Buffer,
+    cells: wgpu::Buffer,
+    grad: wgpu::Buffer,
+    live: wgpu::Buffer,
 }
 
 /// The GPU emitter of one grid and field.
@@ -49,15 +68,13 @@ pub struct GpuEmitter<'c> {
     emit: wgpu::ComputePipeline,
     bin_count: wgpu::ComputePipeline,
     bin_fill: wgpu::ComputePipeline,
-    live: wgpu::Buffer,
-    grid: std::sync::Arc<GridBuffers>,
-    params: wgpu::Buffer,
+    /// The grid parts (one unless the grid exceeds a storage binding).
+    parts: std::sync::Arc<Vec<PartGpu>>,
+    /// Per part: the frame parameters (the parts differ in entries and layout).
+    params: Vec<wgpu::Buffer>,
     tables: wgpu::Buffer,
-    grid_buf: wgpu::Buffer,
-    attr: wgpu::Buffer,
-    cells: wgpu::Buffer,
-    grad: wgpu::Buffer,
-    entries: Option<Grow>,
+    /// Per part: the frame's entries with the part's local slots.
+    entries: Vec<Option<Grow>>,
     levels: Option<Grow>,
     control: Option<Grow>,
     vertices: Option<Grow>,
@@ -131,9 +148,100 @@ fn pipeline(
         }))
 }
 
+/// Bytes one grid-part buffer may hold: one storage binding and one
+/// buffer, rounded down to 16 bytes.
+fn part_budget(ctx: &GpuContext) -> u64 {
+    ctx.limits
+        .max_storage_buffer_binding_size
+        .min(ctx.limits.max_buffer_size)
+        / 16
+        * 16
+}
+
+fn params_buffer(ctx: &GpuContext) -> wgpu::Buffer {
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("params"),
+        size: std::mem::size_of::<EmitParams>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// The bind group layout of the compute passes (uniform 0, storage 1..=12).
+fn compute_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
+    let mut entries = vec![wgpu::BindGroupLayoutEntry {
+        binding: 0,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }];
+    for b in 1..=STORAGE_BINDINGS {
+        entries.push(storage_entry(b, !matches!(b, 5..=8 | 12)));
+    }
+    ctx.device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("emit"),
+            entries: &entries,
+        })
+}
+
+/// Uploads one grid part (out of memory is an error, not a panic).
+fn upload_part(ctx: &GpuContext, host: GridPart) -> Result<PartGpu, GpuError> {
+    let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+    let g = &host.buffers;
+    let bytes = super::grid_parts::largest_buffer(g);
+    for (what, n) in [
+        ("the grid vertices (position + φ)", g.grid.len() as u64 * 16),
+        ("the zoo cells", g.cells.len() as u64 * 4),
+        ("the vertex attribute", g.attr.len() as u64 * 4),
+        ("the vertex gradients", g.grad.len() as u64 * 16),
+        ("the live cell list", g.live.len() as u64 * 4),
+    ] {
+        ctx.check_storage(what, n)?;
+    }
+    let up = |label: &str, data: &[u8]| init_buffer(ctx, label, data, st);
+    let (grid_buf, attr, cells, grad, live) = ctx.allocate(
+        &format!("the grid buffers ({} bytes in the largest)", bytes),
+        || {
+            (
+                up("grid", bytemuck::cast_slice(&g.grid)),
+                up("attr", bytemuck::cast_slice(&g.attr)),
+                up("cells", bytemuck::cast_slice(&g.cells)),
+                up("grad", bytemuck::cast_slice(&g.grad)),
+                up("live", bytemuck::cast_slice(&g.live)),
+            )
+        },
+    )?;
+    Ok(PartGpu {
+        host,
+        grid_buf,
+        attr,
+        cells,
+        grad,
+        live,
+    })
+}
+
 impl<'c> GpuEmitter<'c> {
-    /// Uploads the grid side and builds the pipelines.
+    /// Uploads the grid side and builds the pipelines. A grid whose
+    /// buffers exceed one storage binding is split into parts
+    /// ([`super::grid_parts`]), each bound in turn.
     pub fn new(ctx: &'c GpuContext, grid: GridBuffers) -> Result<Self, GpuError> {
+        Self::with_part_budget(ctx, grid, None)
+    }
+
+    /// As [`Self::new`], with grid parts of at most `max_part_bytes` per
+    /// buffer when given (below the device's own limit: tests force a
+    /// small grid into several parts with it).
+    pub fn with_part_budget(
+        ctx: &'c GpuContext,
+        grid: GridBuffers,
+        max_part_bytes: Option<u64>,
+    ) -> Result<Self, GpuError> {
         if ctx.limits.max_storage_buffers_per_shader_stage < STORAGE_BINDINGS {
             return Err(GpuError::Unsupported {
                 adapter: ctx.name.clone(),
@@ -143,33 +251,8 @@ impl<'c> GpuEmitter<'c> {
                 ),
             });
         }
-        ctx.check_storage(
-            "the grid vertices (position + φ)",
-            grid.grid.len() as u64 * 16,
-        )?;
-        ctx.check_storage("the zoo cells", grid.cells.len() as u64 * 4)?;
-        ctx.check_storage("the vertex attribute", grid.attr.len() as u64 * 4)?;
         ctx.check_storage("the meta-cell tables", grid.tables.len() as u64 * 4)?;
-        ctx.check_storage("the vertex gradients", grid.grad.len() as u64 * 16)?;
-        let mut entries = vec![wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        }];
-        for b in 1..=STORAGE_BINDINGS {
-            entries.push(storage_entry(b, !matches!(b, 5..=8 | 12)));
-        }
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("emit"),
-                entries: &entries,
-            });
+        let layout = compute_layout(ctx);
         let pl = ctx
             .device
             .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -178,44 +261,30 @@ impl<'c> GpuEmitter<'c> {
                 immediate_size: 0,
             });
         let f64d = ctx.shader_f64;
-        let count = pipeline(
-            ctx,
-            &pl,
-            "count.wgsl",
-            shaders::compute_source(shaders::COUNT, f64d),
-            "count",
-        )?;
-        let scan = pipeline(
-            ctx,
-            &pl,
-            "scan.wgsl",
-            shaders::compute_source(shaders::SCAN, f64d),
-            "scan",
-        )?;
-        let emit = pipeline(
-            ctx,
-            &pl,
-            "emit.wgsl",
-            shaders::compute_source(shaders::EMIT, f64d),
-            "emit",
-        )?;
-        let bin_src = shaders::compute_source(shaders::BIN, f64d);
-        let bin_count = pipeline(ctx, &pl, "bin.wgsl", bin_src.clone(), "bin_count")?;
-        let bin_fill = pipeline(ctx, &pl, "bin.wgsl", bin_src, "bin_fill")?;
-        ctx.check_storage("the live cell list", grid.live.len() as u64 * 4)?;
+        let src = |s| shaders::compute_source(s, f64d);
+        let count = pipeline(ctx, &pl, "count.wgsl", src(shaders::COUNT), "count")?;
+        let scan = pipeline(ctx, &pl, "scan.wgsl", src(shaders::SCAN), "scan")?;
+        let emit = pipeline(ctx, &pl, "emit.wgsl", src(shaders::EMIT), "emit")?;
+        let bin_count = pipeline(ctx, &pl, "bin.wgsl", src(shaders::BIN), "bin_count")?;
+        let bin_fill = pipeline(ctx, &pl, "bin.wgsl", src(shaders::BIN), "bin_fill")?;
+        let budget = part_budget(ctx).min(max_part_bytes.unwrap_or(u64::MAX) / 16 * 16);
+        let parts = split_grid(grid, budget).map_err(|e| GpuError::TooLarge {
+            what: format!("cell (slot {}) alone", e.slot),
+            bytes: e.bytes,
+            limit: e.budget,
+            kind: "storage binding",
+            adapter: ctx.name.clone(),
+        })?;
         let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let live = init_buffer(ctx, "live", bytemuck::cast_slice(&grid.live), st);
-        let params = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("params"),
-            size: std::mem::size_of::<EmitParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let tables = init_buffer(ctx, "tables", bytemuck::cast_slice(&grid.tables), st);
-        let grid_buf = init_buffer(ctx, "grid", bytemuck::cast_slice(&grid.grid), st);
-        let attr = init_buffer(ctx, "attr", bytemuck::cast_slice(&grid.attr), st);
-        let cells = init_buffer(ctx, "cells", bytemuck::cast_slice(&grid.cells), st);
-        let grad = init_buffer(ctx, "grad", bytemuck::cast_slice(&grid.grad), st);
+        let tables = ctx.allocate("the meta-cell tables", || {
+            let b = &parts[0].buffers;
+            init_buffer(ctx, "tables", bytemuck::cast_slice(&b.tables), st)
+        })?;
+        let parts = parts
+            .into_iter()
+            .map(|host| upload_part(ctx, host))
+            .collect::<Result<Vec<_>, _>>()?;
+        let n = parts.len();
         ctx.check()?;
         Ok(GpuEmitter {
             ctx,
@@ -225,15 +294,10 @@ impl<'c> GpuEmitter<'c> {
             emit,
             bin_count,
             bin_fill,
-            live,
-            grid: std::sync::Arc::new(grid),
-            params,
+            parts: std::sync::Arc::new(parts),
+            params: (0..n).map(|_| params_buffer(ctx)).collect(),
             tables,
-            grid_buf,
-            attr,
-            cells,
-            grad,
-            entries: None,
+            entries: (0..n).map(|_| None).collect(),
             levels: None,
             control: None,
             vertices: None,
@@ -249,6 +313,7 @@ impl<'c> GpuEmitter<'c> {
     /// An emitter sharing this one's grid buffers and pipelines, with its
     /// own frame buffers (for the chunks of a frame too large for one).
     pub fn fork(&self) -> Self {
+        let n = self.parts.len();
         GpuEmitter {
             ctx: self.ctx,
             layout: self.layout.clone(),
@@ -257,20 +322,10 @@ impl<'c> GpuEmitter<'c> {
             emit: self.emit.clone(),
             bin_count: self.bin_count.clone(),
             bin_fill: self.bin_fill.clone(),
-            live: self.live.clone(),
-            grid: self.grid.clone(),
-            params: self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("params"),
-                size: std::mem::size_of::<EmitParams>() as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }),
+            parts: self.parts.clone(),
+            params: (0..n).map(|_| params_buffer(self.ctx)).collect(),
             tables: self.tables.clone(),
-            grid_buf: self.grid_buf.clone(),
-            attr: self.attr.clone(),
-            cells: self.cells.clone(),
-            grad: self.grad.clone(),
-            entries: None,
+            entries: (0..n).map(|_| None).collect(),
             levels: None,
             control: None,
             vertices: None,
@@ -283,9 +338,9 @@ impl<'c> GpuEmitter<'c> {
         }
     }
 
-    /// The grid-side host buffers.
-    pub fn grid(&self) -> &GridBuffers {
-        &self.grid
+    /// Grid parts bound in turn (1 unless the grid exceeds a storage binding).
+    pub fn grid_parts(&self) -> usize {
+        self.parts.len()
     }
 
     fn ensure(
@@ -309,36 +364,40 @@ impl<'c> GpuEmitter<'c> {
                 .max(bytes)
                 / 4
                 * 4;
-            *slot = Some(Grow {
-                buf: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            // Free the old buffer before asking for the larger one.
+            *slot = None;
+            let buf = ctx.allocate(&format!("{what} ({cap} bytes)"), || {
+                ctx.device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some(what),
                     size: cap,
                     usage,
                     mapped_at_creation: false,
-                }),
-                cap,
-            });
+                })
+            })?;
+            *slot = Some(Grow { buf, cap });
         }
         Ok(())
     }
 
-    fn bind_group(&self) -> wgpu::BindGroup {
+    /// The bind group of grid part `i` with this emitter's frame buffers.
+    fn bind_group(&self, i: usize) -> wgpu::BindGroup {
         fn b(g: &Option<Grow>) -> wgpu::BindingResource<'_> {
             g.as_ref().expect("allocated").buf.as_entire_binding()
         }
+        let part = &self.parts[i];
         let bufs = [
-            self.params.as_entire_binding(),
+            self.params[i].as_entire_binding(),
             self.tables.as_entire_binding(),
-            self.grid_buf.as_entire_binding(),
-            self.attr.as_entire_binding(),
-            self.cells.as_entire_binding(),
-            b(&self.entries),
+            part.grid_buf.as_entire_binding(),
+            part.attr.as_entire_binding(),
+            part.cells.as_entire_binding(),
+            b(&self.entries[i]),
             b(&self.control),
             b(&self.vertices),
             b(&self.areas),
             b(&self.levels),
-            self.live.as_entire_binding(),
-            self.grad.as_entire_binding(),
+            part.live.as_entire_binding(),
+            part.grad.as_entire_binding(),
             b(&self.normals),
         ];
         let entries: Vec<wgpu::BindGroupEntry> = bufs
@@ -375,61 +434,77 @@ impl<'c> GpuEmitter<'c> {
         self.dispatches += 1;
     }
 
-    /// Runs one frame on the GPU: uploads the levels and entries, counts,
-    /// scans, sizes the vertex buffer to the exact total and emits. The
-    /// triangles and draw arguments stay on the GPU ([`Self::vertex_buffer`],
-    /// [`Self::control_buffer`]); [`Self::read_output`] fetches them.
+    /// Runs one frame on the GPU: uploads the levels and entries, counts
+    /// (once per grid part, into the same counters), scans, sizes the
+    /// vertex buffer to the exact total and emits (once per part, into
+    /// the same level regions). The triangles and draw arguments stay on
+    /// the GPU ([`Self::vertex_buffer`], [`Self::control_buffer`]);
+    /// [`Self::read_output`] fetches them.
     pub fn run(&mut self, frame: &Frame, write_areas: bool) -> Result<(), GpuError> {
         let ctx = self.ctx;
         let t0 = Instant::now();
         let k = frame.levels.len() as u32;
         let lay = ControlLayout { k };
-        self.prepare(frame.entries.len() as u64 * 8, &frame.levels, lay)?;
-        let q = &ctx.queue;
-        if !frame.entries.is_empty() {
-            q.write_buffer(
-                &self.entries.as_ref().expect("allocated").buf,
-                0,
-                bytemuck::cast_slice(&frame.entries),
-            );
+        self.prepare(&frame.levels, lay)?;
+        let split;
+        let subs: &[Frame] = if self.parts.len() == 1 {
+            std::slice::from_ref(frame)
+        } else {
+            let ranges: Vec<(u32, u32)> = self
+                .parts
+                .iter()
+                .map(|p| (p.host.slot_lo, p.host.slot_hi))
+                .collect();
+            split = split_frame(&ranges, frame);
+            &split
+        };
+        let maxx = ctx.limits.max_compute_workgroups_per_dimension;
+        let mut runs = Vec::with_capacity(subs.len());
+        for (i, sub) in subs.iter().enumerate() {
+            Self::ensure(
+                ctx,
+                &mut self.entries[i],
+                "the frame's (cell, level) entries",
+                sub.entries.len() as u64 * 8,
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            )?;
+            if !sub.entries.is_empty() {
+                ctx.queue.write_buffer(
+                    &self.entries[i].as_ref().expect("allocated").buf,
+                    0,
+                    bytemuck::cast_slice(&sub.entries),
+                );
+            }
+            let groups = dispatch_size(sub.entries.len() as u32, maxx);
+            let p = emit_params(&self.parts[i].host.buffers, sub, 0, write_areas, groups.0);
+            ctx.queue
+                .write_buffer(&self.params[i], 0, bytemuck::bytes_of(&p));
+            runs.push(PartRun { p, groups });
         }
-        let groups = dispatch_size(
-            frame.entries.len() as u32,
-            ctx.limits.max_compute_workgroups_per_dimension,
-        );
-        let p = emit_params(&self.grid, frame, 0, write_areas, groups.0);
-        q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
         let control = self.control.as_ref().expect("allocated").buf.clone();
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         enc.clear_buffer(&control, 0, None);
-        let bg = self.bind_group();
         ctx.wait()?;
         let t1 = Instant::now();
-        self.dispatch(&mut enc, &bg, &self.count.clone(), groups);
+        for (i, r) in runs.iter().enumerate() {
+            if r.p.entry_count > 0 || i == 0 {
+                let bg = self.bind_group(i);
+                self.dispatch(&mut enc, &bg, &self.count.clone(), r.groups);
+            }
+        }
+        let bg = self.bind_group(0);
         self.dispatch(&mut enc, &bg, &self.scan.clone(), (1, 1));
-        q.submit([enc.finish()]);
-        self.size_and_emit(p, groups, &control, lay, write_areas, [t0, t1])?;
+        ctx.queue.submit([enc.finish()]);
+        self.size_and_emit(&mut runs, &control, lay, write_areas, [t0, t1])?;
         Ok(())
     }
 
-    /// Makes every buffer of a run exist (entries of `entry_bytes`, the
-    /// levels, the control block of `lay`; outputs at their minimum until
-    /// [`Self::size_and_emit`] sizes them) and uploads the level values.
-    fn prepare(
-        &mut self,
-        entry_bytes: u64,
-        levels: &[f32],
-        lay: ControlLayout,
-    ) -> Result<(), GpuError> {
+    /// Makes the levels, the control block of `lay` and the outputs exist
+    /// (outputs at their minimum until [`Self::size_and_emit`] sizes them)
+    /// and uploads the level values.
+    fn prepare(&mut self, levels: &[f32], lay: ControlLayout) -> Result<(), GpuError> {
         let ctx = self.ctx;
         let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        Self::ensure(
-            ctx,
-            &mut self.entries,
-            "the frame's (cell, level) entries",
-            entry_bytes,
-            st,
-        )?;
         Self::ensure(
             ctx,
             &mut self.levels,
@@ -454,6 +529,9 @@ impl<'c> GpuEmitter<'c> {
             st | wgpu::BufferUsages::COPY_SRC,
         )?;
         Self::ensure(ctx, &mut self.normals, "the output normals", 16, vst)?;
+        for e in &mut self.entries {
+            Self::ensure(ctx, e, "the frame's (cell, level) entries", 8, st)?;
+        }
         if !levels.is_empty() {
             ctx.queue.write_buffer(
                 &self.levels.as_ref().expect("allocated").buf,
@@ -465,13 +543,11 @@ impl<'c> GpuEmitter<'c> {
     }
 
     /// After the count and scan passes: reads the frame's triangle total,
-    /// sizes the outputs to it exactly, runs the emit pass and records the
-    /// timings (`times` = start, end of upload).
-    #[allow(clippy::too_many_arguments)]
+    /// sizes the outputs to it exactly, runs the emit pass of every part
+    /// with entries and records the timings (`times` = start, end of upload).
     fn size_and_emit(
         &mut self,
-        mut p: EmitParams,
-        groups: (u32, u32),
+        runs: &mut [PartRun],
         control: &wgpu::Buffer,
         lay: ControlLayout,
         write_areas: bool,
@@ -497,7 +573,7 @@ impl<'c> GpuEmitter<'c> {
             if write_areas { total as u64 * 4 } else { 4 },
             st | wgpu::BufferUsages::COPY_SRC,
         )?;
-        if !self.grid.grad.is_empty() {
+        if self.has_normals() {
             Self::ensure(
                 ctx,
                 &mut self.normals,
@@ -506,11 +582,16 @@ impl<'c> GpuEmitter<'c> {
                 vst,
             )?;
         }
-        p.triangle_capacity = total;
-        q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
-        let bg = self.bind_group();
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        self.dispatch(&mut enc, &bg, &self.emit.clone(), groups);
+        for (i, r) in runs.iter_mut().enumerate() {
+            if r.p.entry_count == 0 {
+                continue;
+            }
+            r.p.triangle_capacity = total;
+            q.write_buffer(&self.params[i], 0, bytemuck::bytes_of(&r.p));
+            let bg = self.bind_group(i);
+            self.dispatch(&mut enc, &bg, &self.emit.clone(), r.groups);
+        }
         q.submit([enc.finish()]);
         ctx.wait()?;
         let t3 = Instant::now();
@@ -521,6 +602,7 @@ impl<'c> GpuEmitter<'c> {
             count: (t2 - times[1]).as_secs_f64(),
             emit: (t3 - t2).as_secs_f64(),
             chunks: 1,
+            grid_parts: self.parts.len(),
         };
         Ok(())
     }
@@ -558,7 +640,7 @@ impl<'c> GpuEmitter<'c> {
 
     /// True when the emit pass writes normals (the grid carries gradients).
     pub fn has_normals(&self) -> bool {
-        !self.grid.grad.is_empty()
+        !self.parts[0].host.buffers.grad.is_empty()
     }
 
     /// The control buffer (draw arguments in both orders, then counters).
@@ -637,38 +719,54 @@ impl GpuEmitter<'_> {
     /// of (cell, level) entries. `timings.upload` covers the binning.
     pub fn run_span(&mut self, levels: &[f32], write_areas: bool) -> Result<u32, GpuError> {
         let ctx = self.ctx;
+        if self.parts.len() > 1 {
+            return Err(GpuError::Unsupported {
+                adapter: ctx.name.clone(),
+                why: format!(
+                    "span-space binning on a grid split into {} parts (over one storage binding)",
+                    self.parts.len()
+                ),
+            });
+        }
         let t0 = Instant::now();
         let k = levels.len() as u32;
         let lay = ControlLayout { k };
         let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        self.prepare(8, levels, lay)?;
+        self.prepare(levels, lay)?;
         let q = &ctx.queue;
         let maxx = ctx.limits.max_compute_workgroups_per_dimension;
-        let live_groups = dispatch_size(self.grid.live.len() as u32, maxx);
+        let live_len = self.parts[0].host.buffers.live.len() as u32;
+        let live_groups = dispatch_size(live_len, maxx);
         let empty = Frame {
             levels: levels.to_vec(),
             ..Default::default()
         };
-        let mut p = emit_params(&self.grid, &empty, 0, write_areas, live_groups.0);
-        p.live_count = self.grid.live.len() as u32;
-        q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
+        let mut p = emit_params(
+            &self.parts[0].host.buffers,
+            &empty,
+            0,
+            write_areas,
+            live_groups.0,
+        );
+        p.live_count = live_len;
+        q.write_buffer(&self.params[0], 0, bytemuck::bytes_of(&p));
         let control = self.control.as_ref().expect("allocated").buf.clone();
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         enc.clear_buffer(&control, 0, None);
-        let bg = self.bind_group();
+        let bg = self.bind_group(0);
         self.dispatch(&mut enc, &bg, &self.bin_count.clone(), live_groups);
         q.submit([enc.finish()]);
         let n = self.read_words(&control, lay.bin_total() as u64 * 4, 1)?[0];
         Self::ensure(
             ctx,
-            &mut self.entries,
+            &mut self.entries[0],
             "the frame's (cell, level) entries",
             n as u64 * 8,
             st,
         )?;
         p.entry_count = n;
-        q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
-        let bg = self.bind_group();
+        q.write_buffer(&self.params[0], 0, bytemuck::bytes_of(&p));
+        let bg = self.bind_group(0);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.dispatch(&mut enc, &bg, &self.bin_fill.clone(), live_groups);
         q.submit([enc.finish()]);
@@ -676,12 +774,13 @@ impl GpuEmitter<'_> {
         // Count, scan and emit over the binned entries.
         let groups = dispatch_size(n, maxx);
         p.row_width = groups.0 * super::shared::WORKGROUP;
-        q.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
+        q.write_buffer(&self.params[0], 0, bytemuck::bytes_of(&p));
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.dispatch(&mut enc, &bg, &self.count.clone(), groups);
         self.dispatch(&mut enc, &bg, &self.scan.clone(), (1, 1));
         q.submit([enc.finish()]);
-        self.size_and_emit(p, groups, &control, lay, write_areas, [t0, t1])?;
+        let mut runs = [PartRun { p, groups }];
+        self.size_and_emit(&mut runs, &control, lay, write_areas, [t0, t1])?;
         Ok(n)
     }
 }

@@ -137,6 +137,7 @@ pub fn slice_on(
             let mut stats = Vec::with_capacity(p.frame.levels.len());
             let mut t = EmitTimings {
                 chunks: chunks.len(),
+                grid_parts: base.grid_parts(),
                 ..Default::default()
             };
             for (i, (e, a)) in chunks.iter().enumerate() {
