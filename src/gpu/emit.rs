@@ -75,6 +75,8 @@ pub struct GpuEmitter<'c> {
     tables: wgpu::Buffer,
     /// Per part: the frame's entries with the part's local slots.
     entries: Vec<Option<Grow>>,
+    /// The normals buffer holds host-made normals ([`Self::from_output`]).
+    host_normals: bool,
     levels: Option<Grow>,
     control: Option<Grow>,
     vertices: Option<Grow>,
@@ -298,6 +300,7 @@ impl<'c> GpuEmitter<'c> {
             params: (0..n).map(|_| params_buffer(ctx)).collect(),
             tables,
             entries: (0..n).map(|_| None).collect(),
+            host_normals: false,
             levels: None,
             control: None,
             vertices: None,
@@ -326,6 +329,7 @@ impl<'c> GpuEmitter<'c> {
             params: (0..n).map(|_| params_buffer(self.ctx)).collect(),
             tables: self.tables.clone(),
             entries: (0..n).map(|_| None).collect(),
+            host_normals: false,
             levels: None,
             control: None,
             vertices: None,
@@ -336,6 +340,53 @@ impl<'c> GpuEmitter<'c> {
             triangles: 0,
             timings: EmitTimings::default(),
         }
+    }
+
+    /// An emitter whose output was made on the host (the CPU sweep's
+    /// polygons of a grid the GPU tables cannot express, see
+    /// [`super::host_slices`]): `out`'s triangles and control words
+    /// uploaded as if the passes had written them, with zero normals (the
+    /// render pass then shades with the facet normal) when `normals`.
+    pub fn from_output(
+        ctx: &'c GpuContext,
+        out: &FrameOutput,
+        normals: bool,
+    ) -> Result<Self, GpuError> {
+        let mut e = Self::new(ctx, GridBuffers::default())?;
+        let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let vst = st | wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC;
+        let lay = ControlLayout { k: out.k };
+        e.prepare(&[], lay)?;
+        let n = out.vertices.len() as u64 / 3;
+        let upload = |slot: &mut Option<Grow>, what: &str, data: &[u8], usage| {
+            Self::ensure(ctx, slot, what, data.len() as u64, usage)?;
+            if !data.is_empty() {
+                let buf = &slot.as_ref().expect("allocated").buf;
+                ctx.queue.write_buffer(buf, 0, data);
+            }
+            Ok::<(), GpuError>(())
+        };
+        upload(
+            &mut e.vertices,
+            "the host triangles",
+            bytemuck::cast_slice(&out.vertices),
+            vst,
+        )?;
+        upload(
+            &mut e.control,
+            "the draw arguments and counters",
+            bytemuck::cast_slice(&out.control),
+            st | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_SRC,
+        )?;
+        if normals {
+            let zeros = vec![0u8; (n * NORMAL_BYTES_PER_TRIANGLE) as usize];
+            upload(&mut e.normals, "the host normals", &zeros, vst)?;
+        }
+        ctx.wait()?;
+        e.host_normals = normals;
+        e.level_count = out.k;
+        e.triangles = n as u32;
+        Ok(e)
     }
 
     /// Grid parts bound in turn (1 unless the grid exceeds a storage binding).
@@ -640,7 +691,7 @@ impl<'c> GpuEmitter<'c> {
 
     /// True when the emit pass writes normals (the grid carries gradients).
     pub fn has_normals(&self) -> bool {
-        !self.parts[0].host.buffers.grad.is_empty()
+        self.host_normals || !self.parts[0].host.buffers.grad.is_empty()
     }
 
     /// The control buffer (draw arguments in both orders, then counters).

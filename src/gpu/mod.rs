@@ -14,6 +14,7 @@ pub mod emit;
 pub mod frame;
 pub mod gradient;
 pub mod grid_parts;
+pub mod host_slices;
 pub mod preintegrate;
 pub mod present;
 pub mod render;

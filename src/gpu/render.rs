@@ -700,6 +700,10 @@ pub fn build_slices<'c>(
     s: &Structure,
     k: &SliceKey,
 ) -> Result<SliceSet<'c>, RenderError> {
+    if let Structure::Ciel(_) = s {
+        // Polyhedra the GPU tables cannot express: the CPU's polygons.
+        return super::host_slices::build_host_slices(ctx, grid, s, k);
+    }
     let property = &k.property;
     let req = SliceRequest {
         field: k.field.clone(),
