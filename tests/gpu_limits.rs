@@ -98,3 +98,48 @@ fn a_binding_too_small_for_the_tables_is_a_clear_error() {
         "{msg}"
     );
 }
+
+#[test]
+fn an_allocation_the_device_cannot_satisfy_is_an_error_not_a_panic() {
+    let Some(full) = gpu_common::gpu("allocation failure") else {
+        return;
+    };
+    // A device of its own: the errors below must not leak into other tests.
+    let ctx = GpuContext::new(&ContextOptions {
+        adapter: Some(full.adapter.get_info().name),
+        limits: None,
+    })
+    .unwrap();
+    let buffer = |size: u64| {
+        ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("probe"),
+            size,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        })
+    };
+    // Past the buffer limit: wgpu's validation error, reported as an error.
+    let over = ctx.limits.max_buffer_size.saturating_add(4) / 4 * 4;
+    let e = ctx
+        .allocate("a buffer over the limit", || buffer(over))
+        .expect_err("a buffer over max_buffer_size must fail");
+    assert!(e.to_string().contains("a buffer over the limit"), "{e}");
+    eprintln!("over the limit ({over} bytes): {e}");
+    // Within the limit but more than the device has: out of memory.
+    let huge = ctx.limits.max_buffer_size / 4 * 4;
+    match ctx.allocate("the largest buffer the limit allows", || buffer(huge)) {
+        Err(e @ GpuError::OutOfMemory { .. }) => {
+            let msg = e.to_string();
+            assert!(
+                msg.contains("ran out of memory") && msg.contains("the CPU path"),
+                "{msg}"
+            );
+            eprintln!("{huge} bytes: {msg}");
+        }
+        Err(e) => eprintln!("{huge} bytes: refused as {e}"),
+        Ok(_) => eprintln!("{huge} bytes: the device allocated it (no out-of-memory to test)"),
+    }
+    // The device still works afterwards.
+    assert!(ctx.allocate("a small buffer", || buffer(256)).is_ok());
+    ctx.wait().unwrap();
+}

@@ -271,7 +271,10 @@ impl GpuContext {
                 adapter: self.name.clone(),
             });
         }
-        self.check()?;
+        self.check().map_err(|e| match e {
+            GpuError::Device(m) => GpuError::Device(format!("allocating {what}: {m}")),
+            e => e,
+        })?;
         Ok(out)
     }
 
