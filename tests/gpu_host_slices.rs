@@ -4,14 +4,15 @@
 //! pipeline's statistics; a warped grid forced onto CIEL (host polygons)
 //! renders like the same grid on the S-CGraph (GPU emission), an
 //! independent path, in volume and slices modes (MAD < 1 level) and iso
-//! mode (same coverage; facet shading, MAD < 3 levels); a Voronoi grid
+//! mode (same coverage; mesh-averaged normals, MAD < 2.5 levels); plane
+//! slices get vertex normals along the plane normal; a Voronoi grid
 //! renders in every mode with pixels that change with the view.
 
 mod gpu_common;
 
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::warped;
-use stratasweep::gpu::host_slices::mesh_output;
+use stratasweep::gpu::host_slices::{mesh_output, vertex_normals};
 use stratasweep::gpu::render::{Mode, RenderOptions, Renderer};
 use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
 use stratasweep::structures::{Structure, StructureChoice};
@@ -39,7 +40,7 @@ fn host_output_keeps_the_cpu_polygons() {
     };
     let r = slice(&grid, &s, &req, &|_| {}).unwrap();
     let m = r.mesh.as_ref().unwrap();
-    let out = mesh_output(m, 12, None);
+    let out = mesh_output(m, 12, None, false);
     let mut total = 0;
     for (lv, st) in r.stats.iter().enumerate() {
         let lv = lv as u32;
@@ -131,10 +132,11 @@ fn host_polygons_render_like_the_gpu_emission() {
             off * 100 <= ma.len(),
             "{mode:?}: coverage differs in {off} pixels"
         );
-        // Iso: the host polygons carry no gradient and are shaded with
-        // the facet normal, the GPU emission with the interpolated
-        // gradient, so the shading differs (measured MAD 2.58).
-        let bound = if mode == Mode::Iso { 3.0 } else { 1.0 };
+        // Iso: the host polygons carry normals averaged over the welded
+        // mesh, the GPU emission the interpolated field gradient, so the
+        // shading differs on this coarse grid (measured MAD 2.06; 2.58
+        // with facet normals).
+        let bound = if mode == Mode::Iso { 2.5 } else { 1.0 };
         assert!(d < bound, "{mode:?}: MAD {d}");
     }
 }
@@ -172,5 +174,36 @@ fn voronoi_renders_in_every_mode_and_turns_with_the_view() {
             mad(&a, &b) > 0.5,
             "{mode:?}: the view does not change the image"
         );
+    }
+}
+
+#[test]
+fn vertex_normals_of_plane_slices_are_the_plane_normal() {
+    // A warped grid on CIEL, planes z = c: every polygon lies in its plane,
+    // whatever the orientation the sweep gave it.
+    let grid = warped([10, 9, 8], 4);
+    let s = Structure::build(&grid, StructureChoice::Ciel).unwrap();
+    let req = SliceRequest {
+        field: FieldSpec::Axis {
+            axis: 2,
+            negative: false,
+        },
+        levels: LevelSpec::Count(6),
+        attribute: None,
+        threads: 1,
+        brute_force: false,
+        collect_mesh: true,
+        sweep: Default::default(),
+    };
+    let r = slice(&grid, &s, &req, &|_| {}).unwrap();
+    let m = r.mesh.unwrap();
+    let vn = vertex_normals(&m);
+    let used: std::collections::HashSet<u32> = m.poly_indices.iter().copied().collect();
+    assert!(used.len() > 200);
+    for &v in &used {
+        let n = vn[v as usize];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        assert!(len > 0.0, "vertex {v}: normals cancelled");
+        assert!((n[2] / len).abs() > 0.9999, "vertex {v}: {n:?}");
     }
 }

@@ -345,8 +345,9 @@ impl<'c> GpuEmitter<'c> {
     /// An emitter whose output was made on the host (the CPU sweep's
     /// polygons of a grid the GPU tables cannot express, see
     /// [`super::host_slices`]): `out`'s triangles and control words
-    /// uploaded as if the passes had written them, with zero normals (the
-    /// render pass then shades with the facet normal) when `normals`.
+    /// uploaded as if the passes had written them; with `normals`, `out`'s
+    /// per-corner normals (zero when it has none: the render pass then
+    /// shades with the facet normal).
     pub fn from_output(
         ctx: &'c GpuContext,
         out: &FrameOutput,
@@ -379,8 +380,14 @@ impl<'c> GpuEmitter<'c> {
             st | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_SRC,
         )?;
         if normals {
-            let zeros = vec![0u8; (n * NORMAL_BYTES_PER_TRIANGLE) as usize];
-            upload(&mut e.normals, "the host normals", &zeros, vst)?;
+            let zeros;
+            let data: &[u8] = if out.normals.len() == out.vertices.len() {
+                bytemuck::cast_slice(&out.normals)
+            } else {
+                zeros = vec![0u8; (n * NORMAL_BYTES_PER_TRIANGLE) as usize];
+                &zeros
+            };
+            upload(&mut e.normals, "the host normals", data, vst)?;
         }
         ctx.wait()?;
         e.host_normals = normals;

@@ -3,7 +3,8 @@
 //! sweeps and emits the polygons, which are fan-triangulated per level
 //! into the same [`FrameOutput`] layout the compute passes write (draw
 //! arguments in both orders, counters), uploaded once and drawn by the
-//! same render pass as every other slice set.
+//! same render pass as every other slice set. Iso slices carry normals
+//! averaged over the welded mesh (the CPU mesh has no field gradient).
 
 use crate::grid::Grid;
 use crate::mesh::PolyMesh;
@@ -16,10 +17,53 @@ use super::frame::FrameOutput;
 use super::render::{RenderError, SliceKey, SliceSet};
 use super::shared::{ControlLayout, DrawArgs, OutVertex};
 
+/// Per mesh vertex: the area-weighted mean of its polygons' normals (the
+/// mesh is welded by grid edge), each polygon's normal flipped to agree
+/// with the sum so far (the render shades both sides alike), so a smooth
+/// isosurface gets smooth normals without the field's gradient.
+pub fn vertex_normals(mesh: &PolyMesh) -> Vec<[f32; 4]> {
+    let mut acc = vec![[0f64; 3]; mesh.positions.len()];
+    for p in 0..mesh.polygon_count() {
+        let ids = mesh.polygon(p);
+        let pos = |i: u32| mesh.positions[i as usize].map(f64::from);
+        let o = pos(ids[0]);
+        let mut n = [0f64; 3];
+        for j in 1..ids.len().saturating_sub(1) {
+            let (a, b) = (pos(ids[j]), pos(ids[j + 1]));
+            let u = [a[0] - o[0], a[1] - o[1], a[2] - o[2]];
+            let v = [b[0] - o[0], b[1] - o[1], b[2] - o[2]];
+            n[0] += u[1] * v[2] - u[2] * v[1];
+            n[1] += u[2] * v[0] - u[0] * v[2];
+            n[2] += u[0] * v[1] - u[1] * v[0];
+        }
+        for &i in ids {
+            let a = &mut acc[i as usize];
+            let sign = if a[0] * n[0] + a[1] * n[1] + a[2] * n[2] < 0.0 {
+                -1.0
+            } else {
+                1.0
+            };
+            for c in 0..3 {
+                a[c] += sign * n[c];
+            }
+        }
+    }
+    acc.iter()
+        .map(|a| [a[0] as f32, a[1] as f32, a[2] as f32, 0.0])
+        .collect()
+}
+
 /// The polygons of `mesh` fan-triangulated per level (`k` levels), each
 /// corner carrying its value, or `flat[cell]` of the polygon's source cell
-/// when given, in the control layout of the compute passes.
-pub fn mesh_output(mesh: &PolyMesh, k: usize, flat: Option<&[f64]>) -> FrameOutput {
+/// when given, and its vertex normal ([`vertex_normals`]) when `normals`,
+/// in the control layout of the compute passes.
+pub fn mesh_output(mesh: &PolyMesh, k: usize, flat: Option<&[f64]>, normals: bool) -> FrameOutput {
+    let vn = if normals {
+        vertex_normals(mesh)
+    } else {
+        Vec::new()
+    };
+    let mut per_level_n: Vec<Vec<[f32; 4]>> = vec![Vec::new(); k];
     let mut per_level: Vec<Vec<OutVertex>> = vec![Vec::new(); k];
     let mut polys = vec![0u32; k];
     for p in 0..mesh.polygon_count() {
@@ -32,12 +76,17 @@ pub fn mesh_output(mesh: &PolyMesh, k: usize, flat: Option<&[f64]>) -> FrameOutp
         };
         polys[lv] += 1;
         for j in 1..ids.len().saturating_sub(1) {
-            per_level[lv].extend([corner(ids[0]), corner(ids[j]), corner(ids[j + 1])]);
+            let tri = [ids[0], ids[j], ids[j + 1]];
+            per_level[lv].extend(tri.map(corner));
+            if normals {
+                per_level_n[lv].extend(tri.map(|i| vn[i as usize]));
+            }
         }
     }
     let lay = ControlLayout { k: k as u32 };
     let mut control = vec![0u32; lay.words() as usize];
     let mut vertices = Vec::new();
+    let normals: Vec<[f32; 4]> = per_level_n.concat();
     for (j, tris) in per_level.iter().enumerate() {
         let n = (tris.len() / 3) as u32;
         let base = (vertices.len() / 3) as u32;
@@ -63,13 +112,13 @@ pub fn mesh_output(mesh: &PolyMesh, k: usize, flat: Option<&[f64]>) -> FrameOutp
         control,
         vertices,
         areas: Vec::new(),
-        normals: Vec::new(),
+        normals,
     }
 }
 
 /// Builds the slices of `k` on a CIEL grid: the CPU sweep's polygons
-/// uploaded for drawing (no compute dispatch). Iso slices get zero
-/// normals, so the render pass shades them with the facet normal.
+/// uploaded for drawing (no compute dispatch). Iso slices carry vertex
+/// normals averaged over the welded mesh ([`vertex_normals`]).
 pub fn build_host_slices<'c>(
     ctx: &'c GpuContext,
     grid: &Grid,
@@ -105,7 +154,7 @@ pub fn build_host_slices<'c>(
     let r = slice(grid, s, &req, &|_| {})?;
     let levels = r.level_values.len();
     let mesh = r.mesh.unwrap_or_default();
-    let out = mesh_output(&mesh, levels, cell_values.as_deref());
+    let out = mesh_output(&mesh, levels, cell_values.as_deref(), k.iso);
     let spacing = match r.level_values.as_slice() {
         [a, b, ..] => b - a,
         _ => {
