@@ -12,7 +12,8 @@ mod gpu_common;
 
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::warped;
-use stratasweep::gpu::host_slices::{mesh_output, vertex_normals};
+use stratasweep::gpu::context::{ContextOptions, GpuContext};
+use stratasweep::gpu::host_slices::{level_chunks, mesh_levels, mesh_output, vertex_normals};
 use stratasweep::gpu::render::{Mode, RenderOptions, Renderer};
 use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
 use stratasweep::structures::{Structure, StructureChoice};
@@ -206,4 +207,76 @@ fn vertex_normals_of_plane_slices_are_the_plane_normal() {
         assert!(len > 0.0, "vertex {v}: normals cancelled");
         assert!((n[2] / len).abs() > 0.9999, "vertex {v}: {n:?}");
     }
+}
+
+#[test]
+fn host_slices_over_one_binding_are_level_chunked_and_render_the_same() {
+    let Some(full) = gpu_common::gpu("host slices chunked") else {
+        return;
+    };
+    // The render pass binds a 256 KiB pre-integration table.
+    let binding = 256 * 1024;
+    let mut limits = full.limits.clone();
+    limits.max_storage_buffer_binding_size = binding;
+    let small = GpuContext::new(&ContextOptions {
+        adapter: Some(full.adapter.get_info().name),
+        limits: Some(limits),
+    })
+    .unwrap();
+    let grid = voronoi(2000, 11);
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let o = RenderOptions {
+        property: Some("f".into()),
+        slices: 60,
+        view_dir: [0.3, -0.4, -1.0],
+        size: (96, 72),
+        ..Default::default()
+    };
+    // The same slices on the host: how many chunks the small device needs.
+    let req = SliceRequest {
+        field: FieldSpec::Axis {
+            axis: 2,
+            negative: false,
+        },
+        levels: LevelSpec::Count(60),
+        attribute: Some("f".into()),
+        threads: 1,
+        brute_force: false,
+        collect_mesh: true,
+        sweep: Default::default(),
+    };
+    let r = slice(&grid, &s, &req, &|_| {}).unwrap();
+    let levels = mesh_levels(r.mesh.as_ref().unwrap(), 60, None, false);
+    let chunks = level_chunks(&levels, binding);
+    assert!(chunks.len() >= 3, "{} chunks", chunks.len());
+    let covered: usize = chunks.iter().map(|c| c.len()).sum();
+    assert_eq!(covered, 60);
+    for c in &chunks {
+        let bytes: usize = levels[c.clone()]
+            .iter()
+            .map(|l| l.vertices.len() * 16)
+            .sum();
+        assert!(
+            c.len() == 1 || bytes as u64 <= binding,
+            "{c:?}: {bytes} bytes"
+        );
+    }
+    let a = Renderer::new(full)
+        .unwrap()
+        .render(&grid, &s, &o)
+        .unwrap()
+        .rgba8();
+    let b = Renderer::new(&small)
+        .unwrap()
+        .render(&grid, &s, &o)
+        .unwrap()
+        .rgba8();
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(p, q)| (*p as i32 - *q as i32).abs())
+        .max()
+        .unwrap();
+    eprintln!("{} level chunks; image max diff {worst}", chunks.len());
+    assert!(worst <= 1, "chunked host slices differ by {worst}");
 }

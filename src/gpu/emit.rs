@@ -354,10 +354,18 @@ impl<'c> GpuEmitter<'c> {
         normals: bool,
     ) -> Result<Self, GpuError> {
         let mut e = Self::new(ctx, GridBuffers::default())?;
+        e.upload_output(out, normals)?;
+        Ok(e)
+    }
+
+    /// Replaces this emitter's output by `out` (see [`Self::from_output`];
+    /// a [`Self::fork`] of a host emitter shares its pipelines).
+    pub fn upload_output(&mut self, out: &FrameOutput, normals: bool) -> Result<(), GpuError> {
+        let ctx = self.ctx;
         let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         let vst = st | wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC;
         let lay = ControlLayout { k: out.k };
-        e.prepare(&[], lay)?;
+        self.prepare(&[], lay)?;
         let n = out.vertices.len() as u64 / 3;
         let upload = |slot: &mut Option<Grow>, what: &str, data: &[u8], usage| {
             Self::ensure(ctx, slot, what, data.len() as u64, usage)?;
@@ -368,13 +376,13 @@ impl<'c> GpuEmitter<'c> {
             Ok::<(), GpuError>(())
         };
         upload(
-            &mut e.vertices,
+            &mut self.vertices,
             "the host triangles",
             bytemuck::cast_slice(&out.vertices),
             vst,
         )?;
         upload(
-            &mut e.control,
+            &mut self.control,
             "the draw arguments and counters",
             bytemuck::cast_slice(&out.control),
             st | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_SRC,
@@ -387,13 +395,13 @@ impl<'c> GpuEmitter<'c> {
                 zeros = vec![0u8; (n * NORMAL_BYTES_PER_TRIANGLE) as usize];
                 &zeros
             };
-            upload(&mut e.normals, "the host normals", data, vst)?;
+            upload(&mut self.normals, "the host normals", data, vst)?;
         }
         ctx.wait()?;
-        e.host_normals = normals;
-        e.level_count = out.k;
-        e.triangles = n as u32;
-        Ok(e)
+        self.host_normals = normals;
+        self.level_count = out.k;
+        self.triangles = n as u32;
+        Ok(())
     }
 
     /// Grid parts bound in turn (1 unless the grid exceeds a storage binding).

@@ -16,6 +16,7 @@ use super::emit::GpuEmitter;
 use super::frame::FrameOutput;
 use super::render::{RenderError, SliceKey, SliceSet};
 use super::shared::{ControlLayout, DrawArgs, OutVertex};
+use super::tables::GridBuffers;
 
 /// Per mesh vertex: the area-weighted mean of its polygons' normals (the
 /// mesh is welded by grid edge), each polygon's normal flipped to agree
@@ -53,42 +54,63 @@ pub fn vertex_normals(mesh: &PolyMesh) -> Vec<[f32; 4]> {
         .collect()
 }
 
+/// One level's fan triangles (3 corners each), their normals (empty
+/// unless asked for) and its polygon count.
+#[derive(Clone, Debug, Default)]
+pub struct LevelTriangles {
+    /// Triangle corners.
+    pub vertices: Vec<OutVertex>,
+    /// Per corner normal (xyz, w = 0), parallel to `vertices`, or empty.
+    pub normals: Vec<[f32; 4]>,
+    /// Polygons.
+    pub polygons: u32,
+}
+
 /// The polygons of `mesh` fan-triangulated per level (`k` levels), each
 /// corner carrying its value, or `flat[cell]` of the polygon's source cell
-/// when given, and its vertex normal ([`vertex_normals`]) when `normals`,
-/// in the control layout of the compute passes.
-pub fn mesh_output(mesh: &PolyMesh, k: usize, flat: Option<&[f64]>, normals: bool) -> FrameOutput {
+/// when given, and its vertex normal ([`vertex_normals`]) when `normals`.
+pub fn mesh_levels(
+    mesh: &PolyMesh,
+    k: usize,
+    flat: Option<&[f64]>,
+    normals: bool,
+) -> Vec<LevelTriangles> {
     let vn = if normals {
         vertex_normals(mesh)
     } else {
         Vec::new()
     };
-    let mut per_level_n: Vec<Vec<[f32; 4]>> = vec![Vec::new(); k];
-    let mut per_level: Vec<Vec<OutVertex>> = vec![Vec::new(); k];
-    let mut polys = vec![0u32; k];
+    let mut levels = vec![LevelTriangles::default(); k];
     for p in 0..mesh.polygon_count() {
         let ids = mesh.polygon(p);
-        let lv = mesh.poly_level[p] as usize;
+        let l = &mut levels[mesh.poly_level[p] as usize];
         let cell_value = flat.map(|v| v.get(mesh.poly_cell[p] as usize).map_or(0.0, |&x| x as f32));
         let corner = |i: u32| OutVertex {
             pos: mesh.positions[i as usize],
             value: cell_value.unwrap_or(mesh.values[i as usize]),
         };
-        polys[lv] += 1;
+        l.polygons += 1;
         for j in 1..ids.len().saturating_sub(1) {
             let tri = [ids[0], ids[j], ids[j + 1]];
-            per_level[lv].extend(tri.map(corner));
+            l.vertices.extend(tri.map(corner));
             if normals {
-                per_level_n[lv].extend(tri.map(|i| vn[i as usize]));
+                l.normals.extend(tri.map(|i| vn[i as usize]));
             }
         }
     }
+    levels
+}
+
+/// The levels back to back in the control layout of the compute passes
+/// (draw arguments in both orders, counts, bases, total).
+pub fn assemble(levels: &[LevelTriangles]) -> FrameOutput {
+    let k = levels.len();
     let lay = ControlLayout { k: k as u32 };
     let mut control = vec![0u32; lay.words() as usize];
     let mut vertices = Vec::new();
-    let normals: Vec<[f32; 4]> = per_level_n.concat();
-    for (j, tris) in per_level.iter().enumerate() {
-        let n = (tris.len() / 3) as u32;
+    let mut normals = Vec::new();
+    for (j, l) in levels.iter().enumerate() {
+        let n = (l.vertices.len() / 3) as u32;
         let base = (vertices.len() / 3) as u32;
         let args = DrawArgs {
             vertex_count: 3 * n,
@@ -101,10 +123,11 @@ pub fn mesh_output(mesh: &PolyMesh, k: usize, flat: Option<&[f64]>, normals: boo
         control[fwd..fwd + 4].copy_from_slice(bytemuck::cast_slice(&[args]));
         control[rev..rev + 4].copy_from_slice(bytemuck::cast_slice(&[args]));
         control[(lay.tri_count() + j as u32) as usize] = n;
-        control[(lay.poly_count() + j as u32) as usize] = polys[j];
+        control[(lay.poly_count() + j as u32) as usize] = l.polygons;
         control[(lay.cursor() + j as u32) as usize] = n;
         control[(lay.base() + j as u32) as usize] = base;
-        vertices.extend_from_slice(tris);
+        vertices.extend_from_slice(&l.vertices);
+        normals.extend_from_slice(&l.normals);
     }
     control[lay.total() as usize] = (vertices.len() / 3) as u32;
     FrameOutput {
@@ -114,6 +137,31 @@ pub fn mesh_output(mesh: &PolyMesh, k: usize, flat: Option<&[f64]>, normals: boo
         areas: Vec::new(),
         normals,
     }
+}
+
+/// [`mesh_levels`] assembled into one output.
+pub fn mesh_output(mesh: &PolyMesh, k: usize, flat: Option<&[f64]>, normals: bool) -> FrameOutput {
+    assemble(&mesh_levels(mesh, k, flat, normals))
+}
+
+/// Consecutive level ranges whose triangles (48 bytes each, and as many
+/// again for normals) fit `budget` bytes per buffer; a single level over
+/// it still gets its own range (its upload then reports the limit).
+pub fn level_chunks(levels: &[LevelTriangles], budget: u64) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::new();
+    let (mut a, mut bytes) = (0, 0u64);
+    for (i, l) in levels.iter().enumerate() {
+        let b = l.vertices.len() as u64 * 16;
+        if i > a && bytes + b > budget {
+            out.push(a..i);
+            (a, bytes) = (i, 0);
+        }
+        bytes += b;
+    }
+    if a < levels.len() || out.is_empty() {
+        out.push(a..levels.len());
+    }
+    out
 }
 
 /// Builds the slices of `k` on a CIEL grid: the CPU sweep's polygons
@@ -154,7 +202,8 @@ pub fn build_host_slices<'c>(
     let r = slice(grid, s, &req, &|_| {})?;
     let levels = r.level_values.len();
     let mesh = r.mesh.unwrap_or_default();
-    let out = mesh_output(&mesh, levels, cell_values.as_deref(), k.iso);
+    let per_level = mesh_levels(&mesh, levels, cell_values.as_deref(), k.iso);
+    drop(mesh);
     let spacing = match r.level_values.as_slice() {
         [a, b, ..] => b - a,
         _ => {
@@ -180,9 +229,20 @@ pub fn build_host_slices<'c>(
         }
     };
     let cut_cells = r.stats.iter().map(|x| x.cells).sum();
-    let e = GpuEmitter::from_output(ctx, &out, k.iso)?;
+    // Level chunks within one storage binding, as the GPU emission's.
+    let budget = ctx
+        .limits
+        .max_storage_buffer_binding_size
+        .min(ctx.limits.max_buffer_size);
+    let base = GpuEmitter::new(ctx, GridBuffers::default())?;
+    let mut chunks = Vec::new();
+    for r in level_chunks(&per_level, budget) {
+        let mut e = base.fork();
+        e.upload_output(&assemble(&per_level[r]), k.iso)?;
+        chunks.push(e);
+    }
     Ok(SliceSet {
-        chunks: vec![e],
+        chunks,
         spacing,
         range,
         cut_cells,
