@@ -1,8 +1,9 @@
 //! The sweep loop of the corner-point graph ([`CpGraph`]): the lattice
 //! loop's *entry levels* on explicit vertex ids. Each live cell is read
 //! once per sweep, at its entry level `L(lo)` (the first k with
-//! `lo < t_k`); a cut cell stays in `A` with the last level that cuts it
-//! packed beside its slot, so later steps keep it without reading φ. A
+//! `lo < t_k`); a cut cell stays in `A` as a [`Cut`] record: the last
+//! level that cuts it packed beside its slot, its meta-cell, vertex ids
+//! and φ, so later steps neither read φ nor decode the cell again. A
 //! level's cut cells are emitted in slot order through the catalog
 //! (welded by [`CpWeld`], the hash map only for the edges it cannot place).
 //!
@@ -25,14 +26,89 @@
 //! sharing a vertex guarantees; hence links only between cells that share
 //! a vertex.)
 
-use super::cp_weld::CpWeld;
-use super::lattice::{LatticeQueues, merge_active, pack_active, set_bit};
+use super::cp_weld::{CpWeld, CutCell};
+use super::lattice::{LatticeQueues, pack_active, set_bit};
 use super::{Block, LevelStats, Minimum, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots};
 use crate::extract::{EmitContext, LevelMesh, code_of, prefetch};
 use crate::field::ScalarField;
 use crate::metacell::MAX_META_VERTICES;
 use crate::structures::cpgraph::CpGraph;
 use crate::sweep::CellGraph;
+
+/// Vertices a [`Cut`] record holds; cells with more (explicit polyhedron
+/// pieces) are decoded again when emitted.
+const CUT_VERTICES: usize = 8;
+
+/// A cell of the active list `A`: `pack_active(slot, last)` (sorting by it
+/// sorts by slot), its meta-cell, vertex count, and (up to
+/// [`CUT_VERTICES`]) vertex ids and φ, read once when the cell entered.
+#[derive(Clone, Copy, Debug, Default)]
+struct Cut {
+    key: u64,
+    meta: u16,
+    n: u16,
+    ids: [u32; CUT_VERTICES],
+    phi: [f32; CUT_VERTICES],
+}
+
+impl Cut {
+    #[inline(always)]
+    fn slot(&self) -> u32 {
+        (self.key >> 32) as u32
+    }
+    #[inline(always)]
+    fn last(&self) -> usize {
+        self.key as u32 as usize
+    }
+}
+
+/// One block's sweep over the CP-Graph: the graph, the field, the levels
+/// and the block's slot range.
+struct CpSweep<'a, F> {
+    g: &'a CpGraph,
+    f: &'a F,
+    levels: &'a [f32],
+    ctx: &'a EmitContext<'a>,
+    start: u32,
+    len: u32,
+}
+
+/// The active list and its per-level buffers.
+#[derive(Default)]
+struct Active {
+    /// `A`, in slot order.
+    cuts: Vec<Cut>,
+    /// Cells that entered this level and are cut by it.
+    fresh: Vec<Cut>,
+    scratch: Vec<Cut>,
+}
+
+impl Active {
+    /// `A_k`: the carried cells still cut at level `k`, merged with the
+    /// fresh ones (sorted by slot; a slot is in at most one of the two).
+    fn merge(&mut self, k: usize, start: u32, len: u32) {
+        radix_sort_by_slot(&mut self.fresh, &mut self.scratch, start, len, |c| c.slot());
+        let out = &mut self.scratch;
+        out.clear();
+        out.reserve(self.cuts.len() + self.fresh.len());
+        let mut f = self.fresh.iter().copied().peekable();
+        for &a in &self.cuts {
+            if a.last() < k {
+                continue;
+            }
+            while let Some(&b) = f.peek() {
+                if b.key > a.key {
+                    break;
+                }
+                out.push(b);
+                f.next();
+            }
+            out.push(a);
+        }
+        out.extend(f);
+        std::mem::swap(&mut self.cuts, out);
+    }
+}
 
 /// The corner-point graph's sweep of one block (see the module docs).
 #[inline(never)]
@@ -45,8 +121,14 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
     ctx: &EmitContext,
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
-    let start = b.start;
-    let n = levels.len();
+    let sw = CpSweep {
+        g,
+        f,
+        levels,
+        ctx,
+        start: b.start,
+        len: b.stamps.len() as u32,
+    };
     let Block {
         stamps,
         mesh,
@@ -55,56 +137,79 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
         ..
     } = b;
     let q = &mut lattice.get_or_insert_with(Default::default).cells;
-    let len = stamps.len() as u32;
     // Dead slots are seen from the start (the stamps hold NEVER there).
     q.seen.clear();
-    q.seen.resize((len as usize).div_ceil(64), 0);
+    q.seen.resize((sw.len as usize).div_ceil(64), 0);
     for (j, &s) in stamps.iter().enumerate() {
         if s == super::NEVER {
             q.seen[j / 64] |= 1 << (j % 64);
         }
     }
-    q.queue_minima(minima, levels, start);
-    let LatticeQueues {
-        entering,
-        active,
-        fresh,
-        scratch,
-        seen,
-    } = q;
-    let mut ids = [0u32; MAX_META_VERTICES];
-    let mut nb_ids = [0u32; MAX_META_VERTICES];
-    let mut phi = [0f32; MAX_META_VERTICES];
+    q.queue_minima(minima, levels, sw.start);
     let [nx, ny, _] = g.dims;
     let mut weld = CpWeld::new(g.positions.len(), (nx + 1) * (ny + 1), nx + 1);
+    let mut active = Active::default();
     for (k, &t) in levels.iter().enumerate() {
         mesh.clear();
         weld.next_level();
-        let mut work = std::mem::take(&mut entering[k]);
-        radix_sort_slots(&mut work, sort_scratch, start, len);
-        fresh.clear();
+        let mut work = std::mem::take(&mut q.entering[k]);
+        radix_sort_slots(&mut work, sort_scratch, sw.start, sw.len);
+        active.fresh.clear();
+        sw.enter(k, &mut work, q, &mut active.fresh);
+        let entered = work.len();
+        work.clear();
+        q.entering[k] = work;
+        let carried = active.cuts.len();
+        active.merge(k, sw.start, sw.len);
+        sw.emit(t, &active.cuts, &mut weld, mesh);
+        let stats = LevelStats::of(mesh, (entered + carried) as u64);
+        on_level(k, mesh, &stats);
+    }
+}
+
+impl<F: ScalarField> CpSweep<'_, F> {
+    /// Reads the cells entering at level `k` (and those its neighbours
+    /// queue at `k` on the way): each cut one becomes a [`Cut`] in
+    /// `fresh`; each unseen linked neighbour is queued at its entry level.
+    fn enter(&self, k: usize, work: &mut Vec<u32>, q: &mut LatticeQueues, fresh: &mut Vec<Cut>) {
+        let (g, f, levels) = (self.g, self.f, self.levels);
+        let (n, t) = (levels.len(), levels[k]);
+        let LatticeQueues { entering, seen, .. } = q;
+        let mut ids = [0u32; MAX_META_VERTICES];
+        let mut nb_ids = [0u32; MAX_META_VERTICES];
         let mut i = 0;
         while i < work.len() {
             let c = work[i];
             if let Some(&ahead) = work.get(i + PREFETCH_AHEAD) {
-                g.prefetch_cell(ahead, ctx);
+                g.prefetch_cell(ahead, self.ctx);
             }
             i += 1;
-            let (_, nv) = g.cell(c, &mut ids);
+            let (m, nv) = g.cell(c, &mut ids);
+            let mut cut = Cut {
+                meta: m,
+                n: nv as u16,
+                ..Default::default()
+            };
             let mut hi = f32::NEG_INFINITY;
-            for &v in &ids[..nv] {
-                hi = hi.max(f.phi(v));
+            for (l, &v) in ids[..nv].iter().enumerate() {
+                let p = f.phi(v);
+                hi = hi.max(p);
+                if l < CUT_VERTICES {
+                    cut.ids[l] = v;
+                    cut.phi[l] = p;
+                }
             }
             if t <= hi {
                 let mut last = k;
                 while last + 1 < n && levels[last + 1] <= hi {
                     last += 1;
                 }
-                fresh.push(pack_active(c, last));
+                cut.key = pack_active(c, last);
+                fresh.push(cut);
             }
             g.for_each_neighbour(c, |nb| {
-                let j = nb.wrapping_sub(start);
-                if j < len && set_bit(seen, j) {
+                let j = nb.wrapping_sub(self.start);
+                if j < self.len && set_bit(seen, j) {
                     let (_, nn) = g.cell(nb, &mut nb_ids);
                     let mut lo = f32::INFINITY;
                     for &v in &nb_ids[..nn] {
@@ -124,49 +229,45 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
                 }
             });
         }
-        let entered = work.len();
-        work.clear();
-        entering[k] = work;
-        radix_sort_by_slot(fresh, scratch, start, len, |x| (x >> 32) as u32);
-        let carried = active.len();
-        merge_active(active, fresh, k, scratch);
-        std::mem::swap(active, scratch);
-        // The level's polygons, in slot order.
+    }
+
+    /// Emits the polygons of the level `t`'s cut cells, in slot order.
+    fn emit(&self, t: f32, cuts: &[Cut], weld: &mut CpWeld, mesh: &mut LevelMesh) {
+        let (g, ctx) = (self.g, self.ctx);
         let catalog = g.catalog();
-        for (x, &e) in active.iter().enumerate() {
-            if let Some(&ahead) = active.get(x + 2 * PREFETCH_AHEAD) {
-                // The rows the cell ahead reads: positions, attribute, φ
-                // and its vertices' weld entries.
-                let (_, na) = g.cell((ahead >> 32) as u32, &mut nb_ids);
-                for &v in &nb_ids[..na] {
+        let mut ids = [0u32; MAX_META_VERTICES];
+        let mut phi = [0f32; MAX_META_VERTICES];
+        for (x, cut) in cuts.iter().enumerate() {
+            if let Some(ahead) = cuts.get(x + 2 * PREFETCH_AHEAD) {
+                // The rows the cell ahead reads: positions, attribute and
+                // its vertices' weld entries.
+                for &v in &ahead.ids[..(ahead.n as usize).min(CUT_VERTICES)] {
                     prefetch(ctx.positions, v as usize);
                     if let Some(a) = ctx.attribute {
                         prefetch(a, v as usize);
                     }
-                    if let Some(values) = f.values() {
-                        prefetch(values, v as usize);
-                    }
                     weld.prefetch(v);
                 }
             }
-            let c = (e >> 32) as u32;
-            let (m, nv) = g.cell(c, &mut ids);
-            for l in 0..nv {
-                phi[l] = f.phi(ids[l]);
-            }
-            let code = code_of(&phi[..nv], t);
-            weld.emit_cell(
-                catalog.get(m),
-                &ids[..nv],
-                &phi[..nv],
+            let nv = cut.n as usize;
+            let (gids, phi) = if nv <= CUT_VERTICES {
+                (&cut.ids[..nv], &cut.phi[..nv])
+            } else {
+                g.cell(cut.slot(), &mut ids);
+                for l in 0..nv {
+                    phi[l] = self.f.phi(ids[l]);
+                }
+                (&ids[..nv], &phi[..nv])
+            };
+            let cell = CutCell {
+                meta: catalog.get(cut.meta),
+                gids,
+                phi,
                 t,
-                code,
-                c,
-                ctx,
-                mesh,
-            );
+                code: code_of(phi, t),
+                slot: cut.slot(),
+            };
+            weld.emit_cell(&cell, ctx, mesh);
         }
-        let stats = LevelStats::of(mesh, (entered + carried) as u64);
-        on_level(k, mesh, &stats);
     }
 }

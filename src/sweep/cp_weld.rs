@@ -111,19 +111,16 @@ impl CpWeld {
     /// Emits the polygons of one intersected cell, as
     /// [`crate::extract::emit_cell`] does (same polygons, corners and
     /// vertices, in the same order), welded through this table.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    pub(crate) fn emit_cell(
-        &mut self,
-        meta: &MetaCell,
-        gids: &[u32],
-        phi: &[f32],
-        t: f32,
-        code: usize,
-        slot: u32,
-        ctx: &EmitContext,
-        mesh: &mut LevelMesh,
-    ) {
+    pub(crate) fn emit_cell(&mut self, cell: &CutCell, ctx: &EmitContext, mesh: &mut LevelMesh) {
+        let CutCell {
+            meta,
+            gids,
+            phi,
+            t,
+            code,
+            slot,
+        } = *cell;
         if ctx.cells_only {
             mesh.cut_cells += 1;
             mesh.cells.push(slot);
@@ -149,6 +146,23 @@ impl CpWeld {
             mesh.end_polygon(start, slot);
         }
     }
+}
+
+/// One cut cell as the weld emits it.
+#[derive(Clone, Copy)]
+pub(crate) struct CutCell<'a> {
+    /// Its meta-cell.
+    pub meta: &'a MetaCell,
+    /// Vertex ids in the meta-cell's local order.
+    pub gids: &'a [u32],
+    /// φ at those vertices.
+    pub phi: &'a [f32],
+    /// The level.
+    pub t: f32,
+    /// [`crate::extract::code_of`] of `phi` at `t`.
+    pub code: usize,
+    /// The cell's slot (recorded with its polygons).
+    pub slot: u32,
 }
 
 /// Appends the vertex where level `t` crosses grid edge `ga`–`gb` (`ga <

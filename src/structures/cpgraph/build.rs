@@ -3,6 +3,7 @@
 //! neighbours that share a vertex. No vertex → cells map: a face is checked
 //! by comparing the two cells' vertex ids.
 
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
@@ -13,7 +14,7 @@ use crate::grid::{Grid, Topology};
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use crate::structures::cgraph::{NON_VOLUMETRIC, classify_and_orient, resolve_cells};
 use crate::structures::convex_split::SplitMap;
-use crate::structures::{BitSet, StructureError, is_sweepable};
+use crate::structures::{BitSet, CellClass, StructureError, is_sweepable};
 use crate::sweep::CellGraph;
 
 /// A multiply-rotate hasher for the stencil table's `[u32; 8]` keys.
@@ -65,40 +66,24 @@ fn layout_error(cell: usize, why: String) -> StructureError {
     StructureError::UnsupportedCell { cell, why }
 }
 
-/// Per-slot arrays being filled.
-struct Slots {
-    kept: BitSet,
-    piece_cell: Vec<u32>,
-    anchor: Vec<u32>,
-    stencil: Vec<u16>,
-    live: BitSet,
+/// The IJK box of a layout and its slot lattice (ghost layers included).
+#[derive(Clone, Copy)]
+struct Shape {
+    dims: [usize; 3],
+    npi: usize,
+    slab: usize,
+    lattice: usize,
 }
 
-impl CpGraph {
-    /// Builds the corner-point graph of `grid` (a corner-point grid's zoo
-    /// grid, or its split: then `map` is the split and `layout` describes
-    /// the input cells). `hidden` marks the (split) grid's cells to exclude.
-    pub fn build(
-        grid: &Grid,
-        hidden: Option<&[bool]>,
-        map: Option<SplitMap>,
-        layout: &IjkLayout,
-    ) -> Result<Self, StructureError> {
-        let Topology::Unstructured(cells) = &grid.topology else {
-            return Err(StructureError::UnsupportedCell {
-                cell: 0,
-                why: "the corner-point graph needs a corner-point grid's cells".into(),
-            });
-        };
+impl Shape {
+    /// The shape of `layout`, checked against a grid of `input_cells`
+    /// input cells: one IJK index per cell, increasing, inside the box.
+    fn of(layout: &IjkLayout, input_cells: usize) -> Result<Self, StructureError> {
         let [nx, ny, nz] = layout.dims;
         let ijk_cells = nx * ny * nz;
         if ijk_cells == 0 {
             return Err(StructureError::NoCells);
         }
-        let (npi, npj) = (nx + 1, ny + 1);
-        let slab = npi * npj;
-        let lattice = slab * (nz + 2);
-        let input_cells = map.as_ref().map_or(cells.len(), |m| m.input_cells);
         if layout.source_cell.len() != input_cells {
             return Err(layout_error(
                 0,
@@ -121,152 +106,286 @@ impl CpGraph {
                 format!("IJK index {last} outside {:?}", layout.dims),
             ));
         }
-        let mut catalog = Catalog::new();
-        let (mut metas, voff, verts) = resolve_cells(cells, &grid.points, &mut catalog)?;
-        let class = classify_and_orient(&mut catalog, &mut metas, &voff, &verts, &grid.points)?;
-        let n = metas.len();
-        let source = |c: usize| map.as_ref().map_or(c, |m| m.source[c] as usize);
-        let is_split = |src: usize| map.as_ref().is_some_and(|m| m.is_split[src]);
-        let pieces = (0..n).filter(|&c| is_split(source(c))).count();
-        let total = lattice + pieces;
-        if total >= u32::MAX as usize {
-            return Err(StructureError::TooLarge { count: total });
-        }
-        let mut s = Slots {
-            kept: BitSet::new(lattice),
-            piece_cell: Vec::with_capacity(pieces),
-            anchor: vec![0; total],
-            stencil: vec![EXPLICIT; total],
-            live: BitSet::new(total),
-        };
-        let mut class_counts = [0usize; crate::structures::CELL_CLASS_COUNT];
-        let mut meta_counts = vec![0usize; catalog.metas.len()];
-        let mut hidden_count = 0;
-        let mut counts = CpCounts::default();
-        let mut stencil_ids = StencilMap::default();
-        let mut stencils: Vec<[u32; 8]> = Vec::new();
-        let mut explicit: Vec<u32> = Vec::new();
-        // Pillar-relative coding: a hexahedron's local vertex l lies on
-        // pillar corner `corner[l]` of its column (0: (i, j), 1: (i+1, j),
-        // 2: (i, j+1), 3: (i+1, j+1)); ids are numbered pillar by pillar, so
-        // the ranks of a cell's ids tell the corners. Each id is coded as
-        // `base[pillar] + anchor + stencil[l]`, so a stencil holds depth
-        // index differences, not pillar sizes (exact for any ids).
-        let home_of = |c: usize| {
-            let ijk = layout.source_cell[source(c)] as usize;
-            let (i, j, k) = (ijk % nx, ijk / nx % ny, ijk / (nx * ny));
-            i + npi * (j + npj * (k + 1))
-        };
-        let hex_ids = |c: usize| -> Option<&[u32]> {
-            let ids = &verts[voff[c] as usize..voff[c + 1] as usize];
-            let ok = metas[c] == builtin::HEXAHEDRON && ids.len() == 8 && !is_split(source(c));
-            ok.then_some(ids)
-        };
+        let (npi, npj) = (nx + 1, ny + 1);
+        let slab = npi * npj;
+        Ok(Shape {
+            dims: layout.dims,
+            npi,
+            slab,
+            lattice: slab * (nz + 2),
+        })
+    }
+
+    /// The lattice slot of IJK index `ijk`.
+    fn home(&self, ijk: usize) -> usize {
+        let [nx, ny, _] = self.dims;
+        let (i, j, k) = (ijk % nx, ijk / nx % ny, ijk / (nx * ny));
+        i + self.npi * (j + (ny + 1) * (k + 1))
+    }
+}
+
+/// The (split) grid's cells as the catalog resolves and classifies them,
+/// with where each comes from.
+struct Resolved<'a> {
+    metas: Vec<u16>,
+    voff: Cow<'a, [u32]>,
+    verts: Cow<'a, [u32]>,
+    class: Vec<CellClass>,
+    map: Option<&'a SplitMap>,
+    layout: &'a IjkLayout,
+}
+
+impl Resolved<'_> {
+    /// The input cell of (split) cell `c`.
+    fn source(&self, c: usize) -> usize {
+        self.map.map_or(c, |m| m.source[c] as usize)
+    }
+    /// Whether input cell `src` was split into pieces.
+    fn is_split(&self, src: usize) -> bool {
+        self.map.is_some_and(|m| m.is_split[src])
+    }
+    /// The vertex ids of cell `c`.
+    fn ids(&self, c: usize) -> &[u32] {
+        &self.verts[self.voff[c] as usize..self.voff[c + 1] as usize]
+    }
+    /// The ids of cell `c` when it is an unsplit hexahedron.
+    fn hex_ids(&self, c: usize) -> Option<&[u32]> {
+        let ids = self.ids(c);
+        let ok = self.metas[c] == builtin::HEXAHEDRON
+            && ids.len() == 8
+            && !self.is_split(self.source(c));
+        ok.then_some(ids)
+    }
+    /// The lattice slot of cell `c`'s input cell.
+    fn home(&self, shape: &Shape, c: usize) -> usize {
+        shape.home(self.layout.source_cell[self.source(c)] as usize)
+    }
+}
+
+/// Pillar-relative coding of hexahedra: local vertex l lies on pillar
+/// corner `corner[l]` of its column (0: (i, j), 1: (i+1, j), 2: (i, j+1),
+/// 3: (i+1, j+1)); ids are numbered pillar by pillar, so the ranks of a
+/// cell's ids tell the corners. Each id is coded as
+/// `base[pillar] + anchor + stencil[l]`, so a stencil holds depth index
+/// differences, not pillar sizes (exact for any ids).
+struct Coder {
+    /// Per local vertex: its pillar's offset from the column's.
+    corner_pillar: [u32; 8],
+    /// Per pillar: the smallest id of a hexahedron corner on it.
+    base: Vec<u32>,
+    ids: StencilMap,
+    stencils: Vec<[u32; 8]>,
+}
+
+impl Coder {
+    fn new(r: &Resolved, shape: &Shape) -> Self {
+        let n = r.metas.len();
         let corner = (0..n)
-            .find_map(|c| hex_ids(c).map(pillar_corners))
+            .find_map(|c| r.hex_ids(c).map(pillar_corners))
             .unwrap_or([0, 1, 3, 2, 0, 1, 3, 2]);
-        let pillar_step = [0, 1, npi as u32, npi as u32 + 1];
+        let npi = shape.npi as u32;
+        let pillar_step = [0, 1, npi, npi + 1];
         let corner_pillar = corner.map(|q| pillar_step[q as usize]);
-        let mut base = vec![u32::MAX; slab];
+        let mut base = vec![u32::MAX; shape.slab];
         for c in 0..n {
-            if let Some(ids) = hex_ids(c) {
-                let p = home_of(c) % slab;
+            if let Some(ids) = r.hex_ids(c) {
+                let p = r.home(shape, c) % shape.slab;
                 for l in 0..8 {
                     let b = &mut base[p + corner_pillar[l] as usize];
                     *b = (*b).min(ids[l]);
                 }
             }
         }
-        let mut next_piece = lattice;
+        Coder {
+            corner_pillar,
+            base,
+            ids: StencilMap::default(),
+            stencils: Vec::new(),
+        }
+    }
+
+    /// The anchor and stencil id of a hexahedron with `ids` in column
+    /// `p`; `None` when the stencil table is full.
+    fn code(&mut self, p: usize, ids: &[u32]) -> Option<(u32, u16)> {
+        let rel: [u32; 8] = std::array::from_fn(|l| {
+            ids[l].wrapping_sub(self.base[p + self.corner_pillar[l] as usize])
+        });
+        let anchor = rel[0];
+        let rel = rel.map(|r| r.wrapping_sub(anchor));
+        let id = match self.ids.get(&rel) {
+            Some(&id) => id,
+            None if self.stencils.len() < EXPLICIT as usize => {
+                let id = self.stencils.len() as u16;
+                self.stencils.push(rel);
+                self.ids.insert(rel, id);
+                id
+            }
+            None => return None,
+        };
+        Some((anchor, id))
+    }
+}
+
+/// Per-slot arrays being filled, with the counts found on the way.
+struct Slots {
+    kept: BitSet,
+    piece_cell: Vec<u32>,
+    anchor: Vec<u32>,
+    stencil: Vec<u16>,
+    live: BitSet,
+    explicit: Vec<u32>,
+    class_counts: [usize; crate::structures::CELL_CLASS_COUNT],
+    meta_counts: Vec<usize>,
+    hidden_count: usize,
+    counts: CpCounts,
+}
+
+impl Slots {
+    /// Places every (split) cell in its slot: lattice cells at home,
+    /// pieces after the lattice; live hexahedra through a stencil, other
+    /// live cells explicit.
+    fn fill(
+        r: &Resolved,
+        shape: &Shape,
+        coder: &mut Coder,
+        hidden: Option<&[bool]>,
+        metas: usize,
+    ) -> Self {
+        let n = r.metas.len();
+        let pieces = (0..n).filter(|&c| r.is_split(r.source(c))).count();
+        let total = shape.lattice + pieces;
+        let mut s = Slots {
+            kept: BitSet::new(shape.lattice),
+            piece_cell: Vec::with_capacity(pieces),
+            anchor: vec![0; total],
+            stencil: vec![EXPLICIT; total],
+            live: BitSet::new(total),
+            explicit: Vec::new(),
+            class_counts: [0; crate::structures::CELL_CLASS_COUNT],
+            meta_counts: vec![0; metas],
+            hidden_count: 0,
+            counts: CpCounts {
+                pieces,
+                ..Default::default()
+            },
+        };
+        let mut next_piece = shape.lattice;
         let mut last_live_src = usize::MAX;
         for c in 0..n {
-            let src = source(c);
-            let ijk = layout.source_cell[src] as usize;
-            let (i, j, k) = (ijk % nx, ijk / nx % ny, ijk / (nx * ny));
-            let home = i + npi * (j + npj * (k + 1));
-            let slot = if is_split(src) {
-                s.kept.set(home);
+            let src = r.source(c);
+            let home = r.home(shape, c);
+            s.kept.set(home);
+            let slot = if r.is_split(src) {
                 s.piece_cell.push(src as u32);
                 next_piece += 1;
                 next_piece - 1
             } else {
                 home
             };
-            if slot == home {
-                s.kept.set(home);
-            }
-            class_counts[class[c] as usize] += 1;
-            if metas[c] != NON_VOLUMETRIC {
-                meta_counts[metas[c] as usize] += 1;
+            s.class_counts[r.class[c] as usize] += 1;
+            if r.metas[c] != NON_VOLUMETRIC {
+                s.meta_counts[r.metas[c] as usize] += 1;
             }
             let h = hidden.is_some_and(|h| h.get(c).copied().unwrap_or(false));
-            hidden_count += h as usize;
-            if !is_sweepable(class[c]) || h {
+            s.hidden_count += h as usize;
+            if !is_sweepable(r.class[c]) || h {
                 continue;
             }
             s.live.set(slot);
             if src != last_live_src {
-                counts.live_input_cells += 1;
+                s.counts.live_input_cells += 1;
                 last_live_src = src;
             }
-            let ids = &verts[voff[c] as usize..voff[c + 1] as usize];
-            if metas[c] == builtin::HEXAHEDRON && ids.len() == 8 {
-                let p = slot % slab;
-                let rel: [u32; 8] = std::array::from_fn(|l| {
-                    ids[l].wrapping_sub(base[p + corner_pillar[l] as usize])
-                });
-                let anchor = rel[0];
-                let rel = rel.map(|r| r.wrapping_sub(anchor));
-                let id = match stencil_ids.get(&rel) {
-                    Some(&id) => Some(id),
-                    None if stencils.len() < EXPLICIT as usize => {
-                        let id = stencils.len() as u16;
-                        stencils.push(rel);
-                        stencil_ids.insert(rel, id);
-                        Some(id)
-                    }
-                    None => None,
-                };
-                if let Some(id) = id {
-                    s.anchor[slot] = anchor;
-                    s.stencil[slot] = id;
-                    counts.stencil_cells += 1;
-                    continue;
-                }
-            }
-            s.anchor[slot] = explicit.len() as u32;
-            explicit.push(metas[c] as u32);
-            explicit.push(ids.len() as u32);
-            explicit.extend_from_slice(ids);
-            counts.explicit_cells += 1;
+            s.place(r, coder, c, slot, shape.slab);
         }
-        drop((verts, voff, metas, class));
-        counts.stencils = stencils.len();
-        counts.pieces = pieces;
+        s.counts.stencils = coder.stencils.len();
+        s
+    }
+
+    /// Stores live cell `c` in `slot`: by stencil when it is a hexahedron
+    /// and the table takes it, else explicitly.
+    fn place(&mut self, r: &Resolved, coder: &mut Coder, c: usize, slot: usize, slab: usize) {
+        let ids = r.ids(c);
+        if r.metas[c] == builtin::HEXAHEDRON
+            && ids.len() == 8
+            && let Some((anchor, id)) = coder.code(slot % slab, ids)
+        {
+            self.anchor[slot] = anchor;
+            self.stencil[slot] = id;
+            self.counts.stencil_cells += 1;
+            return;
+        }
+        self.anchor[slot] = self.explicit.len() as u32;
+        self.explicit.push(r.metas[c] as u32);
+        self.explicit.push(ids.len() as u32);
+        self.explicit.extend_from_slice(ids);
+        self.counts.explicit_cells += 1;
+    }
+}
+
+impl CpGraph {
+    /// Builds the corner-point graph of `grid` (a corner-point grid's zoo
+    /// grid, or its split: then `map` is the split and `layout` describes
+    /// the input cells). `hidden` marks the (split) grid's cells to exclude.
+    pub fn build(
+        grid: &Grid,
+        hidden: Option<&[bool]>,
+        map: Option<SplitMap>,
+        layout: &IjkLayout,
+    ) -> Result<Self, StructureError> {
+        let Topology::Unstructured(cells) = &grid.topology else {
+            return Err(StructureError::UnsupportedCell {
+                cell: 0,
+                why: "the corner-point graph needs a corner-point grid's cells".into(),
+            });
+        };
+        let input_cells = map.as_ref().map_or(cells.len(), |m| m.input_cells);
+        let shape = Shape::of(layout, input_cells)?;
+        let mut catalog = Catalog::new();
+        let (mut metas, voff, verts) = resolve_cells(cells, &grid.points, &mut catalog)?;
+        let class = classify_and_orient(&mut catalog, &mut metas, &voff, &verts, &grid.points)?;
+        let r = Resolved {
+            metas,
+            voff,
+            verts,
+            class,
+            map: map.as_ref(),
+            layout,
+        };
+        let pieces = (0..r.metas.len())
+            .filter(|&c| r.is_split(r.source(c)))
+            .count();
+        let total = shape.lattice + pieces;
+        if total >= u32::MAX as usize {
+            return Err(StructureError::TooLarge { count: total });
+        }
+        let mut coder = Coder::new(&r, &shape);
+        let s = Slots::fill(&r, &shape, &mut coder, hidden, catalog.metas.len());
+        drop(r);
         let mut g = CpGraph {
             origin: grid.origin(),
             positions: Vec::new(),
             catalog,
             dims: layout.dims,
-            deltas: [1, npi as u32, slab as u32],
-            lattice_slots: lattice as u32,
+            deltas: [1, shape.npi as u32, shape.slab as u32],
+            lattice_slots: shape.lattice as u32,
             live: s.live,
-            kept_rank: rank_words(&s.kept, lattice),
+            kept_rank: rank_words(&s.kept, shape.lattice),
             kept: s.kept,
             piece_cell: s.piece_cell,
             slots: total,
             anchor: s.anchor,
             stencil: s.stencil,
-            stencils,
-            base,
-            corner_pillar,
-            slab_div: super::Divisor::new(slab as u32),
-            explicit,
+            stencils: coder.stencils,
+            base: coder.base,
+            corner_pillar: coder.corner_pillar,
+            slab_div: super::Divisor::new(shape.slab as u32),
+            explicit: s.explicit,
             links: Vec::new(),
-            class_counts,
-            meta_counts,
-            hidden_count,
-            counts,
+            class_counts: s.class_counts,
+            meta_counts: s.meta_counts,
+            hidden_count: s.hidden_count,
+            counts: s.counts,
             map,
         };
         g.link();
