@@ -8,10 +8,12 @@
 mod common;
 use common::axis_request;
 
+use std::collections::HashMap;
 use stratasweep::cornerpoint::CornerPointGrid;
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::faulted_with_dip;
-use stratasweep::grid::{GHOST_HIDDEN_CELL, Grid, Property};
+
+use stratasweep::grid::{GHOST_HIDDEN_CELL, Grid, Property, Topology};
 use stratasweep::io::vtk_read::{UnstructuredArrays, grid_from_explicit_structured};
 use stratasweep::pipeline::{SliceRequest, SliceResult, slice};
 use stratasweep::structures::cpgraph::IjkLayout;
@@ -183,4 +185,71 @@ fn bad_explicit_arrays_are_refused() {
         e.contains("esg") && e.contains("cell 5") && e.contains("hexahedra"),
         "{e}"
     );
+}
+
+/// Per (level, IJK cell), the area of a slice's polygons (world positions).
+fn cell_areas(r: &SliceResult, ijk_of: &dyn Fn(usize) -> usize) -> HashMap<(u32, usize), f64> {
+    let m = r.mesh.as_ref().unwrap();
+    let mut out = HashMap::new();
+    for p in 0..m.poly_level.len() {
+        let ids = &m.poly_indices[m.poly_offsets[p] as usize..m.poly_offsets[p + 1] as usize];
+        let pos: Vec<[f32; 3]> = ids.iter().map(|&i| m.positions[i as usize]).collect();
+        let local: Vec<u32> = (0..ids.len() as u32).collect();
+        let key = (m.poly_level[p], ijk_of(m.poly_cell[p] as usize));
+        *out.entry(key).or_insert(0.0) += stratasweep::extract::polygon_area(&local, &pos);
+    }
+    out
+}
+
+/// The cells that are hexahedra on both paths (the explicit structured
+/// grid's and the GRDECL reader's zoo grid) are cut into the same polygons:
+/// per level and cell the same area (f32 positions: 1e-5).
+#[test]
+fn hexahedra_cut_as_on_the_grdecl_path() {
+    let cp = faulted_with_dip([14, 11, 9], 3, None, 1);
+    let (grid, layout) = build(&cp);
+    let dims = cp.dims;
+    let (zoo, rep) = cp.clone().into_grid().unwrap();
+    let zoo_layout = IjkLayout {
+        dims,
+        source_cell: rep.source_cell,
+    };
+    let types = |g: &Grid| match &g.topology {
+        Topology::Unstructured(c) => c.types.clone(),
+        _ => unreachable!(),
+    };
+    let (ours, theirs) = (types(&grid), types(&zoo));
+    let mut both_hex = vec![false; layout.source_cell.len()];
+    for (z, &ijk) in zoo_layout.source_cell.iter().enumerate() {
+        both_hex[ijk as usize] = theirs[z] == 12 && ours[ijk as usize] == 12;
+    }
+    let a = Structure::build_with(&grid, StructureChoice::Auto, Some(&layout)).unwrap();
+    let b = Structure::build_with(&zoo, StructureChoice::Auto, Some(&zoo_layout)).unwrap();
+    let req = SliceRequest {
+        collect_mesh: true,
+        ..axis_request(2, 23)
+    };
+    let ra = run(&grid, &a, &req);
+    let rb = run(&zoo, &b, &req);
+    assert_eq!(ra.level_values, rb.level_values);
+    let ca = cell_areas(&ra, &|c| c);
+    let cb = cell_areas(&rb, &|c| zoo_layout.source_cell[c] as usize);
+    let mut compared = 0;
+    for (key, &x) in &ca {
+        if !both_hex[key.1] {
+            continue;
+        }
+        let y = cb.get(key).copied().unwrap_or(0.0);
+        assert!(
+            (x - y).abs() <= 1e-5 * x.abs().max(y.abs()),
+            "{key:?}: {x} vs {y}"
+        );
+        compared += 1;
+    }
+    let missing = cb
+        .keys()
+        .filter(|k| both_hex[k.1] && !ca.contains_key(k))
+        .count();
+    assert_eq!(missing, 0, "cut on the GRDECL path only");
+    assert!(compared > 1000, "{compared} cells compared");
 }

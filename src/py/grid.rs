@@ -97,14 +97,15 @@ impl PyGrid {
         self.data.grid.points.len()
     }
 
-    /// The structure `structure="auto"` builds: `scgraph`, `cgraph` or `ciel`.
+    /// The structure `structure="auto"` builds: `scgraph`, `cpgraph`, `cgraph` or `ciel`.
     #[getter]
     fn structure(&self, py: Python<'_>) -> PyResult<&'static str> {
         let d = self.data.clone();
         py.detach(|| guard(|| Ok(d.structure(StructureChoice::Auto)?.structure.name())))
     }
 
-    /// Slices or contours the grid with the incremental sweep.
+    /// Slices or contours the grid with the incremental sweep (`device`:
+    /// `cpu`, `gpu` or `auto`, as the CLI's `slice --device`).
     // The keyword arguments are the Python API (one per CLI option); the
     // body hands them on as one `SliceArgs`.
     #[allow(clippy::too_many_arguments)]

@@ -95,14 +95,17 @@ def test_faulted_explicit_structured_grid_slices_like_pyvista():
     assert ours.sum() > 0
     # Corner-point cells have warped (non-planar) faces, and pinched ones
     # become polyhedra: VTK's hexahedron case table and the sweep's convex
-    # pieces cut such cells differently (measured: up to 3.5 % per level on
+    # pieces cut such cells differently (measured: up to 4.2 % per level on
     # this model, 0.0001 % on the last level, which crosses flat cells).
     np.testing.assert_allclose(ours, ref, rtol=0.05)
     # The same model through the GRDECL path (zoo grid: pinched cells as
-    # wedges): within 0.8 % per level (measured 0.72 %).
+    # wedges, pyramids, tetrahedra; here polyhedra of the collapsed
+    # hexahedra's faces, whose warped faces are cut differently): within
+    # 1.5 % per level (measured 1.06 %; the hexahedra alone are cut
+    # identically, per cell: tests/explicit_structured.rs).
     zoo = stratasweep.generate.faulted((12, 10, 6), faults=2, seed=3)
     s2 = zoo.slice(values=list(s.level_values), axis="z")
-    np.testing.assert_allclose([x["area"] for x in s2.stats["slices"]], ours, rtol=0.008)
+    np.testing.assert_allclose([x["area"] for x in s2.stats["slices"]], ours, rtol=0.015)
 
 
 def test_explicit_structured_grid_sweeps_on_the_corner_point_graph():
