@@ -2,6 +2,7 @@
 
     python benches/python_sweep.py overhead N      # Grid.slice vs `stratasweep bench` on warped N^3, 200 z levels
     python benches/python_sweep.py pyvista NI NJ NK  # Grid.slice vs a loop of pyvista.slice on a faulted ExplicitStructuredGrid
+    python benches/python_sweep.py alternate N PAIRS  # PAIRS x (Grid.slice best of 3, then `bench --repeat 3`), warped N^3
 
 Prints one JSON object. The CLI is STRATASWEEP_BIN (default target/release/stratasweep).
 """
@@ -71,28 +72,74 @@ def pyvista(ni, nj, nk):
     t = time.perf_counter()
     grid.structure
     build = time.perf_counter() - t
-    wall, s = best_of(3, lambda: grid.slice(axis="z", count=200))
-    levels = s.level_values
+    calls = []
+    for _ in range(3):
+        t, c = time.perf_counter(), time.process_time()
+        s = grid.slice(axis="z", count=200)
+        calls.append((time.perf_counter() - t, s.stats["timings_s"]["sweep"], time.process_time() - c))
+    wall = min(c[0] for c in calls)
+    cpu = min(c[2] for c in calls)
+    nomesh = []
+    for _ in range(3):
+        t = time.perf_counter()
+        grid.slice(axis="z", count=200, mesh=False)
+        nomesh.append(time.perf_counter() - t)
     t = time.perf_counter()
+    cg = grid.slice(axis="z", count=200, structure="cgraph")
+    cgraph_wall = time.perf_counter() - t  # includes the CGraph's build
+    levels = s.level_values
+    t, c = time.perf_counter(), time.process_time()
     areas = []
     for v in levels:
         cut = esg.slice(normal="z", origin=(0.0, 0.0, float(v)))
         areas.append(cut.n_cells)
     pv_wall = time.perf_counter() - t
+    pv_cpu = time.process_time() - c
     return {
         "grid": f"faulted ExplicitStructuredGrid {ni}x{nj}x{nk}", "cells": esg.n_cells,
         "make_esg_s": make, "from_pyvista_s": convert, "build_s": build, "structure": grid.structure,
-        "stratasweep_slice_wall_s": wall, "stratasweep_sweep_s": s.stats["timings_s"]["sweep"],
-        "stratasweep_polygons": s.n_polygons, "pyvista_loop_wall_s": pv_wall,
+        "stratasweep_slice_calls_wall_sweep_cpu_s": calls,
+        "stratasweep_slice_wall_s": wall, "stratasweep_sweep_s": min(c[1] for c in calls),
+        "stratasweep_slice_mesh_false_wall_s": nomesh,
+        "cut_cells": s.stats["totals"]["cells"],
+        "stratasweep_polygons": s.n_polygons,
+        "cgraph_slice_wall_s_with_build": cgraph_wall, "cgraph_sweep_s": cg.stats["timings_s"]["sweep"],
+        "pyvista_loop_wall_s": pv_wall,
+        "pyvista_loop_cpu_s": pv_cpu,
+        "stratasweep_slice_cpu_s": cpu,
+        "ratio_slice_only_cpu": pv_cpu / cpu,
         "pyvista_cells_out": int(np.sum(areas)),
         "ratio_slice_only": pv_wall / wall,
         "ratio_with_conversion_and_build": pv_wall / (wall + convert + build),
     }
 
 
+def alternate(n, pairs):
+    """Python and CLI sweeps of warped n^3, 200 z levels, one thread,
+    alternated: per pair the best sweep_s of 3 Grid.slice(mesh=False) calls
+    and the CLI's `bench --repeat 3` sweep_s (its best), on the same grid."""
+    grid = stratasweep.generate.warped((n, n, n))
+    grid.structure
+    out = []
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "w.vts")
+        subprocess.run([CLI, "-q", "generate", "warped", "--dims", f"{n},{n},{n}", "-o", path], check=True)
+        for _ in range(pairs):
+            py = [grid.slice(axis="z", count=200, mesh=False).stats for _ in range(3)]
+            b = json.loads(subprocess.run(
+                [CLI, "-q", "bench", path, "--axis", "z", "--count", "200", "--repeat", "3",
+                 "--no-brute-force", "--json"], check=True, capture_output=True, text=True).stdout)
+            p = min(s["timings_s"]["sweep"] for s in py)
+            assert py[0]["totals"]["cells"] == b["cut_cells"], (py[0]["totals"], b["cut_cells"])
+            out.append({"python_sweep_s": p, "cli_sweep_s": b["sweep_s"], "ratio": p / b["sweep_s"]})
+    return {"grid": f"warped {n}^3", "levels": 200, "cut_cells": b["cut_cells"], "pairs": out}
+
+
 if __name__ == "__main__":
     what = sys.argv[1]
     if what == "overhead":
         print(json.dumps(overhead(int(sys.argv[2])), indent=1))
+    elif what == "alternate":
+        print(json.dumps(alternate(int(sys.argv[2]), int(sys.argv[3])), indent=1))
     else:
         print(json.dumps(pyvista(*map(int, sys.argv[2:5])), indent=1))

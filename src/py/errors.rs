@@ -2,12 +2,26 @@
 //! raise `OSError` (its errno subclass, e.g. `FileNotFoundError`), bad
 //! arguments and bad grids `ValueError`, GPU faults `RuntimeError`. A panic
 //! is caught ([`guard`]) and raised as `RuntimeError`, never unwound into
-//! Python.
+//! Python. Every message has its control characters escaped as the CLI
+//! escapes its errors ([`escape_control`]), so that printing a message that
+//! quotes a file name or file content never sends raw control bytes.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use pyo3::PyErr;
 use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
+
+use crate::io::checks::escape_control;
+
+/// `ValueError(msg)`, control characters escaped.
+pub fn invalid(msg: impl AsRef<str>) -> PyErr {
+    PyValueError::new_err(escape_control(msg.as_ref()))
+}
+
+/// `RuntimeError(msg)`, control characters escaped.
+pub fn runtime(msg: impl AsRef<str>) -> PyErr {
+    PyRuntimeError::new_err(escape_control(msg.as_ref()))
+}
 
 /// Runs `f`, turning a panic into `RuntimeError` (the last resort: every
 /// expected failure is already an error value).
@@ -20,7 +34,7 @@ pub fn guard<T>(f: impl FnOnce() -> Result<T, PyErr>) -> Result<T, PyErr> {
                 .map(String::as_str)
                 .or_else(|| p.downcast_ref::<&str>().copied())
                 .unwrap_or("unknown panic");
-            Err(PyRuntimeError::new_err(format!(
+            Err(runtime(format!(
                 "internal error (a bug in stratasweep): {msg}"
             )))
         }
@@ -41,6 +55,7 @@ fn io_cause<'a>(e: &'a (dyn std::error::Error + 'static)) -> Option<&'a std::io:
 
 /// `OSError(errno, message)` (Python picks the errno's subclass).
 pub fn os_error(msg: String, io: &std::io::Error) -> PyErr {
+    let msg = escape_control(&msg);
     match io.raw_os_error() {
         Some(code) => PyOSError::new_err((code, msg)),
         None => PyOSError::new_err(msg),
@@ -49,7 +64,7 @@ pub fn os_error(msg: String, io: &std::io::Error) -> PyErr {
 
 /// `ValueError` with the error's message.
 pub fn value_error(e: &dyn std::fmt::Display) -> PyErr {
-    PyValueError::new_err(e.to_string())
+    invalid(e.to_string())
 }
 
 /// A load error: `OSError` when a file could not be read, else `ValueError`
@@ -71,5 +86,5 @@ pub fn write_error(e: crate::io::writers::WriteError) -> PyErr {
 
 /// A GPU error: `RuntimeError`.
 pub fn gpu_error(e: &dyn std::fmt::Display) -> PyErr {
-    PyRuntimeError::new_err(e.to_string())
+    runtime(e.to_string())
 }

@@ -4,24 +4,27 @@
 //! sweeps, renders or writes releases the GIL; every error becomes a
 //! Python exception ([`errors`]), and a panic a `RuntimeError`.
 
+mod arrays;
+mod data;
 mod errors;
 mod grid;
 mod render;
 mod slices;
+mod slicing;
 
 use std::path::PathBuf;
 use std::time::Instant;
 
-use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
+use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::grid::{Grid, Property};
-use crate::io::vtk_read::{UnstructuredArrays, grid_from_arrays, grid_from_structured};
+use crate::grid::Grid;
+use crate::structures::cpgraph::IjkLayout;
 
-pub use errors::{guard, value_error};
-pub use grid::{GridData, PyGrid};
+pub use data::GridData;
+pub use errors::{guard, invalid, value_error};
+pub use grid::PyGrid;
 pub use slices::PySlices;
 
 /// `stratasweep.load(path)`: any grid file the CLI reads.
@@ -43,127 +46,21 @@ fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyGrid> {
     Ok(PyGrid::from(data))
 }
 
-/// Named float64 arrays (a dict of 1-D or 2-D arrays) as properties.
-fn properties(d: Option<&Bound<'_, PyDict>>, n: usize, kind: &str) -> PyResult<Vec<Property>> {
-    let mut out = Vec::new();
-    let Some(d) = d else { return Ok(out) };
-    for (k, v) in d.iter() {
-        let name: String = k.extract()?;
-        let (values, components) = if let Ok(a) = v.extract::<PyReadonlyArray1<'_, f64>>() {
-            (a.as_slice()?.to_vec(), 1)
-        } else if let Ok(a) = v.extract::<PyReadonlyArray2<'_, f64>>() {
-            let c = a.shape()[1].max(1);
-            (a.as_array().iter().copied().collect(), c)
-        } else {
-            return Err(PyValueError::new_err(format!(
-                "{kind} property '{name}': expected a float64 array of shape (n,) or (n, k)"
-            )));
-        };
-        if values.len() != n * components {
-            return Err(PyValueError::new_err(format!(
-                "{kind} property '{name}' has {} tuples, expected {n} (one per {kind})",
-                values.len() / components
-            )));
-        }
-        out.push(Property {
-            name,
-            components,
-            values,
-        });
-    }
-    Ok(out)
-}
-
-fn points_of(a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 3]>> {
-    if a.shape()[1] != 3 {
-        return Err(PyValueError::new_err(format!(
-            "points must have shape (n, 3), found {:?}",
-            a.shape()
-        )));
-    }
-    let v = a.as_array();
-    Ok(v.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
-}
-
-/// `from_arrays`: an unstructured grid in PyVista's layout (padded cells,
-/// one VTK type per cell, (n, 3) points).
-#[pyfunction]
-#[pyo3(signature = (points, cells, celltypes, point_data=None, cell_data=None, merge_points=false))]
-fn from_arrays(
-    py: Python<'_>,
-    points: PyReadonlyArray2<'_, f64>,
-    cells: PyReadonlyArray1<'_, i64>,
-    celltypes: PyReadonlyArray1<'_, i64>,
-    point_data: Option<&Bound<'_, PyDict>>,
-    cell_data: Option<&Bound<'_, PyDict>>,
-    merge_points: bool,
-) -> PyResult<PyGrid> {
-    let pts = points_of(&points)?;
-    let pd = properties(point_data, pts.len(), "point")?;
-    let cd = properties(cell_data, celltypes.len(), "cell")?;
-    let (cells, types) = (cells.as_slice()?, celltypes.as_slice()?);
-    let data = py.detach(|| {
-        guard(|| {
-            let t = Instant::now();
-            let a = UnstructuredArrays {
-                points: &pts,
-                cells,
-                celltypes: types,
-            };
-            let g = grid_from_arrays(a, pd, cd, merge_points, "from_arrays")
-                .map_err(|e| value_error(&e))?;
-            Ok(GridData::new(
-                g,
-                "from_arrays".into(),
-                None,
-                t.elapsed().as_secs_f64(),
-            ))
-        })
-    })?;
-    Ok(PyGrid::from(data))
-}
-
-/// `from_structured`: a curvilinear grid from point dims and points (I fastest).
-#[pyfunction]
-#[pyo3(signature = (dims, points, point_data=None, cell_data=None))]
-fn from_structured(
-    py: Python<'_>,
-    dims: [usize; 3],
-    points: PyReadonlyArray2<'_, f64>,
-    point_data: Option<&Bound<'_, PyDict>>,
-    cell_data: Option<&Bound<'_, PyDict>>,
-) -> PyResult<PyGrid> {
-    let pts = points_of(&points)?;
-    let nc: usize = dims.iter().map(|d| d.saturating_sub(1)).product();
-    let pd = properties(point_data, pts.len(), "point")?;
-    let cd = properties(cell_data, nc, "cell")?;
-    let data = py.detach(|| {
-        guard(|| {
-            let g = grid_from_structured(dims, pts, pd, cd, "from_structured")
-                .map_err(|e| value_error(&e))?;
-            Ok(GridData::new(g, "from_structured".into(), None, 0.0))
-        })
-    })?;
-    Ok(PyGrid::from(data))
-}
-
 fn check_dims(dims: [usize; 3]) -> PyResult<()> {
     if dims.contains(&0) {
-        return Err(PyValueError::new_err(format!(
+        return Err(invalid(format!(
             "dims {dims:?}: expected three positive integers"
         )));
     }
     if dims.iter().map(|&d| (d + 1) as u128).product::<u128>() >= u32::MAX as u128 / 2 {
-        return Err(PyValueError::new_err(format!(
-            "dims {dims:?}: too many points"
-        )));
+        return Err(invalid(format!("dims {dims:?}: too many points")));
     }
     Ok(())
 }
 
 fn check_cells(cells: usize, max: usize) -> PyResult<()> {
     if cells == 0 || cells > max {
-        return Err(PyValueError::new_err(format!(
+        return Err(invalid(format!(
             "cells must be between 1 and {max}, got {cells}"
         )));
     }
@@ -218,12 +115,12 @@ fn faulted_cp(
 ) -> PyResult<crate::cornerpoint::CornerPointGrid> {
     check_dims(dims)?;
     if faults > 1000 {
-        return Err(PyValueError::new_err("faults must be at most 1000"));
+        return Err(invalid("faults must be at most 1000"));
     }
     if let Some(d) = fault_dip
         && !(crate::generate::MIN_FAULT_DIP..=90.0).contains(&d)
     {
-        return Err(PyValueError::new_err(format!(
+        return Err(invalid(format!(
             "fault_dip {d} is outside [{}, 90] degrees",
             crate::generate::MIN_FAULT_DIP
         )));
@@ -249,8 +146,13 @@ fn generate_faulted(
     let data = py.detach(|| {
         guard(|| {
             let t = Instant::now();
-            let (g, _) = cp.into_grid().map_err(|e| value_error(&e))?;
-            Ok(GridData::new(g, name, None, t.elapsed().as_secs_f64()))
+            let dims = cp.dims;
+            let (g, rep) = cp.into_grid().map_err(|e| value_error(&e))?;
+            let ijk = IjkLayout {
+                dims,
+                source_cell: rep.source_cell,
+            };
+            Ok(GridData::new(g, name, None, t.elapsed().as_secs_f64()).with_layout(Some(ijk)))
         })
     })?;
     Ok(PyGrid::from(data))
@@ -293,7 +195,7 @@ fn faulted_corners<'py>(
     });
     let n = corners.len() / 3;
     let corners = numpy::ndarray::Array2::from_shape_vec((n, 3), corners)
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        .map_err(|e| invalid(e.to_string()))?;
     let cd = PyDict::new(py);
     for p in &cp.properties {
         cd.set_item(&p.name, PyArray1::from_slice(py, &p.values))?;
@@ -326,8 +228,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyGrid>()?;
     m.add_class::<PySlices>()?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
-    m.add_function(wrap_pyfunction!(from_arrays, m)?)?;
-    m.add_function(wrap_pyfunction!(from_structured, m)?)?;
+    m.add_function(wrap_pyfunction!(arrays::from_arrays, m)?)?;
+    m.add_function(wrap_pyfunction!(arrays::from_structured, m)?)?;
+    m.add_function(wrap_pyfunction!(arrays::from_explicit_structured, m)?)?;
     m.add_function(wrap_pyfunction!(generate_warped, m)?)?;
     m.add_function(wrap_pyfunction!(generate_zoo, m)?)?;
     m.add_function(wrap_pyfunction!(generate_voronoi, m)?)?;

@@ -5,15 +5,14 @@
 
 use numpy::IntoPyArray;
 use numpy::ndarray::Array3;
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
 use crate::gpu::context::{ContextOptions, GpuContext};
 use crate::gpu::render::{Mode, RenderError, RenderOptions, Renderer, Transfer};
 use crate::structures::StructureChoice;
 
-use super::errors::{gpu_error, guard, value_error};
-use super::grid::GridData;
+use super::data::GridData;
+use super::errors::{gpu_error, guard, invalid, runtime, value_error};
 
 /// An adapter as wgpu lists it.
 pub struct AdapterInfo {
@@ -82,8 +81,7 @@ fn transfer_of(t: Option<&Bound<'_, PyAny>>) -> PyResult<(Option<Transfer>, Stri
             let text = std::fs::read_to_string(&s).map_err(|e| {
                 super::errors::os_error(format!("cannot read the transfer function {s}: {e}"), &e)
             })?;
-            let tf = Transfer::from_json(&text)
-                .map_err(|e| PyValueError::new_err(format!("in {s}: {e}")))?;
+            let tf = Transfer::from_json(&text).map_err(|e| invalid(format!("in {s}: {e}")))?;
             return Ok((Some(tf), String::new()));
         }
         return Ok((None, s));
@@ -105,13 +103,13 @@ fn background_of(b: Option<&Bound<'_, PyAny>>) -> PyResult<Option<[f32; 4]>> {
         if s.eq_ignore_ascii_case("transparent") {
             return Ok(None);
         }
-        return Err(PyValueError::new_err(format!(
+        return Err(invalid(format!(
             "background '{s}': expected (r, g, b, a) in [0, 1] or 'transparent'"
         )));
     }
     let v: Vec<f32> = b.extract()?;
     if v.len() != 4 || v.iter().any(|c| !(0.0..=1.0).contains(c)) {
-        return Err(PyValueError::new_err(format!(
+        return Err(invalid(format!(
             "background {v:?}: expected four values in [0, 1] (r, g, b, a) or 'transparent'"
         )));
     }
@@ -126,7 +124,7 @@ fn adapter_for(device: &str, adapter: Option<String>) -> PyResult<Option<String>
         "gpu" => false,
         "cpu" => true,
         _ => {
-            return Err(PyValueError::new_err(format!(
+            return Err(invalid(format!(
                 "device '{device}': expected 'auto', 'gpu' or 'cpu'"
             )));
         }
@@ -140,7 +138,7 @@ fn adapter_for(device: &str, adapter: Option<String>) -> PyResult<Option<String>
     });
     match found {
         Some(a) => Ok(Some(a.name.clone())),
-        None => Err(PyRuntimeError::new_err(format!(
+        None => Err(runtime(format!(
             "device='{device}': no {} adapter{} among [{}]; device='auto' takes any adapter{}",
             if want_software {
                 "software (CPU)"
@@ -176,26 +174,26 @@ pub fn render<'py>(
         "slices" => Mode::Slices,
         "iso" => Mode::Iso,
         m => {
-            return Err(PyValueError::new_err(format!(
+            return Err(invalid(format!(
                 "mode '{m}': expected 'volume', 'slices' or 'iso'"
             )));
         }
     };
     if mode == Mode::Iso && a.iso.is_empty() {
-        return Err(PyValueError::new_err("mode='iso' needs iso values"));
+        return Err(invalid("mode='iso' needs iso values"));
     }
     let perspective = match a.projection.as_str() {
         "ortho" => false,
         "perspective" => true,
         p => {
-            return Err(PyValueError::new_err(format!(
+            return Err(invalid(format!(
                 "projection '{p}': expected 'ortho' or 'perspective'"
             )));
         }
     };
     let (w, h) = a.size;
     if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        return Err(PyValueError::new_err(format!(
+        return Err(invalid(format!(
             "size {:?}: each side must be 1..=16384",
             a.size
         )));
@@ -232,7 +230,7 @@ pub fn render<'py>(
         })
     })?;
     let arr = Array3::from_shape_vec((h as usize, w as usize, 4), rgba)
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        .map_err(|e| invalid(e.to_string()))?;
     Ok(arr.into_pyarray(py).into_any())
 }
 

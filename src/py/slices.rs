@@ -3,14 +3,14 @@
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
-use pyo3::exceptions::{PyImportError, PyValueError};
+use pyo3::exceptions::PyImportError;
 use pyo3::prelude::*;
 use serde_json::Value;
 
 use crate::mesh::PolyMesh;
 
-use super::errors::{guard, write_error};
-use super::grid::to_dict;
+use super::data::to_dict;
+use super::errors::{guard, invalid, write_error};
 
 /// What a slicing call returns.
 pub struct SliceData {
@@ -37,7 +37,7 @@ impl PySlices {
 
     fn mesh(&self) -> PyResult<&PolyMesh> {
         if !self.data.has_mesh {
-            return Err(PyValueError::new_err(
+            return Err(invalid(
                 "this slice was made with mesh=False: statistics only",
             ));
         }
@@ -55,7 +55,7 @@ impl PySlices {
             .flat_map(|v| m.world_position(v))
             .collect();
         let a = Array2::from_shape_vec((m.positions.len(), 3), flat)
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            .map_err(|e| invalid(e.to_string()))?;
         Ok(a.into_pyarray(py))
     }
 
@@ -139,7 +139,7 @@ impl PySlices {
             Some("ply") => true,
             Some("vtp") => false,
             _ => {
-                return Err(PyValueError::new_err(format!(
+                return Err(invalid(format!(
                     "{}: the output must end in .ply or .vtp",
                     path.display()
                 )));

@@ -131,3 +131,27 @@ def test_stats_only_slices_refuse_arrays(grid):
     assert s.stats["totals"]["cells"] > 0
     with pytest.raises(ValueError, match="mesh=False"):
         s.points
+
+
+def test_control_bytes_in_messages_are_escaped_as_the_cli_escapes_them(tmp_path, cli):
+    # A file name and a keyword with control bytes (ESC, BEL): the message
+    # quotes them escaped (\u{1b}), as the CLI's error line does.
+    missing = tmp_path / "x\x1b[31mred.vtk"
+    with pytest.raises(FileNotFoundError) as e:
+        stratasweep.load(missing)
+    msg = str(e.value)
+    assert "\x1b" not in msg and "\\u{1b}[31mred.vtk" in msg, msg
+    g = tmp_path / "ctl.grdecl"
+    g.write_bytes(b'SPECGRID\n 2 2 1 1 F /\nINCLUDE\n "a\x07b" /\n')
+    with pytest.raises((OSError, ValueError)) as e:
+        stratasweep.load(g)
+    err = e.value
+    msg = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
+    assert "\x07" not in msg and "a\\u{7}b" in msg and "ctl.grdecl" in msg, msg
+    import subprocess
+
+    r = subprocess.run([cli.exe, "info", str(g)], capture_output=True, text=True)
+    assert r.returncode != 0
+    assert "a\\u{7}b" in r.stderr and "\x07" not in r.stderr, r.stderr
+    # The same message text as the CLI's error line.
+    assert msg in r.stderr, (msg, r.stderr)

@@ -24,10 +24,11 @@ pub struct UnstructuredArrays<'a> {
 
 /// Builds an unstructured grid from VTK's arrays with its properties. With
 /// `merge_points`, exactly coincident points become one (grids whose cells
-/// each own their corners, as an explicit structured grid's), and a
-/// hexahedron whose corners then repeat is hidden (`vtkGhostType`) when
-/// its faces do not enclose a polyhedron of four or more distinct corners,
-/// else turned into that polyhedron.
+/// each own their corners, as an explicit structured grid's; point data
+/// keeps the first merged point's values), and a hexahedron whose corners
+/// then repeat is hidden (`vtkGhostType`) when its faces do not enclose a
+/// polyhedron of four or more distinct corners, else turned into that
+/// polyhedron.
 pub fn grid_from_arrays(
     a: UnstructuredArrays<'_>,
     point_data: Vec<Property>,
@@ -35,96 +36,160 @@ pub fn grid_from_arrays(
     merge_points: bool,
     what: &str,
 ) -> Result<Grid, VtkReadError> {
-    let n = a.celltypes.len();
-    let bad = |cell: usize, msg: String| VtkReadError::Cell {
-        file: what.to_string(),
-        cell,
-        msg,
-    };
-    // Padded layout to offsets + compact connectivity.
-    let mut offsets: Vec<usize> = Vec::with_capacity(n + 1);
-    let mut conn: Vec<i64> = Vec::with_capacity(a.cells.len().saturating_sub(n));
-    offsets.push(0usize);
-    let mut pos = 0usize;
-    for c in 0..n {
-        let Some(&k) = a.cells.get(pos) else {
+    let mut parts = Parts::new(a, point_data, cell_data, what)?;
+    if merge_points {
+        parts.weld();
+        parts.fix_collapsed_hexes();
+    }
+    parts.into_grid(what)
+}
+
+/// An unstructured grid's arrays being assembled: VTK's padded cell array
+/// turned into offsets and a compact connectivity.
+pub(super) struct Parts {
+    /// Points.
+    pub points: Vec<[f64; 3]>,
+    /// VTK type per cell.
+    pub types: Vec<i64>,
+    /// Per cell, where its ids start in `conn` (one more entry at the end).
+    pub offsets: Vec<usize>,
+    /// Point ids (or polyhedron face streams), cell after cell.
+    pub conn: Vec<i64>,
+    /// Point properties.
+    pub point_data: Vec<Property>,
+    /// Cell properties.
+    pub cell_data: Vec<Property>,
+}
+
+impl Parts {
+    /// Unpads the cell array and checks its counts and point ids.
+    pub(super) fn new(
+        a: UnstructuredArrays<'_>,
+        point_data: Vec<Property>,
+        cell_data: Vec<Property>,
+        what: &str,
+    ) -> Result<Self, VtkReadError> {
+        let n = a.celltypes.len();
+        let bad = |cell: usize, msg: String| VtkReadError::Cell {
+            file: what.to_string(),
+            cell,
+            msg,
+        };
+        let mut offsets: Vec<usize> = Vec::with_capacity(n + 1);
+        let mut conn: Vec<i64> = Vec::with_capacity(a.cells.len().saturating_sub(n));
+        offsets.push(0usize);
+        let mut pos = 0usize;
+        for c in 0..n {
+            let Some(&k) = a.cells.get(pos) else {
+                return Err(bad(
+                    c,
+                    format!("the cell array ends before cell {c} of {n}"),
+                ));
+            };
+            let k = usize::try_from(k).map_err(|_| bad(c, format!("negative point count {k}")))?;
+            let ids = a.cells.get(pos + 1..pos + 1 + k).ok_or_else(|| {
+                bad(
+                    c,
+                    format!("point count {k} runs past the end of the cell array"),
+                )
+            })?;
+            conn.extend_from_slice(ids);
+            offsets.push(conn.len());
+            pos += 1 + k;
+        }
+        if pos != a.cells.len() {
+            return Err(VtkReadError::Cell {
+                file: what.to_string(),
+                cell: n,
+                msg: format!(
+                    "{} values left in the cell array after {n} cells (celltypes has {n} entries)",
+                    a.cells.len() - pos
+                ),
+            });
+        }
+        let np = a.points.len() as i64;
+        if let Some(c) = (0..n).find(|&c| {
+            a.celltypes[c] != i64::from(vtk_type::POLYHEDRON)
+                && conn[offsets[c]..offsets[c + 1]]
+                    .iter()
+                    .any(|&v| v < 0 || v >= np)
+        }) {
+            let v = conn[offsets[c]..offsets[c + 1]]
+                .iter()
+                .find(|&&v| v < 0 || v >= np)
+                .copied()
+                .unwrap_or(0);
             return Err(bad(
                 c,
-                format!("the cell array ends before cell {c} of {n}"),
+                format!("point id {v} is out of range ({np} points)"),
             ));
-        };
-        let k = usize::try_from(k).map_err(|_| bad(c, format!("negative point count {k}")))?;
-        let ids = a.cells.get(pos + 1..pos + 1 + k).ok_or_else(|| {
-            bad(
-                c,
-                format!("point count {k} runs past the end of the cell array"),
-            )
-        })?;
-        conn.extend_from_slice(ids);
-        offsets.push(conn.len());
-        pos += 1 + k;
+        }
+        Ok(Parts {
+            points: a.points.to_vec(),
+            types: a.celltypes.to_vec(),
+            offsets,
+            conn,
+            point_data,
+            cell_data,
+        })
     }
-    if pos != a.cells.len() {
-        return Err(VtkReadError::Cell {
-            file: what.to_string(),
-            cell: n,
-            msg: format!(
-                "{} values left in the cell array after {n} cells (celltypes has {n} entries)",
-                a.cells.len() - pos
-            ),
-        });
-    }
-    let np = a.points.len() as i64;
-    if let Some(c) = (0..n).find(|&c| {
-        a.celltypes[c] != i64::from(vtk_type::POLYHEDRON)
-            && conn[offsets[c]..offsets[c + 1]]
-                .iter()
-                .any(|&v| v < 0 || v >= np)
-    }) {
-        let v = conn[offsets[c]..offsets[c + 1]]
-            .iter()
-            .find(|&&v| v < 0 || v >= np)
-            .copied()
-            .unwrap_or(0);
-        return Err(bad(
-            c,
-            format!("point id {v} is out of range ({np} points)"),
-        ));
-    }
-    let mut points = a.points.to_vec();
-    let mut cell_data = cell_data;
-    let mut types = a.celltypes.to_vec();
-    if merge_points {
-        let (p, remap) = weld(&points);
-        points = p;
-        for v in conn.iter_mut() {
+
+    /// Merges exactly coincident points (point data: the first one's values).
+    pub(super) fn weld(&mut self) {
+        let (p, remap) = weld(&self.points);
+        let old = std::mem::replace(&mut self.points, p);
+        for v in self.conn.iter_mut() {
             if let Ok(i) = usize::try_from(*v)
                 && i < remap.len()
             {
                 *v = i64::from(remap[i]);
             }
         }
-        let hidden = fix_collapsed_hexes(&mut types, &mut offsets, &mut conn);
-        if hidden.iter().any(|&h| h) {
-            hide(&mut cell_data, &hidden);
+        let mut first = vec![u32::MAX; self.points.len()];
+        for (i, &r) in remap.iter().enumerate().rev() {
+            first[r as usize] = i as u32;
+        }
+        for prop in &mut self.point_data {
+            let k = prop.components;
+            if prop.values.len() != old.len() * k {
+                continue; // refused by the grid's checks, with its name
+            }
+            let mut values = Vec::with_capacity(first.len() * k);
+            for &i in &first {
+                let i = i as usize;
+                values.extend_from_slice(&prop.values[i * k..(i + 1) * k]);
+            }
+            prop.values = values;
         }
     }
-    let cells = build_cells(
-        &types,
-        &offsets,
-        &conn,
-        PolyFaces::<i64>::InConnectivity,
-        what,
-    )?;
-    finish(
-        Grid {
-            points,
-            topology: Topology::Unstructured(cells),
-            point_data,
-            cell_data,
-        },
-        what,
-    )
+
+    /// Hexahedra whose corners repeat become polyhedra, or hidden cells.
+    pub(super) fn fix_collapsed_hexes(&mut self) {
+        let hidden = fix_collapsed_hexes(&mut self.types, &mut self.offsets, &mut self.conn);
+        if hidden.iter().any(|&h| h) {
+            hide(&mut self.cell_data, &hidden);
+        }
+    }
+
+    /// The checked grid.
+    pub(super) fn into_grid(self, what: &str) -> Result<Grid, VtkReadError> {
+        let cells = build_cells(
+            &self.types,
+            &self.offsets,
+            &self.conn,
+            PolyFaces::<i64>::InConnectivity,
+            what,
+        )?;
+        finish(
+            Grid {
+                points: self.points,
+                topology: Topology::Unstructured(cells),
+                point_data: self.point_data,
+                cell_data: self.cell_data,
+            },
+            what,
+        )
+    }
 }
 
 /// Builds a structured (curvilinear) grid from its point dims and points

@@ -35,10 +35,12 @@
 mod arrays;
 mod byte_order;
 mod common;
+mod explicit;
 mod legacy;
 mod xml;
 
 pub use arrays::{UnstructuredArrays, grid_from_arrays, grid_from_structured};
+pub use explicit::grid_from_explicit_structured;
 
 use crate::grid::{Grid, GridError};
 use std::path::Path;

@@ -85,7 +85,8 @@ def from_pyvista(mesh):
     """A grid from a PyVista ``UnstructuredGrid``, ``StructuredGrid`` or
     ``ExplicitStructuredGrid`` (point and cell arrays come along; an
     explicit structured grid's coincident corners are merged, its hidden
-    cells stay hidden)."""
+    cells stay hidden, and its IJK layout is kept: ``structure="auto"``
+    then sweeps it on the corner-point graph, as GRDECL input)."""
     try:
         import pyvista as pv
     except ImportError as e:  # pragma: no cover - depends on the install
@@ -98,10 +99,19 @@ def from_pyvista(mesh):
             _data(mesh.point_data, mesh.n_points, "point"),
             _data(mesh.cell_data, mesh.n_cells, "cell"),
         )
-    merge = False
     if isinstance(mesh, pv.ExplicitStructuredGrid):
-        mesh = mesh.cast_to_unstructured_grid()
-        merge = True
+        # Cells in IJK order (I fastest): the grid keeps its IJK layout, so
+        # structure="auto" sweeps it on the corner-point graph.
+        dims = tuple(int(d) - 1 for d in mesh.dimensions)
+        ug = mesh.cast_to_unstructured_grid()
+        return _native.from_explicit_structured(
+            dims,
+            _np.ascontiguousarray(ug.points, dtype=_np.float64),
+            _np.ascontiguousarray(ug.cells, dtype=_np.int64).ravel(),
+            _np.ascontiguousarray(ug.celltypes, dtype=_np.int64).ravel(),
+            _data(ug.point_data, ug.n_points, "point"),
+            _data(ug.cell_data, ug.n_cells, "cell"),
+        )
     if not isinstance(mesh, pv.UnstructuredGrid):
         raise ValueError(
             f"from_pyvista takes an UnstructuredGrid, StructuredGrid or "
@@ -125,5 +135,4 @@ def from_pyvista(mesh):
         types,
         _data(mesh.point_data, mesh.n_points, "point"),
         _data(mesh.cell_data, mesh.n_cells, "cell"),
-        merge_points=merge,
     )

@@ -83,11 +83,18 @@ class Grid:
         threads: Optional[int] = None,
         structure: _Structure = "auto",
         mesh: bool = True,
+        device: Literal["cpu", "gpu", "auto"] = "cpu",
+        adapter: Optional[str] = None,
     ) -> Slices:
         """Slices (axis, normal) or contours (property) the grid: exactly
         one of axis, normal or property, and one of count (levels at
         ``lo + (k + 0.5)(hi - lo)/count``) or values (increasing world
-        values). ``mesh=False`` gathers statistics only."""
+        values). ``mesh=False`` gathers statistics only. ``device`` as the
+        CLI's ``slice --device``: ``cpu`` the CPU sweep emits the polygons;
+        ``gpu`` the CPU sweep finds the cut cells and the GPU (any adapter,
+        ``adapter`` a name substring) emits them, statistics only (needs
+        ``mesh=False``); ``auto`` the GPU when an adapter exists and the
+        request allows it, else the CPU."""
     def render(
         self,
         property: Optional[str] = None,
@@ -124,7 +131,9 @@ def from_arrays(
     """An unstructured grid in PyVista's ``UnstructuredGrid`` layout."""
 
 def from_pyvista(mesh: Any) -> Grid:
-    """From a PyVista UnstructuredGrid, StructuredGrid or ExplicitStructuredGrid."""
+    """From a PyVista UnstructuredGrid, StructuredGrid or ExplicitStructuredGrid
+    (an ExplicitStructuredGrid keeps its IJK layout: ``structure="auto"``
+    sweeps it on the corner-point graph)."""
 
 def adapters() -> list[dict[str, str]]:
     """GPU adapters: ``name``, ``backend``, ``device_type``."""
