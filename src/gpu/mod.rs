@@ -13,6 +13,7 @@ pub mod draw;
 pub mod emit;
 pub mod frame;
 pub mod gradient;
+pub mod offscreen;
 pub mod preintegrate;
 pub mod present;
 pub mod render;

@@ -26,10 +26,8 @@ use crate::structures::Structure;
 
 pub use super::camera::{FRAME_MARGIN, frame_camera};
 use super::context::{GpuContext, GpuError};
-use super::draw::FrameSetup;
 use super::emit::{GpuEmitter, emit_chunked};
 use super::gradient::vertex_gradients;
-use super::scene::fit_camera;
 use super::shaders;
 use super::shared::OutVertex;
 use super::slice::prepare;
@@ -415,8 +413,8 @@ pub struct Renderer<'c> {
     pub(super) iso: wgpu::RenderPipeline,
     /// Volume mode with pre-integrated slabs (attribute gradients as normals).
     pub(super) pre: wgpu::RenderPipeline,
-    preintegrated: bool,
-    cache: HashMap<String, SliceSet<'c>>,
+    pub(super) preintegrated: bool,
+    pub(super) cache: HashMap<String, SliceSet<'c>>,
     /// Compute dispatches of evicted cache entries.
     evicted_dispatches: u64,
 }
@@ -565,73 +563,6 @@ impl<'c> Renderer<'c> {
     pub fn insert(&mut self, key: &str, set: SliceSet<'c>) {
         self.evicted_dispatches += self.cache.drain().map(|(_, c)| c.dispatches()).sum::<u64>();
         self.cache.insert(key.to_string(), set);
-    }
-
-    /// Renders `grid` (with its built structure `s`).
-    pub fn render(
-        &mut self,
-        grid: &Grid,
-        s: &Structure,
-        o: &RenderOptions,
-    ) -> Result<Image, RenderError> {
-        self.render_exaggerated(grid, s, o, 1.0)
-    }
-
-    /// Renders `grid` with its z multiplied by `z_scale` for display
-    /// (vertical exaggeration; opacities and the unit distance are taken
-    /// in that display space).
-    pub fn render_exaggerated(
-        &mut self,
-        grid: &Grid,
-        s: &Structure,
-        o: &RenderOptions,
-        z_scale: f64,
-    ) -> Result<Image, RenderError> {
-        let d = Vec3::from_array(o.view_dir.map(|c| c as f32));
-        if !d.is_finite() || d.length() <= 0.0 {
-            return Err(RenderError::Options(
-                "the view direction must be a non-zero vector".into(),
-            ));
-        }
-        if !(z_scale.is_finite() && z_scale > 0.0) {
-            return Err(RenderError::Options(format!(
-                "the z-scale {z_scale} must be positive"
-            )));
-        }
-        let d = d.normalize();
-        let (w, h) = o.size;
-        if w == 0
-            || h == 0
-            || w > self.ctx.limits.max_texture_dimension_2d
-            || h > self.ctx.limits.max_texture_dimension_2d
-        {
-            return Err(RenderError::Options(format!(
-                "image size {w}x{h}: each side must be 1..={}",
-                self.ctx.limits.max_texture_dimension_2d
-            )));
-        }
-        let axis = slicing_axis(d);
-        let mut k = slice_key(grid, o, axis)?;
-        if self.preintegrated && o.mode == Mode::Volume {
-            k = k.with_attr_gradient();
-        }
-        if !self.cache.contains_key(&k.key) {
-            let set = build_slices(self.ctx, grid, s, &k)?;
-            self.insert(&k.key, set);
-        }
-        let c = &self.cache[&k.key];
-        let transfer = transfer_for(o, c.range)?;
-        let unit = unit_distance(grid, o, z_scale)?;
-        let cam = fit_camera(grid, o, z_scale)?;
-        let frame = FrameSetup {
-            camera: cam,
-            axis,
-            unit,
-            mode: o.mode,
-            lod: 1,
-            preintegrated: self.preintegrated,
-        };
-        self.draw_image(c, &transfer, &frame, o.size, o.background)
     }
 }
 
