@@ -7,6 +7,7 @@
 //! shared with WGSL; [`tables`] builds the host images of the buffers that
 //! both the GPU ([`emit`]) and the twin ([`twin`]) read.
 
+pub mod boundary;
 pub mod camera;
 pub mod context;
 pub mod draw;
@@ -14,6 +15,7 @@ pub mod emit;
 pub mod frame;
 pub mod gradient;
 pub mod offscreen;
+pub mod pre_pass;
 pub mod preintegrate;
 pub mod present;
 pub mod render;

@@ -28,6 +28,7 @@ pub use super::camera::{FRAME_MARGIN, frame_camera};
 use super::context::{GpuContext, GpuError};
 use super::emit::{GpuEmitter, emit_chunked};
 use super::gradient::vertex_gradients;
+use super::pre_pass::{BoundaryMesh, PrePipeline};
 use super::shaders;
 use super::shared::OutVertex;
 use super::slice::prepare;
@@ -287,6 +288,8 @@ pub struct SliceSet<'c> {
     pub cut_cells: u64,
     /// Levels (slices or isovalues).
     pub levels: u32,
+    /// The grid's outer surface (structured grids; pre-integrated mode).
+    pub boundary: Option<BoundaryMesh>,
 }
 
 impl SliceSet<'_> {
@@ -411,15 +414,15 @@ pub struct Renderer<'c> {
     pub(super) layout: wgpu::BindGroupLayout,
     pub(super) blend: wgpu::RenderPipeline,
     pub(super) iso: wgpu::RenderPipeline,
-    /// Volume mode with pre-integrated slabs (attribute gradients as normals).
-    pub(super) pre: wgpu::RenderPipeline,
+    /// Volume mode with pre-integrated slabs (one pass per slice).
+    pub(super) pre: PrePipeline,
     pub(super) preintegrated: bool,
     pub(super) cache: HashMap<String, SliceSet<'c>>,
     /// Compute dispatches of evicted cache entries.
     evicted_dispatches: u64,
 }
 
-pub(super) const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub(super) const DEPTH: wgpu::TextureFormat = super::pre_pass::DEPTH_FORMAT;
 
 impl<'c> Renderer<'c> {
     /// Builds the render pipelines (Rgba32Float target when the adapter can
@@ -503,7 +506,7 @@ impl<'c> Renderer<'c> {
         };
         let over = Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
         let blend = make(over, false, false, "fs");
-        let pre = make(over, false, true, "fs_pre");
+        let pre = PrePipeline::new(&ctx.device, &module, &layout, format);
         let iso = make(None, true, true, "fs");
         ctx.check()?;
         Ok(Renderer {
@@ -729,6 +732,7 @@ pub fn build_slices<'c>(
         range,
         cut_cells,
         levels,
+        boundary: BoundaryMesh::new(&ctx.device, grid),
     })
 }
 
