@@ -234,6 +234,23 @@ impl<'c> Renderer<'c> {
         bindings: &DrawBindings,
         frame: &FrameSetup,
     ) -> Result<(), RenderError> {
+        self.encode_sets(enc, target, &[set], bindings, frame)
+    }
+
+    /// [`Self::encode_slices`] over several sets in one pass, in order (the
+    /// viewer's isosurfaces, one set per isovalue); the pre-integrated
+    /// path draws the first set only.
+    pub fn encode_sets(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        target: &OffscreenTarget,
+        sets: &[&SliceSet],
+        bindings: &DrawBindings,
+        frame: &FrameSetup,
+    ) -> Result<(), RenderError> {
+        let Some(&set) = sets.first() else {
+            return Err(RenderError::Options("no slices to draw".into()));
+        };
         let iso = frame.mode == Mode::Iso;
         let pre = frame.uses_pre(set);
         // Levels increase along +axis: looking toward +axis, the far
@@ -284,10 +301,11 @@ impl<'c> Renderer<'c> {
         }
         pass.set_pipeline(if iso { &self.iso } else { &self.blend });
         pass.set_bind_group(0, &bindings.group, &[]);
+        let all = sets.iter().flat_map(|s| &s.chunks);
         let chunks: Vec<&GpuEmitter> = if reverse {
-            set.chunks.iter().rev().collect()
+            all.rev().collect()
         } else {
-            set.chunks.iter().collect()
+            all.collect()
         };
         let mut first_level = 0u32;
         for e in chunks {

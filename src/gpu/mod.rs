@@ -14,6 +14,7 @@ pub mod draw;
 pub mod emit;
 pub mod frame;
 pub mod gradient;
+pub mod iso_cache;
 pub mod offscreen;
 pub mod pre_pass;
 pub mod preintegrate;
