@@ -16,6 +16,7 @@ pub mod frame;
 pub mod gradient;
 pub mod iso_cache;
 pub mod offscreen;
+pub mod outline;
 pub mod pre_pass;
 pub mod preintegrate;
 pub mod present;
