@@ -27,7 +27,10 @@ fn changing_one_of_three_isovalues_sweeps_one_level() {
     };
     let mut sc = Scene::new(ctx, Arc::new(g.clone()), s.clone(), o.clone(), 1.0, false).unwrap();
     let d0 = sc.dispatches();
-    assert!(d0 > 0 && d0.is_multiple_of(3), "{d0} dispatches for three levels");
+    assert!(
+        d0 > 0 && d0.is_multiple_of(3),
+        "{d0} dispatches for three levels"
+    );
     let per_level = d0 / 3;
     o.iso = vec![0.2, 0.6, 0.8];
     sc.options.iso = o.iso.clone();
