@@ -33,3 +33,36 @@ fn fs(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     }
     return vec4<f32>(clamp(o.rgb / o.a, vec3<f32>(0.0), vec3<f32>(1.0)), o.a);
 }
+
+// The outline box (`gpu::outline`): lines given in clip space with a
+// straight colour, blended over the presented image. Edges the box hides
+// itself are drawn as if under the scene: their opacity is scaled by the
+// scene's transparency at the pixel (opaque isosurfaces hide them).
+struct LineOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) color: vec4<f32>,
+}
+
+@vertex
+fn vs_line(@location(0) clip: vec4<f32>, @location(1) color: vec4<f32>) -> LineOut {
+    var o: LineOut;
+    o.clip = clip;
+    o.color = color;
+    return o;
+}
+
+@fragment
+fn fs_line_front(in: LineOut) -> @location(0) vec4<f32> {
+    return in.color;
+}
+
+@fragment
+fn fs_line_back(in: LineOut) -> @location(0) vec4<f32> {
+    let dims = vec2<i32>(textureDimensions(scene));
+    let p = vec2<i32>(floor(in.clip.xy - pp.offset.xy));
+    var a = 0.0;
+    if all(p >= vec2<i32>(0)) && all(p < dims) {
+        a = clamp(textureLoad(scene, p, 0).a, 0.0, 1.0);
+    }
+    return vec4<f32>(in.color.rgb, in.color.a * (1.0 - a));
+}

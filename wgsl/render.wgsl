@@ -100,37 +100,172 @@ fn pre_at(f: u32, b: u32) -> vec4<f32> {
     return pre[f + PRE_SIZE * b];
 }
 
-// Pre-integrated volume mode: the slab behind this slice runs from the
-// slice's value (front) to the value one slab further along the ray (back,
-// extrapolated with the attribute's gradient, carried in `normal`); its
-// colour and opacity come from the table (bilinear), the opacity corrected
-// for the ray's angle to the axis.
-@fragment
-fn fs_pre(in: VsOut) -> @location(0) vec4<f32> {
-    let disp = vec3<f32>(in.world.xy, in.world.z * rp.z_scale);
-    var ray = rp.view_dir.xyz;
+// Pre-integrated volume mode (`gpu::pre_pass`): one pass per slice, far
+// to near. The slab behind this slice runs to the far slice at the same
+// pixel, whose value, derivative along the ray and ray distance the
+// previous pass wrote (NO_VALUE: no far slice there). Inside, the value
+// follows the cubic Hermite curve of both ends, composited as SUB_SLABS
+// sub-slabs from the table (built for a sub-slab along view_dir;
+// perspective rays are corrected relative to it). Without a far slice the
+// segment runs to where the ray leaves the grid (the outer surface's
+// farthest distance; half a slab when unknown). Each slice's scalars also
+// go to the nearest-slice target, which fs_front reads last to add the
+// segment from where the ray enters the grid to the nearest slice.
+@group(1) @binding(0) var scalars: texture_2d<f32>;
+@group(1) @binding(1) var bound_t: texture_2d<f32>;
+const NO_VALUE: f32 = -3.0e38;
+const SUB_SLABS: u32 = 4u;
+
+struct PreOut {
+    @location(0) color: vec4<f32>,
+    @location(1) slice: vec4<f32>,
+    @location(2) nearest: vec4<f32>,
+}
+
+fn view_cos(ray: vec3<f32>) -> f32 {
+    return max(abs(dot(ray, rp.axis.xyz)), 1e-3);
+}
+
+// Distance along the ray from the eye (display units; orthographic: along
+// view_dir from the eye's plane).
+fn ray_t(disp: vec3<f32>) -> f32 {
     if rp.perspective == 1u {
-        ray = normalize(disp - rp.eye.xyz);
+        return length(disp - rp.eye.xyz);
     }
-    let cosv = max(abs(dot(ray, rp.axis.xyz)), 1e-3);
-    // The ray's step through one slab, back in local (physical) units.
-    let step = ray * (rp.slab / cosv);
-    let local_step = vec3<f32>(step.xy, step.z / rp.z_scale);
-    let back = in.value + dot(in.normal, local_step);
-    let xf = pre_coord(in.value);
-    let xb = pre_coord(back);
+    return dot(disp - rp.eye.xyz, rp.view_dir.xyz);
+}
+
+// Bilinear table lookup: premultiplied RGBA of a sub-slab from f to b.
+fn pre_table(f: f32, b: f32) -> vec4<f32> {
+    let xf = pre_coord(f);
+    let xb = pre_coord(b);
     let f0 = min(u32(floor(xf)), PRE_SIZE - 2u);
     let b0 = min(u32(floor(xb)), PRE_SIZE - 2u);
     let wf = xf - f32(f0);
     let wb = xb - f32(b0);
     let lo = mix(pre_at(f0, b0), pre_at(f0 + 1u, b0), wf);
     let hi = mix(pre_at(f0, b0 + 1u), pre_at(f0 + 1u, b0 + 1u), wf);
-    let c = mix(lo, hi, wb);
+    return mix(lo, hi, wb);
+}
+
+// A sub-slab from f to b, its opacity raised to k (the ray's length
+// through it over the table's).
+fn sub_slab(f: f32, b: f32, k: f32) -> vec4<f32> {
+    let c = pre_table(f, b);
     let a = clamp(c.a, 0.0, 1.0);
     if a <= 0.0 {
         return vec4<f32>(0.0);
     }
-    // Off-axis: the slab is 1/cos thicker.
-    let a2 = 1.0 - pow(1.0 - a, 1.0 / cosv);
+    let a2 = 1.0 - pow(1.0 - a, k);
     return vec4<f32>(c.rgb * (a2 / a), a2);
+}
+
+// `acc` (in front) over `c`.
+fn under(acc: vec4<f32>, c: vec4<f32>) -> vec4<f32> {
+    return acc + (1.0 - acc.a) * c;
+}
+
+// The cubic Hermite curve at t in [0, 1] from (v0, d0) to (v1, d1), the
+// derivatives per unit t.
+fn hermite(v0: f32, d0: f32, v1: f32, d1: f32, t: f32) -> f32 {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    return (2.0 * t3 - 3.0 * t2 + 1.0) * v0 + (t3 - 2.0 * t2 + t) * d0
+        + (3.0 * t2 - 2.0 * t3) * v1 + (t3 - t2) * d1;
+}
+
+// A straight segment x display units long starting at value v, `slope`
+// per display unit, in sub-slabs of at most `sub` (the table's length
+// along the ray, opacity exponent k for that length).
+fn segment(v: f32, slope: f32, x: f32, sub: f32, k: f32) -> vec4<f32> {
+    var acc = vec4<f32>(0.0);
+    if x <= 0.0 {
+        return acc;
+    }
+    let m = clamp(u32(ceil(x / sub)), 1u, 4u * SUB_SLABS);
+    let h = x / f32(m);
+    for (var i = 0u; i < m; i++) {
+        let a = f32(i) * h;
+        acc = under(acc, sub_slab(v + slope * a, v + slope * (a + h), k * h / sub));
+    }
+    return acc;
+}
+
+@fragment
+fn fs_pre(in: VsOut) -> PreOut {
+    let disp = vec3<f32>(in.world.xy, in.world.z * rp.z_scale);
+    var ray = rp.view_dir.xyz;
+    if rp.perspective == 1u {
+        ray = normalize(disp - rp.eye.xyz);
+    }
+    let cosv = view_cos(ray);
+    let k = view_cos(rp.view_dir.xyz) / cosv;
+    // The ray's length through one slab (display units) and the value's
+    // derivative along the ray (the gradient is per local unit).
+    let len = rp.slab / cosv;
+    let slope = dot(in.normal, vec3<f32>(ray.xy, ray.z / rp.z_scale));
+    let t = ray_t(disp);
+    let px = vec2<i32>(floor(in.clip.xy));
+    let far = textureLoad(scalars, px, 0);
+    var acc = vec4<f32>(0.0);
+    if far.x > 0.5 * NO_VALUE {
+        let h = 1.0 / f32(SUB_SLABS);
+        var f = in.value;
+        for (var i = 1u; i <= SUB_SLABS; i++) {
+            let b = hermite(in.value, slope * len, far.x, far.y * len, f32(i) * h);
+            acc = under(acc, sub_slab(f, b, k));
+            f = b;
+        }
+    } else {
+        let exit = textureLoad(bound_t, px, 0).x;
+        var x = 0.5 * len;
+        if exit > 0.5 * NO_VALUE {
+            x = clamp(exit - t, 0.0, len);
+        }
+        acc = segment(in.value, slope, x, len / f32(SUB_SLABS), k);
+    }
+    var o: PreOut;
+    o.color = acc;
+    o.slice = vec4<f32>(in.value, slope, t, 1.0);
+    o.nearest = o.slice;
+    return o;
+}
+
+// The grid's outer surface: its ray distance (the depth test keeps the
+// nearest or the farthest).
+@vertex
+fn vs_boundary(@location(0) pos: vec3<f32>) -> VsOut {
+    return vertex_out(pos, 0.0, vec3<f32>(0.0));
+}
+
+@fragment
+fn fs_boundary(in: VsOut) -> @location(0) f32 {
+    return ray_t(vec3<f32>(in.world.xy, in.world.z * rp.z_scale));
+}
+
+// A full-screen triangle.
+@vertex
+fn vs_full(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let x = f32((i << 1u) & 2u);
+    let y = f32(i & 2u);
+    return vec4<f32>(2.0 * x - 1.0, 2.0 * y - 1.0, 0.0, 1.0);
+}
+
+// The segment in front of the nearest slice, from where the ray enters the
+// grid (half a slab when unknown), extrapolated back along the slice's
+// derivative, over the image (the ray taken along view_dir).
+@fragment
+fn fs_front(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
+    let px = vec2<i32>(floor(p.xy));
+    let s = textureLoad(scalars, px, 0);
+    if s.x <= 0.5 * NO_VALUE {
+        return vec4<f32>(0.0);
+    }
+    let len = rp.slab / view_cos(rp.view_dir.xyz);
+    let entry = textureLoad(bound_t, px, 0).x;
+    var x = 0.5 * len;
+    if entry > 0.5 * NO_VALUE {
+        x = clamp(s.z - entry, 0.0, len);
+    }
+    return segment(s.x - s.y * x, s.y, x, len / f32(SUB_SLABS), 1.0);
 }

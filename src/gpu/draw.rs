@@ -8,6 +8,7 @@ use wgpu::util::DeviceExt;
 
 use super::camera::OrbitCamera;
 use super::emit::GpuEmitter;
+use super::pre_pass::{PreDraw, SUB_SLABS, ScalarTargets, encode_pre};
 use super::preintegrate::{PRE_SIZE, preintegrated_table};
 use super::render::{DEPTH, Image, Mode, RenderError, Renderer, SliceSet, Transfer};
 use super::shared::{ARGS_WORDS, ControlLayout, RenderParams};
@@ -68,7 +69,8 @@ impl FrameSetup {
 }
 
 impl FrameSetup {
-    /// Whether this frame draws `set` pre-integrated.
+    /// Whether this frame draws `set` pre-integrated (volume mode; the
+    /// slices must carry the attribute's gradient, else plain).
     pub fn uses_pre(&self, set: &SliceSet) -> bool {
         self.preintegrated
             && self.mode == Mode::Volume
@@ -101,15 +103,26 @@ impl DrawBindings {
         queue.write_buffer(&self.params, 0, bytemuck::bytes_of(params));
         queue.write_buffer(&self.lut, 0, bytemuck::cast_slice(lut));
         if params.slab > 0.0 {
-            let key = (params.spacing_over_unit.to_bits(), lut.to_vec());
+            // A sub-slab along the view direction: 1/cos thicker than on
+            // the axis (exact for orthographic views; `fs_pre` corrects
+            // the opacity of perspective rays relative to this one).
+            let r = params.spacing_over_unit / view_cos(params) / SUB_SLABS as f32;
+            let key = (r.to_bits(), lut.to_vec());
             let mut memo = self.pre_for.lock().unwrap_or_else(|p| p.into_inner());
             if memo.as_ref() != Some(&key) {
-                let t = preintegrated_table(transfer, params.spacing_over_unit as f64);
+                let t = preintegrated_table(transfer, r as f64);
                 queue.write_buffer(&self.pre, 0, bytemuck::cast_slice(&t));
                 *memo = Some(key);
             }
         }
     }
+}
+
+/// |cos| of the angle between the view direction and the slicing axis
+/// (at least 1e-3, as `view_cos` in `wgsl/render.wgsl`).
+fn view_cos(p: &RenderParams) -> f32 {
+    let d: f32 = (0..3).map(|i| p.view_dir[i] * p.axis[i]).sum();
+    d.abs().max(1e-3)
 }
 
 /// A float colour target (and a depth target for iso mode) of one size.
@@ -122,6 +135,8 @@ pub struct OffscreenTarget {
     pub depth: wgpu::TextureView,
     /// Size in pixels.
     pub size: (u32, u32),
+    /// The per-slice scalar targets of the pre-integrated pass.
+    pub scalars: ScalarTargets,
 }
 
 impl<'c> Renderer<'c> {
@@ -201,6 +216,7 @@ impl<'c> Renderer<'c> {
             view_formats: &[],
         });
         OffscreenTarget {
+            scalars: ScalarTargets::new(dev, &self.pre, size),
             view: color.create_view(&Default::default()),
             depth: depth.create_view(&Default::default()),
             color,
@@ -218,7 +234,29 @@ impl<'c> Renderer<'c> {
         bindings: &DrawBindings,
         frame: &FrameSetup,
     ) -> Result<(), RenderError> {
+        self.encode_sets(enc, target, &[set], bindings, frame)
+    }
+
+    /// [`Self::encode_slices`] over several sets in one pass, in order (the
+    /// viewer's isosurfaces, one set per isovalue); the pre-integrated
+    /// path draws the first set only.
+    pub fn encode_sets(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        target: &OffscreenTarget,
+        sets: &[&SliceSet],
+        bindings: &DrawBindings,
+        frame: &FrameSetup,
+    ) -> Result<(), RenderError> {
+        let Some(&set) = sets.first() else {
+            return Err(RenderError::Options("no slices to draw".into()));
+        };
         let iso = frame.mode == Mode::Iso;
+        let pre = frame.uses_pre(set);
+        // Levels increase along +axis: looking toward +axis, the far
+        // slices are the high ones, so draw in decreasing order.
+        let reverse = frame.camera.dir[frame.axis] > 0.0 && !iso;
+        let lod = if iso { 1 } else { frame.lod.max(1) };
         let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("slices"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -242,22 +280,33 @@ impl<'c> Renderer<'c> {
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        let pre = frame.uses_pre(set);
-        pass.set_pipeline(match (iso, pre) {
-            (true, _) => &self.iso,
-            (false, true) => &self.pre,
-            (false, false) => &self.blend,
-        });
+        if pre {
+            // The pass above only cleared the target; one pass per slice.
+            drop(pass);
+            encode_pre(
+                enc,
+                &PreDraw {
+                    color: &target.view,
+                    scalars: &target.scalars,
+                    params: &bindings.group,
+                    pre: &self.pre,
+                    chunks: &set.chunks,
+                    reverse,
+                    lod,
+                    boundary: set.boundary.as_ref(),
+                    depth: &target.depth,
+                },
+            );
+            return Ok(());
+        }
+        pass.set_pipeline(if iso { &self.iso } else { &self.blend });
         pass.set_bind_group(0, &bindings.group, &[]);
-        // Levels increase along +axis: looking toward +axis, the far
-        // slices are the high ones, so draw in decreasing order.
-        let reverse = frame.camera.dir[frame.axis] > 0.0 && !iso;
+        let all = sets.iter().flat_map(|s| &s.chunks);
         let chunks: Vec<&GpuEmitter> = if reverse {
-            set.chunks.iter().rev().collect()
+            all.rev().collect()
         } else {
-            set.chunks.iter().collect()
+            all.collect()
         };
-        let lod = if iso { 1 } else { frame.lod.max(1) };
         let mut first_level = 0u32;
         for e in chunks {
             let k = e.level_count;
@@ -268,7 +317,7 @@ impl<'c> Renderer<'c> {
                 continue;
             };
             pass.set_vertex_buffer(0, vb.slice(..));
-            if iso || pre {
+            if iso {
                 match e.normal_buffer() {
                     Some(nb) if e.has_normals() => pass.set_vertex_buffer(1, nb.slice(..)),
                     _ => {

@@ -7,6 +7,7 @@
 //! shared with WGSL; [`tables`] builds the host images of the buffers that
 //! both the GPU ([`emit`]) and the twin ([`twin`]) read.
 
+pub mod boundary;
 pub mod camera;
 pub mod context;
 pub mod draw;
@@ -15,6 +16,10 @@ pub mod frame;
 pub mod gradient;
 pub mod grid_parts;
 pub mod host_slices;
+pub mod iso_cache;
+pub mod offscreen;
+pub mod outline;
+pub mod pre_pass;
 pub mod preintegrate;
 pub mod present;
 pub mod render;

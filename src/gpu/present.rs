@@ -2,8 +2,10 @@
 //! target composited over the background into a window surface (or any
 //! 8-bit target), straight RGBA like `render`'s PNG.
 
+use super::camera::OrbitCamera;
 use super::context::{GpuContext, GpuError};
 use super::draw::OffscreenTarget;
+use super::outline::box_edges;
 use super::shaders::{self, PRESENT};
 
 #[repr(C)]
@@ -16,6 +18,8 @@ struct PresentParams {
 /// Composites a float scene target over a background into `format` targets.
 pub struct Compositor {
     pipeline: wgpu::RenderPipeline,
+    /// Outline lines: hidden edges (under the scene), visible edges.
+    lines: [wgpu::RenderPipeline; 2],
     layout: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
 }
@@ -86,6 +90,8 @@ impl Compositor {
             multiview_mask: None,
             cache: None,
         });
+        let lines = ["fs_line_back", "fs_line_front"]
+            .map(|fs| line_pipeline(dev, &module, &pl, format, fs));
         let params = dev.create_buffer(&wgpu::BufferDescriptor {
             label: Some("present params"),
             size: std::mem::size_of::<PresentParams>() as u64,
@@ -95,6 +101,7 @@ impl Compositor {
         ctx.check()?;
         Ok(Compositor {
             pipeline,
+            lines,
             layout,
             params,
         })
@@ -117,20 +124,7 @@ impl Compositor {
         };
         ctx.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
-        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("present"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&scene.view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: self.params.as_entire_binding(),
-                },
-            ],
-        });
+        let group = self.group(ctx, scene);
         let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("present"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -151,4 +145,112 @@ impl Compositor {
         pass.set_bind_group(0, &group, &[]);
         pass.draw(0..3, 0..1);
     }
+
+    /// Draws the outline box of `cam` over the presented image `out` (after
+    /// [`Self::encode`]): the edges the box hides under the scene, the
+    /// others over it.
+    pub fn encode_outline(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        scene: &OffscreenTarget,
+        out: &wgpu::TextureView,
+        cam: &OrbitCamera,
+    ) {
+        use wgpu::util::DeviceExt;
+        let (hidden, shown) = box_edges(cam, [0.35, 0.35, 0.35, 0.8]);
+        let group = self.group(ctx, scene);
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("outline"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: out,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &group, &[]);
+        for (pipeline, v) in self.lines.iter().zip([hidden, shown]) {
+            if v.is_empty() {
+                continue;
+            }
+            let buf = ctx
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("outline"),
+                    contents: bytemuck::cast_slice(&v),
+                    usage: wgpu::BufferUsages::VERTEX,
+                });
+            pass.set_pipeline(pipeline);
+            pass.set_vertex_buffer(0, buf.slice(..));
+            pass.draw(0..v.len() as u32, 0..1);
+        }
+    }
+
+    fn group(&self, ctx: &GpuContext, scene: &OffscreenTarget) -> wgpu::BindGroup {
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("present"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&scene.view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: self.params.as_entire_binding(),
+                },
+            ],
+        })
+    }
+}
+
+/// The outline's line pipeline with fragment entry `fs`, blended over.
+fn line_pipeline(
+    dev: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::PipelineLayout,
+    format: wgpu::TextureFormat,
+    fs: &str,
+) -> wgpu::RenderPipeline {
+    let attrs = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4];
+    dev.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(fs),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_line"),
+            compilation_options: Default::default(),
+            buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: 32,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &attrs,
+            })],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::LineList,
+            ..Default::default()
+        },
+        depth_stencil: None,
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(fs),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format,
+                blend: Some(wgpu::BlendState::ALPHA_BLENDING),
+                write_mask: wgpu::ColorWrites::COLOR,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }

@@ -26,10 +26,9 @@ use crate::structures::Structure;
 
 pub use super::camera::{FRAME_MARGIN, frame_camera};
 use super::context::{GpuContext, GpuError};
-use super::draw::FrameSetup;
 use super::emit::{GpuEmitter, emit_chunked};
 use super::gradient::vertex_gradients;
-use super::scene::fit_camera;
+use super::pre_pass::{BoundaryMesh, PrePipeline};
 use super::shaders;
 use super::shared::OutVertex;
 use super::slice::prepare;
@@ -289,6 +288,8 @@ pub struct SliceSet<'c> {
     pub cut_cells: u64,
     /// Levels (slices or isovalues).
     pub levels: u32,
+    /// The grid's outer surface (structured grids; pre-integrated mode).
+    pub boundary: Option<BoundaryMesh>,
 }
 
 impl SliceSet<'_> {
@@ -413,15 +414,15 @@ pub struct Renderer<'c> {
     pub(super) layout: wgpu::BindGroupLayout,
     pub(super) blend: wgpu::RenderPipeline,
     pub(super) iso: wgpu::RenderPipeline,
-    /// Volume mode with pre-integrated slabs (attribute gradients as normals).
-    pub(super) pre: wgpu::RenderPipeline,
-    preintegrated: bool,
-    cache: HashMap<String, SliceSet<'c>>,
+    /// Volume mode with pre-integrated slabs (one pass per slice).
+    pub(super) pre: PrePipeline,
+    pub(super) preintegrated: bool,
+    pub(super) cache: HashMap<String, SliceSet<'c>>,
     /// Compute dispatches of evicted cache entries.
     evicted_dispatches: u64,
 }
 
-pub(super) const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub(super) const DEPTH: wgpu::TextureFormat = super::pre_pass::DEPTH_FORMAT;
 
 impl<'c> Renderer<'c> {
     /// Builds the render pipelines (Rgba32Float target when the adapter can
@@ -505,7 +506,7 @@ impl<'c> Renderer<'c> {
         };
         let over = Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
         let blend = make(over, false, false, "fs");
-        let pre = make(over, false, true, "fs_pre");
+        let pre = PrePipeline::new(&ctx.device, &module, &layout, format);
         let iso = make(None, true, true, "fs");
         ctx.check()?;
         Ok(Renderer {
@@ -565,73 +566,6 @@ impl<'c> Renderer<'c> {
     pub fn insert(&mut self, key: &str, set: SliceSet<'c>) {
         self.evicted_dispatches += self.cache.drain().map(|(_, c)| c.dispatches()).sum::<u64>();
         self.cache.insert(key.to_string(), set);
-    }
-
-    /// Renders `grid` (with its built structure `s`).
-    pub fn render(
-        &mut self,
-        grid: &Grid,
-        s: &Structure,
-        o: &RenderOptions,
-    ) -> Result<Image, RenderError> {
-        self.render_exaggerated(grid, s, o, 1.0)
-    }
-
-    /// Renders `grid` with its z multiplied by `z_scale` for display
-    /// (vertical exaggeration; opacities and the unit distance are taken
-    /// in that display space).
-    pub fn render_exaggerated(
-        &mut self,
-        grid: &Grid,
-        s: &Structure,
-        o: &RenderOptions,
-        z_scale: f64,
-    ) -> Result<Image, RenderError> {
-        let d = Vec3::from_array(o.view_dir.map(|c| c as f32));
-        if !d.is_finite() || d.length() <= 0.0 {
-            return Err(RenderError::Options(
-                "the view direction must be a non-zero vector".into(),
-            ));
-        }
-        if !(z_scale.is_finite() && z_scale > 0.0) {
-            return Err(RenderError::Options(format!(
-                "the z-scale {z_scale} must be positive"
-            )));
-        }
-        let d = d.normalize();
-        let (w, h) = o.size;
-        if w == 0
-            || h == 0
-            || w > self.ctx.limits.max_texture_dimension_2d
-            || h > self.ctx.limits.max_texture_dimension_2d
-        {
-            return Err(RenderError::Options(format!(
-                "image size {w}x{h}: each side must be 1..={}",
-                self.ctx.limits.max_texture_dimension_2d
-            )));
-        }
-        let axis = slicing_axis(d);
-        let mut k = slice_key(grid, o, axis)?;
-        if self.preintegrated && o.mode == Mode::Volume {
-            k = k.with_attr_gradient();
-        }
-        if !self.cache.contains_key(&k.key) {
-            let set = build_slices(self.ctx, grid, s, &k)?;
-            self.insert(&k.key, set);
-        }
-        let c = &self.cache[&k.key];
-        let transfer = transfer_for(o, c.range)?;
-        let unit = unit_distance(grid, o, z_scale)?;
-        let cam = fit_camera(grid, o, z_scale)?;
-        let frame = FrameSetup {
-            camera: cam,
-            axis,
-            unit,
-            mode: o.mode,
-            lod: 1,
-            preintegrated: self.preintegrated,
-        };
-        self.draw_image(c, &transfer, &frame, o.size, o.background)
     }
 }
 
@@ -802,6 +736,7 @@ pub fn build_slices<'c>(
         range,
         cut_cells,
         levels,
+        boundary: BoundaryMesh::new(&ctx.device, grid),
     })
 }
 

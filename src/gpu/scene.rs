@@ -20,15 +20,22 @@ use crate::structures::Structure;
 use super::camera::{Framing, OrbitCamera};
 use super::context::GpuContext;
 use super::draw::{DrawBindings, FrameSetup, OffscreenTarget};
+use super::iso_cache::{IsoLevels, build_levels};
 use super::render::{
     Image, Mode, RenderError, RenderOptions, Renderer, SliceKey, SliceSet, Transfer, build_slices,
     slice_key, slicing_axis, transfer_for, unit_distance,
 };
 
+/// What the worker builds: an axis's slices, or the missing isosurfaces.
+enum Built {
+    Set(SliceSet<'static>),
+    Levels(Vec<(f64, SliceSet<'static>)>),
+}
+
 /// A build running on the worker.
 struct Pending {
     key: SliceKey,
-    rx: Receiver<Result<SliceSet<'static>, RenderError>>,
+    rx: Receiver<Result<Built, RenderError>>,
     started: Instant,
 }
 
@@ -41,6 +48,8 @@ pub struct SceneStats {
     pub resweep_ms: Vec<f64>,
     /// The last build error, if any (the previous slices stay shown).
     pub last_error: Option<String>,
+    /// Levels (slices or isovalues) swept by those builds.
+    pub levels_swept: u64,
 }
 
 /// What a frame drew.
@@ -78,6 +87,8 @@ pub struct Scene {
     pub clip: Option<[[usize; 2]; 3]>,
     builds: u32,
     preintegrated: bool,
+    /// Isosurfaces, one isovalue each.
+    iso: IsoLevels,
 }
 
 impl Scene {
@@ -116,6 +127,7 @@ impl Scene {
             clip: None,
             builds: 0,
             preintegrated,
+            iso: IsoLevels::default(),
         };
         scene.request()?;
         scene.poll(true)?;
@@ -137,7 +149,7 @@ impl Scene {
 
     /// Compute dispatches issued so far (slice builds only).
     pub fn dispatches(&self) -> u64 {
-        self.renderer.dispatches()
+        self.renderer.dispatches() + self.iso.dispatches()
     }
 
     /// Whether a build is running on the worker.
@@ -202,6 +214,12 @@ impl Scene {
         if have || self.pending.is_some() {
             return Ok(());
         }
+        // Isosurfaces: only the isovalues not cached yet are swept.
+        let missing = self.iso.missing(&want);
+        if want.iso && missing.is_empty() {
+            self.shown = Some(want);
+            return Ok(());
+        }
         let (tx, rx) = channel();
         let (ctx, grid, s, k) = (
             self.renderer.ctx(),
@@ -212,7 +230,12 @@ impl Scene {
         std::thread::Builder::new()
             .name("stratasweep-slices".into())
             .spawn(move || {
-                let _ = tx.send(build_slices(ctx, &grid, &s, &k));
+                let built = if k.iso {
+                    build_levels(ctx, &grid, &s, &k, &missing).map(Built::Levels)
+                } else {
+                    build_slices(ctx, &grid, &s, &k).map(Built::Set)
+                };
+                let _ = tx.send(built);
             })
             .map_err(|e| RenderError::Options(format!("cannot start the slice worker: {e}")))?;
         self.pending = Some(Pending {
@@ -241,12 +264,24 @@ impl Scene {
             let p = self.pending.take().expect("pending");
             let ms = p.started.elapsed().as_secs_f64() * 1e3;
             match got {
-                Some(Ok(set)) => {
-                    self.renderer.insert(&p.key.key, set);
+                Some(Ok(built)) => {
+                    let levels = match built {
+                        Built::Set(set) => {
+                            let n = set.levels;
+                            self.renderer.insert(&p.key.key, set);
+                            n as u64
+                        }
+                        Built::Levels(l) => {
+                            let n = l.len() as u64;
+                            self.iso.insert(&p.key, l);
+                            n
+                        }
+                    };
                     self.shown = Some(p.key);
                     if self.builds > 0 {
                         self.stats.resweeps += 1;
                         self.stats.resweep_ms.push(ms);
+                        self.stats.levels_swept += levels;
                     }
                     self.builds += 1;
                     changed = true;
@@ -261,16 +296,22 @@ impl Scene {
         Ok(changed)
     }
 
-    /// The shown slices.
-    fn shown_set(&self) -> Option<(&SliceKey, &SliceSet<'static>)> {
+    /// The shown slices (one set per isovalue for isosurfaces).
+    fn shown_sets(&self) -> Option<(&SliceKey, Vec<&SliceSet<'static>>)> {
         let k = self.shown.as_ref()?;
-        Some((k, self.renderer.slices(&k.key)?))
+        if k.iso {
+            return Some((k, self.iso.sets(k)?));
+        }
+        Some((k, vec![self.renderer.slices(&k.key)?]))
     }
 
     /// The value range and transfer function of the shown slices.
     pub fn transfer(&self) -> Result<Option<(Transfer, (f64, f64))>, RenderError> {
-        match self.shown_set() {
-            Some((_, set)) => Ok(Some((transfer_for(&self.options, set.range)?, set.range))),
+        match self.shown_sets() {
+            Some((_, sets)) => {
+                let range = sets[0].range;
+                Ok(Some((transfer_for(&self.options, range)?, range)))
+            }
             None => Ok(None),
         }
     }
@@ -286,9 +327,10 @@ impl Scene {
         enc: &mut wgpu::CommandEncoder,
         lod: u32,
     ) -> Result<FrameInfo, RenderError> {
-        let Some((k, set)) = self.shown_set() else {
+        let Some((k, sets)) = self.shown_sets().filter(|(_, s)| !s.is_empty()) else {
             return Err(RenderError::Options("no slices built".into()));
         };
+        let set = sets[0];
         let transfer = transfer_for(&self.options, set.range)?;
         let (lut, vlo, vhi) = transfer.lut();
         let mode = if k.iso { Mode::Iso } else { self.options.mode };
@@ -307,12 +349,14 @@ impl Scene {
             &lut,
         );
         self.renderer
-            .encode_slices(enc, &self.target, set, &self.bindings, &frame)?;
+            .encode_sets(enc, &self.target, &sets, &self.bindings, &frame)?;
         let lod = if mode == Mode::Iso { 1 } else { lod.max(1) };
-        let slices = set.levels.div_ceil(lod);
+        let levels: u32 = sets.iter().map(|s| s.levels).sum();
+        let cut: u64 = sets.iter().map(|s| s.cut_cells).sum();
+        let slices = levels.div_ceil(lod);
         let stale = self.wanted().map_or(true, |w| w.key != k.key);
         Ok(FrameInfo {
-            cut_cells: set.cut_cells * slices as u64 / set.levels.max(1) as u64,
+            cut_cells: cut * slices as u64 / levels.max(1) as u64,
             axis: k.axis,
             stale,
             slices,

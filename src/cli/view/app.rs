@@ -223,6 +223,13 @@ impl App {
             &view,
             self.scene.options.background,
         );
+        g.compositor.encode_outline(
+            ctx,
+            &mut enc,
+            self.scene.target(),
+            &view,
+            &self.scene.camera,
+        );
         let input = g.egui_winit.take_egui_input(&g.window);
         let size = (g.config.width, g.config.height);
         let panel = &mut self.panel;

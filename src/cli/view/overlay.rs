@@ -183,9 +183,11 @@ pub fn paint_legend(p: &Painter, rect: Rect, l: &Legend) {
     }
 }
 
-/// Paints the grid's bounding box (display space extents `ext`, centred on
-/// the local origin) as seen through `view_proj` (display → clip), with
-/// the X, Y and Z axes from its lowest corner, in a viewport of `size` points.
+/// Paints the X, Y and Z axes from the lowest corner of the grid's bounding
+/// box (display space extents `ext`, centred on the local origin) as seen
+/// through `view_proj` (display → clip), in a viewport of `size` points.
+/// The box's edges are drawn by the present pass (`gpu::outline`), the
+/// hidden ones under the scene.
 pub fn paint_outline(p: &Painter, view_proj: Mat4, ext: Vec3, size: Vec2) {
     let corner = |i: usize| {
         let s = |b: usize| if i >> b & 1 == 1 { 0.5 } else { -0.5 };
@@ -200,17 +202,6 @@ pub fn paint_outline(p: &Painter, view_proj: Mat4, ext: Vec3, size: Vec2) {
             )
         })
     };
-    let grey = Stroke::new(1.0, Color32::from_rgba_unmultiplied(90, 90, 90, 200));
-    for i in 0..8usize {
-        for b in 0..3 {
-            let j = i | 1 << b;
-            if j != i
-                && let (Some(a), Some(c)) = (project(corner(i)), project(corner(j)))
-            {
-                p.line_segment([a, c], grey);
-            }
-        }
-    }
     let o = corner(0);
     let colors = [
         Color32::from_rgb(220, 40, 40),
