@@ -247,5 +247,6 @@ pub fn build_host_slices<'c>(
         range,
         cut_cells,
         levels: levels as u32,
+        boundary: super::pre_pass::BoundaryMesh::new(&ctx.device, grid),
     })
 }
