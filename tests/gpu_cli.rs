@@ -73,19 +73,37 @@ fn same_stats(a: &serde_json::Value, b: &serde_json::Value) {
     }
 }
 
+/// A faulted corner-point deck: pinched cells are split into convex pieces,
+/// which every device must count once, as input cells.
+fn faulted(tag: &str) -> PathBuf {
+    let g = tmp(&format!("f-{tag}.grdecl"));
+    if !g.exists() {
+        let g = g.to_str().unwrap();
+        run_ok(&[
+            "generate", "faulted", "--dims", "12,10,6", "--faults", "2", "--seed", "3", "-o", g,
+        ]);
+    }
+    g
+}
+
 #[test]
 fn slice_stats_are_the_same_on_every_device() {
-    let g = grid("stats");
-    let g = g.to_str().unwrap();
-    for (i, extra) in [
-        vec!["--axis", "z", "--count", "20"],
-        vec!["--property", "f", "--values", "0.2:0.8:0.15"],
+    let w = grid("stats");
+    let f = faulted("stats");
+    for (i, (g, extra)) in [
+        (&w, vec!["--axis", "z", "--count", "20"]),
+        (&w, vec!["--property", "f", "--values", "0.2:0.8:0.15"]),
+        (&f, vec!["--axis", "z", "--count", "9"]),
+        (
+            &f,
+            vec!["--axis", "x", "--count", "7", "--structure", "cgraph"],
+        ),
     ]
     .iter()
     .enumerate()
     {
         let cpu = tmp(&format!("cpu{i}.json"));
-        let mut a = vec!["slice", g];
+        let mut a = vec!["slice", g.to_str().unwrap()];
         a.extend(extra);
         let with = |dev: &str, out: &Path| {
             let mut v = a.clone();

@@ -44,6 +44,9 @@ pub struct Prepared {
     pub cpu_stats: Vec<LevelStats>,
     /// Seconds of the sweep (cut cells only, no emission).
     pub sweep_s: f64,
+    /// Per level: the distinct input cells among the frame's cut cells (the
+    /// convex pieces of a split cell count once, as on the CPU path).
+    pub input_cells: Vec<u64>,
 }
 
 /// Binds the field as [`crate::pipeline::slice`] does, places the levels,
@@ -87,7 +90,30 @@ pub fn prepare(grid: &Grid, s: &Structure, req: &SliceRequest) -> Result<Prepare
         )),
     }?;
     p.attribute_name = b.attribute_name.unwrap_or_else(|| "level_value".into());
+    p.input_cells = match s {
+        Structure::SCGraph(g) => input_cells(g, &p.frame),
+        Structure::CGraph(g) => input_cells(g, &p.frame),
+        Structure::CpGraph(g) => input_cells(g.as_ref(), &p.frame),
+        Structure::Ciel(_) => Vec::new(), // refused above
+    };
     Ok(p)
+}
+
+/// Per level, the number of distinct input cells among the frame's cut
+/// cells (slots mapped through [`CellGraph::source_cell`]).
+fn input_cells<G: CellGraph>(g: &G, frame: &Frame) -> Vec<u64> {
+    let mut per_level = vec![Vec::new(); frame.levels.len()];
+    for e in &frame.entries {
+        per_level[e.level as usize].push(g.source_cell(e.slot));
+    }
+    per_level
+        .into_iter()
+        .map(|mut c| {
+            c.sort_unstable();
+            c.dedup();
+            c.len() as u64
+        })
+        .collect()
 }
 
 fn finish<G: CellGraph, F: ScalarField>(
@@ -110,6 +136,7 @@ fn finish<G: CellGraph, F: ScalarField>(
         attribute_name: String::new(),
         cpu_stats,
         sweep_s,
+        input_cells: Vec::new(),
     })
 }
 
@@ -157,6 +184,10 @@ pub fn slice_on(
             (out.stats(&p.frame), EmitTimings::default())
         }
     };
+    let mut stats = stats;
+    for (st, &n) in stats.iter_mut().zip(&p.input_cells) {
+        st.cells = n;
+    }
     Ok((
         SliceResult {
             level_values: p.level_values,

@@ -46,9 +46,9 @@ def test_gpu_emission_equals_cpu(gpu, make, kw):
 
 def test_gpu_emission_on_split_cells_equals_cpu_and_cli(gpu, cli, tmp_path):
     # A faulted corner-point grid (pinched cells split into convex pieces):
-    # the GPU path gives the CPU's polygons and areas; its `cells` counts
-    # the convex pieces (the CPU's counts input cells), exactly as the
-    # CLI's `slice --device gpu` does.
+    # the GPU path gives the CPU's cut cells (input cells: the convex pieces
+    # of a split cell count once), polygons and areas, exactly as the CLI's
+    # `slice --device gpu` does.
     grid = stratasweep.generate.faulted((12, 10, 6), faults=2, seed=3)
     path = tmp_path / "f.grdecl"
     cli("generate", "faulted", "--dims", "12,10,6", "--faults", 2, "--seed", 3, "-o", path)
@@ -56,7 +56,7 @@ def test_gpu_emission_on_split_cells_equals_cpu_and_cli(gpu, cli, tmp_path):
         kw = dict(axis="z", count=9, mesh=False, structure=structure)
         cpu = grid.slice(device="cpu", **kw).stats
         on_gpu = grid.slice(device="gpu", **kw).stats
-        same_levels(on_gpu, cpu, 1e-5, cells=False)
+        same_levels(on_gpu, cpu, 1e-5)
         ref = cli.stats(tmp_path, path, "--axis", "z", "--count", 9, "--device", "gpu", "--structure", structure)
         assert on_gpu["structure"] == ref["structure"]
         same_levels(on_gpu, ref, 1e-12)
