@@ -255,27 +255,11 @@ pub fn slice(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SliceResult, PipelineError> {
     let b = bind(grid, s, req)?;
-    let phi = b.field();
-    let (offset, axis_slot, attribute) = (b.world_offset, b.axis_slot, b.attribute.as_deref());
-    macro_rules! run {
-        ($g:expr) => {
-            run_on(
-                $g,
-                &phi,
-                axis_slot,
-                offset,
-                req,
-                attribute,
-                s.split(),
-                progress,
-            )
-        };
-    }
     let mut r = match s {
-        Structure::SCGraph(g) => run!(g),
-        Structure::CGraph(g) => run!(g),
-        Structure::CpGraph(g) => run!(g.as_ref()),
-        Structure::Ciel(g) => run_ciel(g, &phi, offset, req, attribute, g.map.as_ref(), progress),
+        Structure::SCGraph(g) => run_on(g, &b, req, s.split(), progress),
+        Structure::CGraph(g) => run_on(g, &b, req, s.split(), progress),
+        Structure::CpGraph(g) => run_on(g.as_ref(), &b, req, s.split(), progress),
+        Structure::Ciel(g) => run_ciel(g, &b, req, g.map.as_ref(), progress),
     }?;
     r.timings.setup = b.setup_s;
     r.timings.field = b.field_s;
@@ -386,16 +370,16 @@ fn count_input_cells(stats: &mut [LevelStats], mut cut: Vec<Vec<(u32, u32)>>) {
 /// `threads > 1` the levels are split into contiguous ranges swept in
 /// parallel, each from the state the whole sweep has before its first
 /// level ([`CielSweeper::sweep_after`]): the same cells and polygons.
-fn run_ciel<F: ScalarField>(
+fn run_ciel(
     g: &Ciel,
-    f: &F,
-    world_offset: f64,
+    bound: &Binding,
     req: &SliceRequest,
-    attribute: Option<&[f32]>,
     split: Option<&SplitMap>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SliceResult, PipelineError> {
     use rayon::prelude::*;
+    let f = &bound.field();
+    let (world_offset, attribute) = (bound.world_offset, bound.attribute.as_deref());
     let (world, levels) = place_levels(g.live_range(f), world_offset, &req.levels)?;
     let source = |c: u32| split.map_or(c, |m| m.source[c as usize]);
     let ctx = EmitContext {
@@ -490,16 +474,22 @@ type Pieces = Vec<Vec<(u32, u32, Vec<(u64, [f32; 3], f32)>)>>;
 /// Per block: per level statistics, polygons and cut split pieces.
 type BlockOut = (Vec<LevelStats>, Pieces, Vec<Vec<(u32, u32)>>);
 
-fn run_on<G: CellGraph, F: ScalarField>(
+/// Runs `req` on the graph `g` with the binding `bound`: the sweep over
+/// spatial blocks (or the brute force), then the blocks' statistics and
+/// pieces merged.
+fn run_on<G: CellGraph>(
     g: &G,
-    f: &F,
-    axis_slot: Option<usize>,
-    world_offset: f64,
+    bound: &Binding,
     req: &SliceRequest,
-    attribute: Option<&[f32]>,
     split: Option<&SplitMap>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SliceResult, PipelineError> {
+    let f = &bound.field();
+    let (axis_slot, world_offset, attribute) = (
+        bound.axis_slot,
+        bound.world_offset,
+        bound.attribute.as_deref(),
+    );
     let (world, levels) = place_levels(live_range(g, f), world_offset, &req.levels)?;
     let ctx = EmitContext {
         positions: g.positions(),

@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects, prefetch};
+use crate::extract::{CutCell, EmitContext, LevelMesh, code_of, emit_cell, intersects, prefetch};
 use crate::field::ScalarField;
 use crate::metacell::{Catalog, MAX_META_VERTICES};
 
@@ -13,7 +13,7 @@ mod cp_weld;
 pub mod lattice;
 
 pub use lattice::Lattice;
-use lattice::{LatticeState, block_minima_lattice, chunks, sweep_block_lattice};
+use lattice::{LatticeState, LatticeSweep, block_minima_lattice, chunks, sweep_block_lattice};
 
 /// Per-cell step stamp. 16 bits keep the S-CGraph within 20 bytes per
 /// vertex; the stamps are reset once every 65 534 levels.
@@ -473,10 +473,16 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
         return;
     }
     if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {
+        let input = LatticeSweep {
+            lat,
+            phi,
+            ctx,
+            hash_weld: false,
+        };
         if b.options.per_cell_loop || levels.len() > chunks::MAX_LEVELS {
-            sweep_block_lattice(&lat, phi, b, minima, levels, ctx, false, on_level);
+            sweep_block_lattice(&input, b, minima, levels, on_level);
         } else {
-            chunks::sweep_block_chunks(&lat, phi, b, minima, levels, ctx, false, on_level);
+            chunks::sweep_block_chunks(&input, b, minima, levels, on_level);
         }
         return;
     }
@@ -507,17 +513,14 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
                 b.stamps[(c - start) as usize] = done;
             } else {
                 b.active.push(c);
-                let code = code_of(&phi[..n], t);
-                emit_cell(
-                    catalog.get(m),
-                    &ids[..n],
-                    &phi[..n],
+                let cell = CutCell {
+                    gids: &ids[..n],
+                    phi: &phi[..n],
                     t,
-                    code,
-                    c,
-                    ctx,
-                    &mut b.mesh,
-                );
+                    code: code_of(&phi[..n], t),
+                    slot: c,
+                };
+                emit_cell(catalog.get(m), &cell, ctx, &mut b.mesh);
             }
             let stamps = &mut b.stamps;
             let work = &mut b.work;

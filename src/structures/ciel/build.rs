@@ -176,7 +176,6 @@ fn cell_faces(
 }
 
 /// The per-cell phase over cells `range`, written into `parts`.
-#[allow(clippy::too_many_arguments)]
 fn build_chunk(
     range: std::ops::Range<usize>,
     cells: &Cells,

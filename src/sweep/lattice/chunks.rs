@@ -35,8 +35,8 @@
 //! and the brute force.
 
 use super::weld::EdgeOwnership;
-use super::{Lattice, LatticeState, emit_cut_cells};
-use crate::extract::{EmitContext, LevelMesh};
+use super::{CutCells, Lattice, LatticeState, LatticeSweep, emit_cut_cells};
+use crate::extract::LevelMesh;
 use crate::sweep::{Block, LevelStats, Minimum};
 
 /// Chunk state: not reached yet.
@@ -634,42 +634,34 @@ pub(super) fn patch_width(
 /// docs) of the width [`patch_width`] picks: the same cut cells per level,
 /// emitted in slot order with the same polygons. Needs at most
 /// [`MAX_LEVELS`] levels.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn sweep_block_chunks(
-    lat: &Lattice,
-    phi: &[f32],
+    input: &LatticeSweep,
     b: &mut Block,
     minima: &[Minimum],
     levels: &[f32],
-    ctx: &EmitContext,
-    hash_weld: bool,
     on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
     let width = patch_width(
-        lat,
-        phi,
+        &input.lat,
+        input.phi,
         b.start,
         b.stamps.len() as u32,
         b.options.patch_width,
     );
-    sweep_block_patches(width, lat, phi, b, minima, levels, ctx, hash_weld, on_level);
+    sweep_block_patches(width, input, b, minima, levels, on_level);
 }
 
 /// [`sweep_block_chunks`] with patches `width` cells wide (one of
 /// [`WIDTHS`]).
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn sweep_block_patches(
     width: u32,
-    lat: &Lattice,
-    phi: &[f32],
+    input: &LatticeSweep,
     b: &mut Block,
     minima: &[Minimum],
     levels: &[f32],
-    ctx: &EmitContext,
-    hash_weld: bool,
     on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
-    let args = (lat, phi, b, minima, levels, ctx, hash_weld, on_level);
+    let args = (input, b, minima, levels, on_level);
     match width {
         8 => sweep_shaped::<8>(args),
         16 => sweep_shaped::<16>(args),
@@ -681,25 +673,28 @@ pub(crate) fn sweep_block_patches(
 
 /// The arguments of [`sweep_block_chunks`].
 type SweepArgs<'a, 'l, L> = (
-    &'a Lattice<'l>,
-    &'a [f32],
+    &'a LatticeSweep<'l>,
     &'a mut Block,
     &'a [Minimum],
     &'a [f32],
-    &'a EmitContext<'a>,
-    bool,
     L,
 );
 
 /// [`sweep_block_patches`] for patches `W` cells wide.
 #[inline(never)]
 fn sweep_shaped<const W: usize>(
-    (lat, phi, b, minima, levels, ctx, hash_weld, mut on_level): SweepArgs<
+    (input, b, minima, levels, mut on_level): SweepArgs<
         '_,
         '_,
         impl FnMut(usize, &LevelMesh, &LevelStats),
     >,
 ) {
+    let LatticeSweep {
+        ref lat,
+        phi,
+        hash_weld,
+        ..
+    } = *input;
     let n = levels.len();
     assert!(n <= MAX_LEVELS, "{n} levels: at most {MAX_LEVELS}");
     if n == 0 {
@@ -885,20 +880,14 @@ fn sweep_shaped<const W: usize>(
             }
         }
         q.flush_group(&patches);
-        let weld = own_weld.then_some(&owner);
-        emit_cut_cells(
-            lat,
-            phi,
-            &q.slots,
-            |c| c,
+        let cells = CutCells {
+            cut: &q.slots,
+            slot_of: |c| c,
             start,
             len,
             t,
-            ctx,
-            weld,
-            mesh,
-            window,
-        );
+        };
+        emit_cut_cells(input, cells, own_weld.then_some(&owner), mesh, window);
         let stats = LevelStats::of(mesh, entered + prev_cut);
         prev_cut = q.slots.len() as u64;
         on_level(k, mesh, &stats);

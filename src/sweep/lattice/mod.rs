@@ -7,6 +7,7 @@
 pub(super) mod chunks;
 mod emit;
 pub mod weld;
+mod writer;
 
 use super::{
     Block, LevelStats, Minimum, NEVER, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots,
@@ -14,7 +15,7 @@ use super::{
 use crate::extract::{EmitContext, LevelMesh, prefetch};
 use crate::metacell::MetaCell;
 use crate::structures::BitSet;
-pub(super) use emit::emit_cut_cells;
+use emit::{CutCells, emit_cut_cells};
 use weld::EdgeWindow;
 use weld::{EdgeOwnership, LatticeHexTable};
 
@@ -39,6 +40,23 @@ pub struct Lattice<'a> {
     pub meta: &'a MetaCell,
     /// Its tables flattened for the lattice's offsets.
     pub table: &'a LatticeHexTable,
+}
+
+/// What a lattice block sweep reads besides the block and its levels: the
+/// lattice, φ per vertex (at least [`Lattice::vertices`] values), the
+/// emission context, and whether to weld by the mesh's hash map instead of
+/// by edge ownership.
+#[derive(Clone, Copy)]
+pub(crate) struct LatticeSweep<'a> {
+    /// The lattice.
+    pub(crate) lat: Lattice<'a>,
+    /// φ per vertex.
+    pub(crate) phi: &'a [f32],
+    /// Positions and attribute of the output.
+    pub(crate) ctx: &'a EmitContext<'a>,
+    /// Weld by the mesh's hash map (the lattices whose weld window would
+    /// not fit always do).
+    pub(crate) hash_weld: bool,
 }
 
 /// A block's lattice-loop state, made on the first lattice sweep and kept
@@ -242,15 +260,18 @@ pub(super) fn block_minima_lattice(lat: &Lattice, phi: &[f32], b: &Block) -> Vec
 /// constants of the lattice.
 #[inline(never)]
 pub(super) fn sweep_block_lattice(
-    lat: &Lattice,
-    phi: &[f32],
+    input: &LatticeSweep,
     b: &mut Block,
     minima: &[Minimum],
     levels: &[f32],
-    ctx: &EmitContext,
-    hash_weld: bool,
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
+    let LatticeSweep {
+        ref lat,
+        phi,
+        hash_weld,
+        ..
+    } = *input;
     let start = b.start;
     let [di, dj, dk] = lat.deltas;
     debug_assert_eq!(
@@ -418,11 +439,14 @@ pub(super) fn sweep_block_lattice(
         let carried = active.len();
         merge_active(active, fresh, k, scratch);
         std::mem::swap(active, scratch);
-        let slot_of = |x: u64| (x >> 32) as u32;
-        let weld = own_weld.then_some(&owner);
-        emit_cut_cells(
-            lat, phi, active, slot_of, start, len, t, ctx, weld, mesh, window,
-        );
+        let cells = CutCells {
+            cut: active,
+            slot_of: |x: u64| (x >> 32) as u32,
+            start,
+            len,
+            t,
+        };
+        emit_cut_cells(input, cells, own_weld.then_some(&owner), mesh, window);
         // Visited: the cells read at this step (entries) and the queue of
         // A_{k-1} filtered by each cell's last level.
         let stats = LevelStats::of(mesh, (entered + carried) as u64);

@@ -14,8 +14,8 @@
 //! owner in the same level, and no other edge reaches its window entry
 //! between the owner's write and the last read.
 
-use super::emit::HexWriter;
-use crate::extract::{EmitContext, LevelMesh, code_of, decide_faces, emit_cell};
+use super::writer::HexWriter;
+use crate::extract::{CutCell, EmitContext, LevelMesh, code_of, decide_faces, emit_cell};
 use crate::metacell::MetaCell;
 
 /// Largest [`EdgeWindow`] length W per axis (the table holds at most 4W u32s:
@@ -383,25 +383,22 @@ impl LatticeHexTable {
         &pos[v0 as usize..=(v0 + self.goff[7]) as usize]
     }
 
-    /// Creates the vertices where level `t` crosses the cut edges in `own`
-    /// (positions from `cell`, see [`LatticeHexTable::point_on_edge`]) and
-    /// records them in the window. The attribute, when given, holds every
-    /// vertex of the cell.
+    /// Creates the vertices where level `lv.t` crosses the cut edges in
+    /// `own` of `cell` (positions from [`EmitContext::positions`], see
+    /// [`LatticeHexTable::point_on_edge`]) and records them in the window.
+    /// The attribute, when given, holds every vertex of the cell.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn create_owned(
         &self,
         mut own: u32,
-        v0: u32,
-        f: &[f32; 8],
-        t: f32,
-        cell: &[[f32; 3]],
-        owner: &EdgeOwnership,
-        slot: u32,
-        ctx: &EmitContext,
+        lv: &HexLevel,
+        cell: &HexCell,
         out: &mut HexWriter,
         win: &mut EdgeWindow,
     ) {
+        let HexCell { v0, f, slot, .. } = *cell;
+        let (t, ctx, owner) = (lv.t, lv.ctx, lv.owner);
+        let cell = self.cell_positions(v0, ctx.positions);
         while own != 0 {
             let e = own.trailing_zeros() as usize & 15;
             own &= own - 1;
@@ -436,39 +433,32 @@ impl LatticeHexTable {
         }
     }
 
-    /// Emits the polygons of the cut cell `slot` with first vertex `v0`, φ
-    /// `f` and code `code` in geometric order, the same polygons in the
-    /// same order as [`crate::extract::emit_cell`]. Cells are emitted in
-    /// slot order; `live` has bit n set when `owner.lower[n]` is a live
-    /// cell of the same sweep block; the cell creates the vertices of the
-    /// cut edges it owns and reads the others from `win` (sized by
-    /// [`EdgeWindow::fit`] for `owner`). Returns false, having written
+    /// Emits the polygons of the cut cell `cell` at level `lv` in geometric
+    /// order, the same polygons in the same order as
+    /// [`crate::extract::emit_cell`]. Cells are emitted in slot order; the
+    /// cell creates the vertices of the cut edges it owns (by
+    /// [`HexCell::live`]) and reads the others from `win` (sized by
+    /// [`EdgeWindow::fit`] for `lv.owner`). Returns false, having written
     /// nothing, when the code has an ambiguous face: then call
     /// [`LatticeHexTable::emit_ambiguous`].
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn emit(
         &self,
-        v0: u32,
-        f: &[f32; 8],
-        t: f32,
-        code: usize,
-        owner: &EdgeOwnership,
-        live: u32,
-        slot: u32,
-        ctx: &EmitContext,
+        lv: &HexLevel,
+        cell: &HexCell,
         out: &mut HexWriter,
         win: &mut EdgeWindow,
     ) -> bool {
-        let code = code & 255;
-        let own = self.cut[code] as u32 & owner.own[live as usize & 511] as u32;
+        let owner = lv.owner;
+        let code = cell.code & 255;
+        let own = self.cut[code] as u32 & owner.own[cell.live as usize & 511] as u32;
         let cp = &self.codes[code];
         if cp.polys == 0 {
             return false;
         }
         out.begin_cell();
-        let cell = self.cell_positions(v0, ctx.positions);
-        self.create_owned(own, v0, f, t, cell, owner, slot, ctx, out, win);
+        self.create_owned(own, lv, cell, out, win);
+        let slot = cell.slot;
         let mut first = 0;
         // At most 3 polygons (`LatticeHexTable::new`), so the mask keeps
         // the count and proves `p < 4` to the compiler.
@@ -491,51 +481,50 @@ impl LatticeHexTable {
         true
     }
 
-    /// The same polygons as `LatticeHexTable::emit`, welded by the mesh's
-    /// hash map ([`crate::extract::emit_cell`] in the meta-cell's local
-    /// order), for lattices whose weld window would not fit.
-    #[allow(clippy::too_many_arguments)]
+    /// The same polygons as `LatticeHexTable::emit` for the cell with first
+    /// vertex `v0`, φ `f` (geometric order) and slot `slot` at level `t`,
+    /// welded by the mesh's hash map ([`crate::extract::emit_cell`] in the
+    /// meta-cell's local order), for lattices whose weld window would not
+    /// fit.
     pub fn emit_hashed(
         &self,
         meta: &MetaCell,
-        v0: u32,
-        f: &[f32; 8],
+        (v0, f, slot): (u32, &[f32; 8], u32),
         t: f32,
-        slot: u32,
         ctx: &EmitContext,
         mesh: &mut LevelMesh,
     ) {
         let (ids, phi) = self.local(v0, f);
-        emit_cell(meta, &ids, &phi, t, code_of(&phi, t), slot, ctx, mesh);
+        let cell = CutCell {
+            gids: &ids,
+            phi: &phi,
+            t,
+            code: code_of(&phi, t),
+            slot,
+        };
+        emit_cell(meta, &cell, ctx, mesh);
     }
 
     /// [`LatticeHexTable::emit`] for a cell whose code is ambiguous: the
     /// meta-cell's loops (in its local order, with the face decider),
     /// corners mapped to geometric edges.
     #[inline(never)]
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn emit_ambiguous(
         &self,
         meta: &MetaCell,
-        v0: u32,
-        f: &[f32; 8],
-        t: f32,
-        code: usize,
-        live: u32,
-        owner: &EdgeOwnership,
-        slot: u32,
-        ctx: &EmitContext,
+        lv: &HexLevel,
+        cell: &HexCell,
         mesh: &mut LevelMesh,
         win: &mut EdgeWindow,
     ) {
-        let code = code & 255;
-        let own = self.cut[code] as u32 & owner.own[live as usize & 511] as u32;
-        let cell = self.cell_positions(v0, ctx.positions);
+        let (t, owner, slot) = (lv.t, lv.owner, cell.slot);
+        let code = cell.code & 255;
+        let own = self.cut[code] as u32 & owner.own[cell.live as usize & 511] as u32;
         let mut out = HexWriter::new(mesh, 1);
         out.begin_cell();
-        self.create_owned(own, v0, f, t, cell, owner, slot, ctx, &mut out, win);
+        self.create_owned(own, lv, cell, &mut out, win);
         drop(out);
-        let (gids, phi) = self.local(v0, f);
+        let (gids, phi) = self.local(cell.v0, &cell.f);
         let local_code = code_of(&phi, t);
         let outcome = if meta.ambiguous_faces[local_code] != 0 {
             decide_faces(meta, &gids, &phi, t, local_code)
@@ -550,6 +539,33 @@ impl LatticeHexTable {
             mesh.end_polygon(start, slot);
         }
     }
+}
+
+/// A level as the lattice emitter welds it by edge ownership: the level
+/// value, the sweep's emission context and the ownership tables.
+pub(crate) struct HexLevel<'a> {
+    /// The level.
+    pub(crate) t: f32,
+    /// Positions and attribute.
+    pub(crate) ctx: &'a EmitContext<'a>,
+    /// Which edges a cell owns, and their window entries.
+    pub(crate) owner: &'a EdgeOwnership,
+}
+
+/// A cut lattice cell as the emitter reads it.
+#[derive(Clone, Copy)]
+pub(crate) struct HexCell {
+    /// First vertex.
+    pub(crate) v0: u32,
+    /// φ at its vertices in geometric order.
+    pub(crate) f: [f32; 8],
+    /// Geometric code at the level (bit q set iff `f[q] >= t`).
+    pub(crate) code: usize,
+    /// Bit n set when `owner.lower[n]` is a live cell of the same sweep
+    /// block (see [`EdgeOwnership`]).
+    pub(crate) live: u32,
+    /// Slot.
+    pub(crate) slot: u32,
 }
 
 #[cfg(test)]
