@@ -118,6 +118,69 @@ impl ChunkQueues {
     /// Appends the cut cells of the patches in `group` (one row of patches
     /// of `shape`, in order) to `slots` in slot order, and empties the
     /// group.
+    /// Prefetches the level record of patch `w` (touched patches only:
+    /// those pushed by a touch this step are processed right after it).
+    #[inline(always)]
+    fn prefetch_record(&self, w: u32) {
+        let r = self.state[w as usize] as usize;
+        if r < PENDING as usize {
+            prefetch_nta(&self.levels, r * 128);
+            prefetch_nta(&self.levels, r * 128 + 64);
+        }
+    }
+
+    /// Step `k` (of `n`) of the touched patch `w`: records its cut cells,
+    /// schedules its next step or marks it done; returns its cells that
+    /// enter at this step.
+    #[inline(always)]
+    fn step_patch(&mut self, w: u32, k: usize, n: usize) -> u64 {
+        let r = self.state[w as usize] as usize;
+        let m = step_masks(&self.levels[r * 128..r * 128 + 128], k as u8);
+        if m.cut != 0 {
+            self.cut[w as usize] = m.cut;
+            self.cut_chunks[w as usize / 64] |= 1 << (w % 64);
+        }
+        if (m.next as usize) < n {
+            self.scheduled[m.next as usize].push(w);
+        } else {
+            self.state[w as usize] = DONE;
+            self.free.push(r as u32);
+        }
+        m.new
+    }
+
+    /// Marks patch `w` pending, unless it was touched already.
+    #[inline(always)]
+    fn reach(&mut self, w: u32) {
+        if self.state[w as usize] == UNTOUCHED {
+            self.state[w as usize] = PENDING;
+            self.pending.push(w);
+        }
+    }
+
+    /// This step's cut cells into `slots` in slot order, from the cut
+    /// patches (emptied): per patch row of a layer (the cut patches in
+    /// order, grouped), row by row of cells, patch by patch.
+    #[inline(always)]
+    fn order_cut_cells(&mut self, patches: &Patches) {
+        self.slots.clear();
+        let mut group_end = 0u32;
+        for x in 0..self.cut_chunks.len() {
+            while self.cut_chunks[x] != 0 {
+                let w = 64 * x as u32 + self.cut_chunks[x].trailing_zeros();
+                self.cut_chunks[x] &= self.cut_chunks[x] - 1;
+                let place = patches.place(w);
+                if w >= group_end {
+                    self.flush_group(patches);
+                    group_end = w - place.2 + patches.columns;
+                }
+                self.group
+                    .push((patches.first_slot_at(place), self.cut[w as usize]));
+            }
+        }
+        self.flush_group(patches);
+    }
+
     fn flush_group(&mut self, shape: &Patches) {
         let (width, row_bits) = (shape.width, shape.row_bits());
         let dj = shape.dj;
@@ -505,6 +568,22 @@ fn fill_levels(
     least
 }
 
+/// Prefetches the φ rows that touching the `W`-wide patch whose first
+/// vertex is `v` reads (its height + 1 rows on both vertex layers).
+#[inline(always)]
+fn prefetch_patch<const W: usize>(phi: &[f32], v: i64, dj: u32, dk: u32) {
+    for r in 0..=64 / W as u32 {
+        for l in [0, dk] {
+            let x = v + (r * dj + l) as i64;
+            for line in (0..=W).step_by(16) {
+                if x >= 0 {
+                    prefetch_nta(phi, x as usize + line);
+                }
+            }
+        }
+    }
+}
+
 /// A prefetch of `s[i]` that keeps the line out of the outer caches.
 #[inline(always)]
 fn prefetch_nta<T>(s: &[T], i: usize) {
@@ -714,7 +793,6 @@ fn sweep_shaped<const W: usize>(
     if own_weld {
         state.window.fit(&owner);
     }
-    let index = LevelIndex::new(levels);
     let Block {
         stamps,
         mesh,
@@ -726,35 +804,11 @@ fn sweep_shaped<const W: usize>(
         window, chunks: q, ..
     } = lattice.as_deref_mut().expect("set above");
     let len = stamps.len() as u32;
-    let patches = Patches::new(W as u32, lat, start, len);
-    let (row_bits, column_bits) = (patches.row_bits(), patches.column_bits());
-    let (first_row, last_row) = (row_bits, row_bits << (64 - W));
-    let (first_column, last_column) = (column_bits, column_bits << (W - 1));
-    let chunks = patches.count;
+    let sh = Shaped::<W>::new(lat, phi, Patches::new(W as u32, lat, start, len), levels);
+    let chunks = sh.patches.count;
     q.begin(chunks as usize, n);
     q.flags.clear();
-    q.flags.extend((0..chunks).map(|w| patches.flags(w)));
-    // First vertex of patch w's first cell.
-    let first_vertex = |w: u32| patches.first_slot(w) as i64 - lat.base as i64;
-    let layer = patches.columns * patches.rows;
-    // Touches patch w at step k: fills its record, then queues it for this
-    // step (a cell enters at k), schedules it, or marks it done.
-    let touch = |q: &mut ChunkQueues, work: &mut Vec<u32>, w: u32, k: usize| {
-        let (lo, hi) = patch_ranges::<W>(phi, first_vertex(w), dj, dk);
-        let r = q.alloc();
-        let rec = &mut q.levels[r as usize * 128..r as usize * 128 + 128];
-        let least = fill_levels(rec, &lo, &hi, patches.dead_bits(lat, w), &index) as usize;
-        debug_assert!(least >= k, "a patch is touched by its first entry step");
-        q.state[w as usize] = r;
-        if least == k {
-            work.push(w);
-        } else if least < n {
-            q.scheduled[least].push(w);
-        } else {
-            q.state[w as usize] = DONE;
-            q.free.push(r);
-        }
-    };
+    q.flags.extend((0..chunks).map(|w| sh.patches.flags(w)));
     let mut prev_cut = 0u64;
     let mut next_min = 0;
     for (k, &t) in levels.iter().enumerate() {
@@ -765,11 +819,7 @@ fn sweep_shaped<const W: usize>(
         while next_min < minima.len() && minima[next_min].lo < t {
             let c = minima[next_min].slot;
             if c.wrapping_sub(start) < len {
-                let w = patches.of_slot(c);
-                if q.state[w as usize] == UNTOUCHED {
-                    q.state[w as usize] = PENDING;
-                    q.pending.push(w);
-                }
+                q.reach(sh.patches.of_slot(c));
             }
             next_min += 1;
         }
@@ -777,109 +827,26 @@ fn sweep_shaped<const W: usize>(
         let mut i = 0;
         loop {
             if i == work.len() {
-                // Touch the patches reached so far (their rows prefetched a
-                // few patches ahead); those with a cell entering now join
-                // this step's work.
+                // Touch the patches reached so far; those with a cell
+                // entering now join this step's work.
                 if q.pending.is_empty() {
                     break;
                 }
-                let mut pending = std::mem::take(&mut q.pending);
-                for (p, &w) in pending.iter().enumerate() {
-                    if let Some(&ahead) = pending.get(p + 2) {
-                        let v = first_vertex(ahead);
-                        for r in 0..=64 / W as u32 {
-                            for l in [0, dk] {
-                                let x = v + (r * dj + l) as i64;
-                                for line in (0..=W).step_by(16) {
-                                    if x >= 0 {
-                                        prefetch_nta(phi, x as usize + line);
-                                    }
-                                }
-                            }
-                        }
-                    }
-                    touch(q, work, w, k);
-                }
-                pending.clear();
-                q.pending = pending;
+                sh.touch_pending(q, work, k);
                 continue;
             }
             let w = work[i];
             if let Some(&ahead) = work.get(i + 4) {
-                // Its level record (touched patches only: those pushed by a
-                // touch this step are processed right after it).
-                let r = q.state[ahead as usize] as usize;
-                if r < PENDING as usize {
-                    prefetch_nta(&q.levels, r * 128);
-                    prefetch_nta(&q.levels, r * 128 + 64);
-                }
+                q.prefetch_record(ahead);
             }
             i += 1;
-            let r = q.state[w as usize] as usize;
-            let m = step_masks(&q.levels[r * 128..r * 128 + 128], k as u8);
-            if m.cut != 0 {
-                q.cut[w as usize] = m.cut;
-                q.cut_chunks[w as usize / 64] |= 1 << (w % 64);
-            }
-            if (m.next as usize) < n {
-                q.scheduled[m.next as usize].push(w);
-            } else {
-                q.state[w as usize] = DONE;
-                q.free.push(r as u32);
-            }
-            let new = m.new;
-            if new == 0 {
-                continue;
-            }
-            entered += new.count_ones() as u64;
-            // The patches across the faces of the entering cells: along i
-            // and j those at the patch's sides, along k the ones above and
-            // below.
-            let reach = |w: u32, q: &mut ChunkQueues| {
-                if q.state[w as usize] == UNTOUCHED {
-                    q.state[w as usize] = PENDING;
-                    q.pending.push(w);
-                }
-            };
-            let flags = q.flags[w as usize];
-            if new & first_column != 0 && flags & HAS_LEFT != 0 {
-                reach(w - 1, q);
-            }
-            if new & last_column != 0 && flags & HAS_RIGHT != 0 {
-                reach(w + 1, q);
-            }
-            if new & first_row != 0 && flags & HAS_DOWN != 0 {
-                reach(w - patches.columns, q);
-            }
-            if new & last_row != 0 && flags & HAS_UP != 0 {
-                reach(w + patches.columns, q);
-            }
-            if w >= layer {
-                reach(w - layer, q);
-            }
-            if w + layer < chunks {
-                reach(w + layer, q);
+            let new = q.step_patch(w, k, n);
+            if new != 0 {
+                entered += new.count_ones() as u64;
+                sh.reach_across(q, w, new);
             }
         }
-        // This step's cut cells in slot order: per patch row of a layer
-        // (the cut patches in order, grouped), row by row of cells, patch
-        // by patch.
-        q.slots.clear();
-        let mut group_end = 0u32;
-        for x in 0..q.cut_chunks.len() {
-            while q.cut_chunks[x] != 0 {
-                let w = 64 * x as u32 + q.cut_chunks[x].trailing_zeros();
-                q.cut_chunks[x] &= q.cut_chunks[x] - 1;
-                let place = patches.place(w);
-                if w >= group_end {
-                    q.flush_group(&patches);
-                    group_end = w - place.2 + patches.columns;
-                }
-                q.group
-                    .push((patches.first_slot_at(place), q.cut[w as usize]));
-            }
-        }
-        q.flush_group(&patches);
+        q.order_cut_cells(&sh.patches);
         let cells = CutCells {
             cut: &q.slots,
             slot_of: |c| c,
@@ -891,6 +858,111 @@ fn sweep_shaped<const W: usize>(
         let stats = LevelStats::of(mesh, entered + prev_cut);
         prev_cut = q.slots.len() as u64;
         on_level(k, mesh, &stats);
+    }
+}
+
+/// What [`sweep_shaped`] reads besides its queues: the lattice, φ, the
+/// block's `W`-wide patches, the level index, and the bits of a patch's
+/// first and last rows and columns.
+struct Shaped<'a, 'l, const W: usize> {
+    lat: &'a Lattice<'l>,
+    phi: &'a [f32],
+    patches: Patches,
+    index: LevelIndex<'a>,
+    levels: usize,
+    first_row: u64,
+    last_row: u64,
+    first_column: u64,
+    last_column: u64,
+}
+
+impl<'a, 'l, const W: usize> Shaped<'a, 'l, W> {
+    #[inline(always)]
+    fn new(lat: &'a Lattice<'l>, phi: &'a [f32], patches: Patches, levels: &'a [f32]) -> Self {
+        let (row_bits, column_bits) = (patches.row_bits(), patches.column_bits());
+        Shaped {
+            lat,
+            phi,
+            patches,
+            index: LevelIndex::new(levels),
+            levels: levels.len(),
+            first_row: row_bits,
+            last_row: row_bits << (64 - W),
+            first_column: column_bits,
+            last_column: column_bits << (W - 1),
+        }
+    }
+
+    /// First vertex of patch w's first cell.
+    #[inline(always)]
+    fn first_vertex(&self, w: u32) -> i64 {
+        self.patches.first_slot(w) as i64 - self.lat.base as i64
+    }
+
+    /// Touches patch w at step k: fills its record, then queues it for this
+    /// step (a cell enters at k), schedules it, or marks it done.
+    #[inline(always)]
+    fn touch(&self, q: &mut ChunkQueues, work: &mut Vec<u32>, w: u32, k: usize) {
+        let [_, dj, dk] = self.lat.deltas;
+        let (lo, hi) = patch_ranges::<W>(self.phi, self.first_vertex(w), dj, dk);
+        let r = q.alloc();
+        let rec = &mut q.levels[r as usize * 128..r as usize * 128 + 128];
+        let dead = self.patches.dead_bits(self.lat, w);
+        let least = fill_levels(rec, &lo, &hi, dead, &self.index) as usize;
+        debug_assert!(least >= k, "a patch is touched by its first entry step");
+        q.state[w as usize] = r;
+        if least == k {
+            work.push(w);
+        } else if least < self.levels {
+            q.scheduled[least].push(w);
+        } else {
+            q.state[w as usize] = DONE;
+            q.free.push(r);
+        }
+    }
+
+    /// Touches the pending patches at step k (their rows prefetched a few
+    /// patches ahead).
+    #[inline(always)]
+    fn touch_pending(&self, q: &mut ChunkQueues, work: &mut Vec<u32>, k: usize) {
+        let [_, dj, dk] = self.lat.deltas;
+        let mut pending = std::mem::take(&mut q.pending);
+        for (p, &w) in pending.iter().enumerate() {
+            if let Some(&ahead) = pending.get(p + 2) {
+                prefetch_patch::<W>(self.phi, self.first_vertex(ahead), dj, dk);
+            }
+            self.touch(q, work, w, k);
+        }
+        pending.clear();
+        q.pending = pending;
+    }
+
+    /// Reaches the patches across the faces of patch w's entering cells
+    /// `new`: along i and j those at the patch's sides, along k the ones
+    /// above and below.
+    #[inline(always)]
+    fn reach_across(&self, q: &mut ChunkQueues, w: u32, new: u64) {
+        let columns = self.patches.columns;
+        let layer = columns * self.patches.rows;
+        let flags = q.flags[w as usize];
+        if new & self.first_column != 0 && flags & HAS_LEFT != 0 {
+            q.reach(w - 1);
+        }
+        if new & self.last_column != 0 && flags & HAS_RIGHT != 0 {
+            q.reach(w + 1);
+        }
+        if new & self.first_row != 0 && flags & HAS_DOWN != 0 {
+            q.reach(w - columns);
+        }
+        if new & self.last_row != 0 && flags & HAS_UP != 0 {
+            q.reach(w + columns);
+        }
+        if w >= layer {
+            q.reach(w - layer);
+        }
+        if w + layer < self.patches.count {
+            q.reach(w + layer);
+        }
     }
 }
 
