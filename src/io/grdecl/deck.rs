@@ -42,37 +42,8 @@ pub(super) const KNOWN_PROPERTIES: [&str; 26] = [
     "SWCR", "SWU", "SGU", "SOWCR", "PORV", "PERMXY",
 ];
 
-pub(super) fn is_keyword_like(t: &[u8]) -> bool {
-    !t.is_empty()
-        && t.len() <= 8
-        && t[0].is_ascii_alphabetic()
-        && t.iter()
-            .all(|c| c.is_ascii_alphanumeric() || matches!(c, b'_' | b'-' | b'+'))
-}
-
 // ---------------------------------------------------------------------------
 // Parser
-
-/// A numeric sink with an expected count.
-pub(super) struct Sink<'a> {
-    pub(super) out: &'a mut Vec<f64>,
-    pub(super) expected: usize,
-    pub(super) found: usize,
-}
-
-impl Sink<'_> {
-    #[inline(always)]
-    pub(super) fn push(&mut self, v: f64, n: usize) {
-        let room = self.expected.saturating_sub(self.found);
-        let k = n.min(room);
-        if k == 1 {
-            self.out.push(v);
-        } else if k > 0 {
-            self.out.resize(self.out.len() + k, v);
-        }
-        self.found = self.found.saturating_add(n);
-    }
-}
 
 pub(super) struct Parser {
     pub(super) dims: Option<[usize; 3]>,
