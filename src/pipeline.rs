@@ -477,7 +477,14 @@ impl Runner for Split<Ciel> {
         self.map.as_ref().map_or(slot, |m| m.source[slot as usize])
     }
     fn brute_force(&self, job: &Job, mesh: &mut LevelMesh, on_level: &mut OnLevel) {
-        crate::structures::ciel::brute_force(&self.inner, job.f, job.levels, job.ctx, mesh, on_level)
+        crate::structures::ciel::brute_force(
+            &self.inner,
+            job.f,
+            job.levels,
+            job.ctx,
+            mesh,
+            on_level,
+        )
     }
     fn sweep(&self, job: &Job, gather: &Gather, timings: &mut Timings) -> Swept {
         use rayon::prelude::*;

@@ -1,7 +1,7 @@
 //! The streaming tokenizer over a fixed window: tokens, comments, quotes, `N*v` repeats, line numbers.
 
-use super::*;
 use super::number::*;
+use super::*;
 
 // ---------------------------------------------------------------------------
 // Lexer
