@@ -493,3 +493,39 @@ pub(crate) fn decide_faces(meta: &MetaCell, gids: &[u32], phi: &[f32], t: f32, c
     }
     outcome
 }
+
+/// Per-level statistics of one sweep step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LevelStats {
+    /// Intersected cells.
+    pub cells: u64,
+    /// Cells popped from the work queue (intersected + swept).
+    pub visited: u64,
+    /// Polygons emitted.
+    pub polygons: u64,
+    /// Triangles of their fan triangulation.
+    pub triangles: u64,
+    /// Total area.
+    pub area: f64,
+}
+
+impl LevelStats {
+    /// The figures of one level's output `mesh`, with `visited` cells popped.
+    pub fn of(mesh: &LevelMesh, visited: u64) -> Self {
+        LevelStats {
+            cells: mesh.cut_cells as u64,
+            visited,
+            polygons: mesh.polygon_count() as u64,
+            triangles: mesh.accumulated_triangles() as u64,
+            area: mesh.accumulated_area(),
+        }
+    }
+    /// Adds another block's figures.
+    pub fn add(&mut self, o: &LevelStats) {
+        self.cells += o.cells;
+        self.visited += o.visited;
+        self.polygons += o.polygons;
+        self.triangles += o.triangles;
+        self.area += o.area;
+    }
+}

@@ -6,6 +6,7 @@
 #![allow(clippy::needless_range_loop, clippy::type_complexity)]
 
 pub mod bruteforce;
+pub mod cellgraph;
 pub mod cornerpoint;
 
 pub mod extract;

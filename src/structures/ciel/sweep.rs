@@ -3,10 +3,10 @@
 use rayon::prelude::*;
 
 use super::{Ciel, DrawLevel, DrawScratch, NONE};
+use crate::cellgraph::BitSet;
+use crate::extract::LevelStats;
 use crate::extract::{EmitContext, LevelMesh, intersects};
 use crate::field::ScalarField;
-use crate::structures::BitSet;
-use crate::sweep::LevelStats;
 
 /// Is vertex `a`'s key `(φ, id)` below `b`'s?
 #[inline(always)]

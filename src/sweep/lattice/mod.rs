@@ -12,35 +12,12 @@ mod writer;
 use super::{
     Block, LevelStats, Minimum, NEVER, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots,
 };
+use crate::cellgraph::BitSet;
+pub use crate::cellgraph::Lattice;
 use crate::extract::{EmitContext, LevelMesh, prefetch};
-use crate::metacell::MetaCell;
-use crate::structures::BitSet;
 use emit::{CutCells, emit_cut_cells};
+use weld::EdgeOwnership;
 use weld::EdgeWindow;
-use weld::{EdgeOwnership, LatticeHexTable};
-
-/// An implicit hexahedral lattice, for the specialised sweep loop: cell
-/// `slot` has first vertex `v0 = slot - base`, vertices
-/// `v0 + {0, di} + {0, dj} + {0, dk}` (`deltas = [di, dj, dk]`, with
-/// `di = 1`) and face neighbours `slot ± deltas[axis]`. Neighbour slots
-/// outside the grid are dead (never-sweep) slots, so no bounds checks.
-#[derive(Clone, Copy, Debug)]
-pub struct Lattice<'a> {
-    /// Vertex count: every live cell's vertex ids are below it.
-    pub vertices: usize,
-    /// Slot of the cell whose first vertex is 0.
-    pub base: u32,
-    /// Slot (and vertex id) steps along i, j, k.
-    pub deltas: [u32; 3],
-    /// Per slot: live (the never-sweep slots are the others).
-    pub live: &'a BitSet,
-    /// Per slot: live, and so are its 18 face and edge neighbours.
-    pub surrounded: &'a BitSet,
-    /// The hexahedron's meta-cell.
-    pub meta: &'a MetaCell,
-    /// Its tables flattened for the lattice's offsets.
-    pub table: &'a LatticeHexTable,
-}
 
 /// What a lattice block sweep reads besides the block and its levels: the
 /// lattice, φ per vertex (at least [`Lattice::vertices`] values), the
