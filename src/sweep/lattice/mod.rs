@@ -6,6 +6,7 @@
 
 pub(super) mod chunks;
 mod emit;
+mod index;
 pub mod weld;
 mod writer;
 
