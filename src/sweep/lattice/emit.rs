@@ -130,6 +130,9 @@ pub(crate) fn emit_cut_cells<T: Copy>(
         }
         drop(out);
         if let Some(cell) = ambiguous {
+            // A level of its own for the out-of-line call, so that `level`'s
+            // address never escapes and its fields stay in registers.
+            let level = HexLevel { t, ctx, owner };
             lat.table
                 .emit_ambiguous(lat.meta, &level, &cell, mesh, window);
         }

@@ -305,6 +305,7 @@ pub(super) fn sweep_block_lattice(
             phi,
             levels,
             k,
+            t,
             start,
             len,
         };
@@ -357,6 +358,8 @@ struct CellStep<'a, 'l> {
     phi: &'a [f32],
     levels: &'a [f32],
     k: usize,
+    /// `levels[k]`.
+    t: f32,
     start: u32,
     len: u32,
 }
@@ -411,6 +414,7 @@ impl CellStep<'_, '_> {
             phi,
             levels,
             k,
+            t,
             start,
             len,
         } = *self;
@@ -422,7 +426,6 @@ impl CellStep<'_, '_> {
         } = q;
         let [di, dj, dk] = lat.deltas;
         let n = levels.len();
-        let t = levels[k];
         // SAFETY (for `at` and `load8`): the cell is live and its
         // neighbours' far vertices are read only for a live neighbour (not
         // in `seen`, so not a never-sweep slot): all < lat.vertices <=
