@@ -2,7 +2,7 @@
 //! rule and the same polygon code as the sweep. O(N·K), used to check the
 //! structures and to benchmark against.
 
-use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects};
+use crate::extract::{CutCell, EmitContext, LevelMesh, code_of, emit_cell, intersects};
 use crate::field::ScalarField;
 use crate::metacell::MAX_META_VERTICES;
 use crate::sweep::{CellGraph, LevelStats, NEVER};
@@ -39,8 +39,14 @@ pub fn brute_force<G: CellGraph, F: ScalarField>(
                 hi = hi.max(phi[i]);
             }
             if intersects(lo, hi, t) {
-                let code = code_of(&phi[..n], t);
-                emit_cell(catalog.get(m), &ids[..n], &phi[..n], t, code, c, ctx, mesh);
+                let cell = CutCell {
+                    gids: &ids[..n],
+                    phi: &phi[..n],
+                    t,
+                    code: code_of(&phi[..n], t),
+                    slot: c,
+                };
+                emit_cell(catalog.get(m), &cell, ctx, mesh);
             }
         }
         let stats = LevelStats::of(mesh, valid.len() as u64);

@@ -234,20 +234,11 @@ impl LevelMesh {
     pub fn accumulated_triangles(&self) -> usize {
         self.triangle_sum
     }
-    /// Emits one loop (edge ids `lp` of `edges`) as a polygon of source cell
-    /// `slot`, welding its vertices by grid edge.
-    #[allow(clippy::too_many_arguments)]
+    /// Emits one loop (edge ids `lp` of `edges`) as a polygon of the cut
+    /// cell `cell`, welding its vertices by grid edge.
     #[inline(always)]
-    fn emit_loop(
-        &mut self,
-        edges: &[[u8; 2]],
-        lp: &[u8],
-        gids: &[u32],
-        phi: &[f32],
-        t: f32,
-        slot: u32,
-        ctx: &EmitContext,
-    ) {
+    fn emit_loop(&mut self, edges: &[[u8; 2]], lp: &[u8], cell: &CutCell, ctx: &EmitContext) {
+        let CutCell { gids, phi, t, .. } = *cell;
         let start = self.begin_polygon();
         for &e in lp {
             let [la, lb] = edges[e as usize];
@@ -258,7 +249,7 @@ impl LevelMesh {
                 self.corner(gids[lb], gids[la], phi[lb], phi[la], t, ctx);
             }
         }
-        self.end_polygon(start, slot);
+        self.end_polygon(start, cell.slot);
     }
     /// Starts a polygon; returns the token for [`LevelMesh::end_polygon`].
     #[inline(always)]
@@ -277,7 +268,7 @@ impl LevelMesh {
             .weld
             .get_or_insert(key, self.positions.len() as u32, &self.edge_keys);
         if new {
-            self.push_vertex(key, ga, gb, fa, fb, t, ctx);
+            self.push_vertex(ga, gb, fa, fb, t, ctx);
         }
         self.indices.push(vi);
     }
@@ -299,19 +290,10 @@ impl LevelMesh {
         self.area += 0.5 * polygon_norm2(&self.indices[start..end], &self.positions).sqrt();
     }
     /// Appends the vertex where the level `t` crosses grid edge `ga`–`gb`
-    /// (`ga < gb`, with φ values `fa`, `fb`).
-    #[allow(clippy::too_many_arguments)]
+    /// (`ga < gb`, with φ values `fa`, `fb`), keyed by the edge.
     #[inline(always)]
-    fn push_vertex(
-        &mut self,
-        key: u64,
-        ga: u32,
-        gb: u32,
-        fa: f32,
-        fb: f32,
-        t: f32,
-        ctx: &EmitContext,
-    ) {
+    fn push_vertex(&mut self, ga: u32, gb: u32, fa: f32, fb: f32, t: f32, ctx: &EmitContext) {
+        let key = (ga as u64) << 32 | gb as u64;
         let s = (t - fa) / (fb - fa);
         let pa = ctx.positions[ga as usize];
         let pb = ctx.positions[gb as usize];
@@ -444,21 +426,32 @@ pub struct EmitContext<'a> {
     pub cells_only: bool,
 }
 
-/// Emits the polygons of one intersected cell into `mesh`.
-///
-/// `gids` are the cell's global vertex ids in local order and `phi` their
-/// field values; `code` must be [`code_of`] of `phi` at `t`.
+/// One intersected cell at a level, as [`emit_cell`] takes it.
+#[derive(Clone, Copy)]
+pub struct CutCell<'a> {
+    /// The cell's global vertex ids in local order.
+    pub gids: &'a [u32],
+    /// Their field values.
+    pub phi: &'a [f32],
+    /// The level.
+    pub t: f32,
+    /// [`code_of`] of `phi` at `t`.
+    pub code: usize,
+    /// The cell's slot (recorded with its polygons).
+    pub slot: u32,
+}
+
+/// Emits the polygons of the intersected cell `cell` (of meta-cell `meta`)
+/// into `mesh`.
 #[inline]
-pub fn emit_cell(
-    meta: &MetaCell,
-    gids: &[u32],
-    phi: &[f32],
-    t: f32,
-    code: usize,
-    slot: u32,
-    ctx: &EmitContext,
-    mesh: &mut LevelMesh,
-) {
+pub fn emit_cell(meta: &MetaCell, cell: &CutCell, ctx: &EmitContext, mesh: &mut LevelMesh) {
+    let CutCell {
+        gids,
+        phi,
+        t,
+        code,
+        slot,
+    } = *cell;
     if ctx.cells_only {
         mesh.cut_cells += 1;
         mesh.cells.push(slot);
@@ -471,7 +464,7 @@ pub fn emit_cell(
     };
     mesh.cut_cells += 1;
     for lp in meta.loops(code, outcome) {
-        mesh.emit_loop(&meta.edges, lp, gids, phi, t, slot, ctx);
+        mesh.emit_loop(&meta.edges, lp, cell, ctx);
     }
 }
 
@@ -499,4 +492,40 @@ pub(crate) fn decide_faces(meta: &MetaCell, gids: &[u32], phi: &[f32], t: f32, c
         bit += 1;
     }
     outcome
+}
+
+/// Per-level statistics of one sweep step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LevelStats {
+    /// Intersected cells.
+    pub cells: u64,
+    /// Cells popped from the work queue (intersected + swept).
+    pub visited: u64,
+    /// Polygons emitted.
+    pub polygons: u64,
+    /// Triangles of their fan triangulation.
+    pub triangles: u64,
+    /// Total area.
+    pub area: f64,
+}
+
+impl LevelStats {
+    /// The figures of one level's output `mesh`, with `visited` cells popped.
+    pub fn of(mesh: &LevelMesh, visited: u64) -> Self {
+        LevelStats {
+            cells: mesh.cut_cells as u64,
+            visited,
+            polygons: mesh.polygon_count() as u64,
+            triangles: mesh.accumulated_triangles() as u64,
+            area: mesh.accumulated_area(),
+        }
+    }
+    /// Adds another block's figures.
+    pub fn add(&mut self, o: &LevelStats) {
+        self.cells += o.cells;
+        self.visited += o.visited;
+        self.polygons += o.polygons;
+        self.triangles += o.triangles;
+        self.area += o.area;
+    }
 }

@@ -3,13 +3,10 @@
 #![warn(missing_docs)]
 // Numeric kernels index several parallel arrays in one loop and pass many
 // small inputs; these style lints would make them harder to read.
-#![allow(
-    clippy::needless_range_loop,
-    clippy::too_many_arguments,
-    clippy::type_complexity
-)]
+#![allow(clippy::needless_range_loop, clippy::type_complexity)]
 
 pub mod bruteforce;
+pub mod cellgraph;
 pub mod cornerpoint;
 
 pub mod extract;

@@ -16,7 +16,7 @@ use crate::field::{
 use crate::grid::{Grid, GridError};
 use crate::mesh::PolyMesh;
 use crate::structures::ciel::{Ciel, CielSweeper};
-use crate::structures::convex_split::{SplitError, SplitMap};
+use crate::structures::convex_split::{Split, SplitError, SplitMap};
 use crate::structures::{Structure, StructureError};
 use crate::sweep::{CellGraph, LevelStats, SweepOptions, Sweeper};
 
@@ -255,28 +255,13 @@ pub fn slice(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SliceResult, PipelineError> {
     let b = bind(grid, s, req)?;
-    let phi = b.field();
-    let (offset, axis_slot, attribute) = (b.world_offset, b.axis_slot, b.attribute.as_deref());
-    macro_rules! run {
-        ($g:expr) => {
-            run_on(
-                $g,
-                &phi,
-                axis_slot,
-                offset,
-                req,
-                attribute,
-                s.split(),
-                progress,
-            )
-        };
-    }
-    let mut r = match s {
-        Structure::SCGraph(g) => run!(g),
-        Structure::CGraph(g) => run!(g),
-        Structure::CpGraph(g) => run!(g.as_ref()),
-        Structure::Ciel(g) => run_ciel(g, &phi, offset, req, attribute, g.map.as_ref(), progress),
-    }?;
+    let runner: &dyn Runner = match s {
+        Structure::SCGraph(g) => g,
+        Structure::CGraph(g) => g,
+        Structure::CpGraph(g) => g.as_ref(),
+        Structure::Ciel(g) => g,
+    };
+    let mut r = run(runner, &b, req, s.split(), progress)?;
     r.timings.setup = b.setup_s;
     r.timings.field = b.field_s;
     r.attribute_name = b
@@ -382,200 +367,247 @@ fn count_input_cells(stats: &mut [LevelStats], mut cut: Vec<Vec<(u32, u32)>>) {
     }
 }
 
-/// [`run_on`] for CIEL: the edge-based sweep or the CIEL brute force. With
-/// `threads > 1` the levels are split into contiguous ranges swept in
-/// parallel, each from the state the whole sweep has before its first
-/// level ([`CielSweeper::sweep_after`]): the same cells and polygons.
-fn run_ciel<F: ScalarField>(
-    g: &Ciel,
-    f: &F,
-    world_offset: f64,
-    req: &SliceRequest,
-    attribute: Option<&[f32]>,
-    split: Option<&SplitMap>,
-    progress: &(dyn Fn(usize) + Sync),
-) -> Result<SliceResult, PipelineError> {
-    use rayon::prelude::*;
-    let (world, levels) = place_levels(g.live_range(f), world_offset, &req.levels)?;
-    let source = |c: u32| split.map_or(c, |m| m.source[c as usize]);
-    let ctx = EmitContext {
-        positions: &g.positions,
-        attribute,
-        cells_only: false,
-    };
-    let k = levels.len();
-    let mut timings = Timings::default();
-    let collect = req.collect_mesh;
-    // One range of levels: its stats, pieces, split pieces cut and state bytes.
-    let run_range = |a: usize,
-                     b: usize,
-                     sweep: &mut dyn FnMut(
-        &mut LevelMesh,
-        &mut dyn FnMut(usize, &LevelMesh, &LevelStats),
-    )| {
-        let mut stats = vec![LevelStats::default(); b - a];
-        let mut pieces: Pieces = vec![Vec::new(); b - a];
-        let mut cut: Vec<Vec<(u32, u32)>> = vec![Vec::new(); b - a];
-        let mut mesh = LevelMesh::default();
-        sweep(&mut mesh, &mut |lv, m, st| {
-            stats[lv] = *st;
-            if collect {
-                pieces[lv] = level_pieces(m, source);
-            }
-            if let Some(sm) = split {
-                cut_pieces(m, sm, source, &mut cut[lv]);
-            }
-            progress(1);
-        });
-        (stats, pieces, cut, mesh.capacity_bytes())
-    };
-    let (parts, minima) = if req.brute_force {
-        let t = Instant::now();
-        let part = run_range(0, k, &mut |mesh, on_level| {
-            crate::structures::ciel::brute_force(g, f, &levels, &ctx, mesh, on_level)
-        });
-        timings.sweep = t.elapsed().as_secs_f64();
-        (vec![(part, 0)], 0)
-    } else {
-        let t = Instant::now();
-        let minima = crate::structures::ciel::minima(g, f);
-        timings.minima = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let n = req.threads.clamp(1, k.max(1));
-        let parts: Vec<_> = (0..n)
-            .into_par_iter()
-            .map(|b| {
-                let (lo, hi) = (k * b / n, k * (b + 1) / n);
-                let mut sw = CielSweeper::new(g);
-                sw.set_minima(minima.clone());
-                sw.set_planar(req.field.normal().is_some());
-                let prev = (lo > 0).then(|| levels[lo - 1]);
-                let part = run_range(lo, hi, &mut |mesh, on_level| {
-                    sw.sweep_after(f, prev, &levels[lo..hi], &ctx, mesh, on_level)
-                });
-                (part, sw.state_bytes())
-            })
-            .collect();
-        timings.sweep = t.elapsed().as_secs_f64();
-        (parts, minima.len())
-    };
-    let mut stats = Vec::with_capacity(k);
-    let mut pieces: Pieces = Vec::with_capacity(k);
-    let mut cut = Vec::with_capacity(k);
-    let mut state = 0;
-    for ((st, pc, ct, mesh_bytes), sw_bytes) in parts {
-        stats.extend(st);
-        pieces.extend(pc);
-        cut.extend(ct);
-        state += mesh_bytes + sw_bytes;
-    }
-    if split.is_some() {
-        count_input_cells(&mut stats, cut);
-    }
-    let mesh_out = collect.then(|| canonical_mesh(vec![pieces], &world));
-    Ok(SliceResult {
-        level_values: world,
-        stats,
-        mesh: mesh_out,
-        minima,
-        sweep_state_bytes: state,
-        timings,
-        attribute_name: String::new(),
-    })
-}
-
 /// Per block: per level, polygons as (source cell, slot, corners (edge key, position, value)).
 type Pieces = Vec<Vec<(u32, u32, Vec<(u64, [f32; 3], f32)>)>>;
 
-/// Per block: per level statistics, polygons and cut split pieces.
-type BlockOut = (Vec<LevelStats>, Pieces, Vec<Vec<(u32, u32)>>);
+/// A built structure as the pipeline runs it: the cell graphs (S-CGraph,
+/// CGraph, CP-Graph) through the spatial-block [`Sweeper`] (which picks
+/// their loop), CIEL through its level-range sweeper; [`run`] does the
+/// rest once for all of them.
+trait Runner: Sync {
+    /// φ range over the vertices of live cells.
+    fn live_range(&self, f: &VertexField) -> Option<(f32, f32)>;
+    /// Vertex positions (the structure's local frame).
+    fn positions(&self) -> &[[f32; 3]];
+    /// The input cell of `slot`.
+    fn source(&self, slot: u32) -> u32;
+    /// The brute force over all levels, through the reused `mesh`.
+    fn brute_force(&self, job: &Job, mesh: &mut LevelMesh, on_level: &mut OnLevel);
+    /// The sweep, in parts made and filled by `gather`.
+    fn sweep(&self, job: &Job, gather: &Gather, timings: &mut Timings) -> Swept;
+}
 
-fn run_on<G: CellGraph, F: ScalarField>(
-    g: &G,
-    f: &F,
+/// A level's output, given to the run.
+type OnLevel<'a> = dyn FnMut(usize, &LevelMesh, &LevelStats) + 'a;
+
+/// What a run sweeps: φ, the local levels, the emission context and the
+/// request (threads, field), with the axis slot for cached minima.
+struct Job<'a> {
+    f: &'a VertexField<'a>,
+    levels: &'a [f32],
+    ctx: &'a EmitContext<'a>,
+    req: &'a SliceRequest,
     axis_slot: Option<usize>,
-    world_offset: f64,
+}
+
+/// Levels `first..first + stats.len()` of one part of a run (a spatial
+/// block: every level; a CIEL thread: a range of levels): per level its
+/// statistics, polygons and cut split pieces.
+struct Part {
+    first: usize,
+    stats: Vec<LevelStats>,
+    pieces: Pieces,
+    cut: Vec<Vec<(u32, u32)>>,
+}
+
+/// How a sweep hands its output to the run: `new_part` makes the part of a
+/// range of levels, `on_level` stores a level (absolute index) into it.
+struct Gather<'a> {
+    new_part: &'a (dyn Fn(std::ops::Range<usize>) -> Part + Sync),
+    on_level: &'a (dyn Fn(&mut Part, usize, &LevelMesh, &LevelStats) + Sync),
+}
+
+/// A sweep's parts, its minima count and its state bytes.
+struct Swept {
+    parts: Vec<Part>,
+    minima: usize,
+    state_bytes: usize,
+}
+
+impl<G: CellGraph> Runner for G {
+    fn live_range(&self, f: &VertexField) -> Option<(f32, f32)> {
+        live_range(self, f)
+    }
+    fn positions(&self) -> &[[f32; 3]] {
+        CellGraph::positions(self)
+    }
+    fn source(&self, slot: u32) -> u32 {
+        self.source_cell(slot)
+    }
+    fn brute_force(&self, job: &Job, mesh: &mut LevelMesh, on_level: &mut OnLevel) {
+        brute_force(self, job.f, job.levels, job.ctx, mesh, on_level);
+    }
+    fn sweep(&self, job: &Job, gather: &Gather, timings: &mut Timings) -> Swept {
+        let k = job.levels.len();
+        let mut sw = Sweeper::new(self, job.req.threads.max(1));
+        sw.options = job.req.sweep;
+        let t = Instant::now();
+        let minima = sw.prepare_minima(job.f, job.axis_slot);
+        timings.minima = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let parts = sw.sweep(
+            job.f,
+            job.axis_slot,
+            job.levels,
+            job.ctx,
+            || (gather.new_part)(0..k),
+            |p: &mut Part, lv, m, st| (gather.on_level)(p, lv, m, st),
+        );
+        timings.sweep = t.elapsed().as_secs_f64();
+        Swept {
+            parts,
+            minima,
+            state_bytes: sw.state_bytes(),
+        }
+    }
+}
+
+/// CIEL: the edge-based sweep or the CIEL brute force. With `threads > 1`
+/// the levels are split into contiguous ranges swept in parallel, each
+/// from the state the whole sweep has before its first level
+/// ([`CielSweeper::sweep_after`]): the same cells and polygons.
+impl Runner for Split<Ciel> {
+    fn live_range(&self, f: &VertexField) -> Option<(f32, f32)> {
+        self.inner.live_range(f)
+    }
+    fn positions(&self) -> &[[f32; 3]] {
+        &self.positions
+    }
+    fn source(&self, slot: u32) -> u32 {
+        self.map.as_ref().map_or(slot, |m| m.source[slot as usize])
+    }
+    fn brute_force(&self, job: &Job, mesh: &mut LevelMesh, on_level: &mut OnLevel) {
+        crate::structures::ciel::brute_force(
+            &self.inner,
+            job.f,
+            job.levels,
+            job.ctx,
+            mesh,
+            on_level,
+        )
+    }
+    fn sweep(&self, job: &Job, gather: &Gather, timings: &mut Timings) -> Swept {
+        use rayon::prelude::*;
+        let (levels, k) = (job.levels, job.levels.len());
+        let t = Instant::now();
+        let minima = crate::structures::ciel::minima(&self.inner, job.f);
+        timings.minima = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let n = job.req.threads.clamp(1, k.max(1));
+        let runs: Vec<(Part, usize)> = (0..n)
+            .into_par_iter()
+            .map(|b| {
+                let (lo, hi) = (k * b / n, k * (b + 1) / n);
+                let mut sw = CielSweeper::new(&self.inner);
+                sw.set_minima(minima.clone());
+                sw.set_planar(job.req.field.normal().is_some());
+                let prev = (lo > 0).then(|| levels[lo - 1]);
+                let mut part = (gather.new_part)(lo..hi);
+                let mut mesh = LevelMesh::default();
+                sw.sweep_after(
+                    job.f,
+                    prev,
+                    &levels[lo..hi],
+                    job.ctx,
+                    &mut mesh,
+                    |lv, m, st| (gather.on_level)(&mut part, lo + lv, m, st),
+                );
+                let bytes = mesh.capacity_bytes() + sw.state_bytes();
+                (part, bytes)
+            })
+            .collect();
+        timings.sweep = t.elapsed().as_secs_f64();
+        Swept {
+            state_bytes: runs.iter().map(|r| r.1).sum(),
+            parts: runs.into_iter().map(|r| r.0).collect(),
+            minima: minima.len(),
+        }
+    }
+}
+
+/// Runs `req` on the structure `r` with the binding `bound`: the levels
+/// placed, the sweep (or the brute force), then its parts' statistics and
+/// pieces merged (`split`: the convex split's map, whose pieces count once
+/// per input cell).
+fn run(
+    r: &dyn Runner,
+    bound: &Binding,
     req: &SliceRequest,
-    attribute: Option<&[f32]>,
     split: Option<&SplitMap>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SliceResult, PipelineError> {
-    let (world, levels) = place_levels(live_range(g, f), world_offset, &req.levels)?;
+    let f = &bound.field();
+    let (world, levels) = place_levels(r.live_range(f), bound.world_offset, &req.levels)?;
     let ctx = EmitContext {
-        positions: g.positions(),
-        attribute,
+        positions: r.positions(),
+        attribute: bound.attribute.as_deref(),
         cells_only: false,
     };
     let k = levels.len();
     let mut timings = Timings::default();
     let collect = req.collect_mesh;
-    let gather = |acc: &mut BlockOut, level: usize, mesh: &LevelMesh| {
+    let new_part = |range: std::ops::Range<usize>| Part {
+        first: range.start,
+        stats: vec![LevelStats::default(); range.len()],
+        pieces: vec![Vec::new(); range.len()],
+        cut: vec![Vec::new(); range.len()],
+    };
+    let on_level = |p: &mut Part, lv: usize, mesh: &LevelMesh, st: &LevelStats| {
+        let i = lv - p.first;
+        p.stats[i] = *st;
         if collect {
-            acc.1[level].extend(level_pieces(mesh, |s| g.source_cell(s)));
+            p.pieces[i].extend(level_pieces(mesh, |s| r.source(s)));
         }
         if let Some(m) = split {
-            cut_pieces(mesh, m, |s| g.source_cell(s), &mut acc.2[level]);
+            cut_pieces(mesh, m, |s| r.source(s), &mut p.cut[i]);
         }
+        progress(1);
     };
-    let new_block = || -> BlockOut {
-        (
-            vec![LevelStats::default(); k],
-            vec![Vec::new(); k],
-            vec![Vec::new(); k],
-        )
+    let job = Job {
+        f,
+        levels: &levels,
+        ctx: &ctx,
+        req,
+        axis_slot: bound.axis_slot,
     };
-    let (stats_blocks, minima, state_bytes): (Vec<BlockOut>, usize, usize) = if req.brute_force {
+    let swept = if req.brute_force {
         let t = Instant::now();
-        let mut acc = new_block();
+        let mut part = new_part(0..k);
         let mut mesh = LevelMesh::default();
-        brute_force(g, f, &levels, &ctx, &mut mesh, |lv, m, st| {
-            acc.0[lv] = *st;
-            gather(&mut acc, lv, m);
-            progress(1);
+        r.brute_force(&job, &mut mesh, &mut |lv, m, st| {
+            on_level(&mut part, lv, m, st)
         });
         timings.sweep = t.elapsed().as_secs_f64();
-        (vec![acc], 0, mesh.capacity_bytes())
+        Swept {
+            parts: vec![part],
+            minima: 0,
+            state_bytes: mesh.capacity_bytes(),
+        }
     } else {
-        let mut sw = Sweeper::new(g, req.threads.max(1));
-        sw.options = req.sweep;
-        let t = Instant::now();
-        let minima = sw.prepare_minima(f, axis_slot);
-        timings.minima = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let out = sw.sweep(
-            f,
-            axis_slot,
-            &levels,
-            &ctx,
-            new_block,
-            |acc: &mut BlockOut, lv, m, st| {
-                acc.0[lv] = *st;
-                gather(acc, lv, m);
-                progress(1);
-            },
-        );
-        timings.sweep = t.elapsed().as_secs_f64();
-        (out, minima, sw.state_bytes())
+        let gather = Gather {
+            new_part: &new_part,
+            on_level: &on_level,
+        };
+        r.sweep(&job, &gather, &mut timings)
     };
     let mut stats = vec![LevelStats::default(); k];
     let mut cut: Vec<Vec<(u32, u32)>> = vec![Vec::new(); k];
-    for (b, _, c) in &stats_blocks {
-        for (lv, st) in b.iter().enumerate() {
-            stats[lv].add(st);
-            cut[lv].extend_from_slice(&c[lv]);
+    for p in &swept.parts {
+        for (i, st) in p.stats.iter().enumerate() {
+            stats[p.first + i].add(st);
+            cut[p.first + i].extend_from_slice(&p.cut[i]);
         }
     }
     if split.is_some() {
         count_input_cells(&mut stats, cut);
     }
-    let mesh =
-        collect.then(|| canonical_mesh(stats_blocks.into_iter().map(|b| b.1).collect(), &world));
+    let mesh = collect.then(|| canonical_mesh(&swept.parts, &world));
     Ok(SliceResult {
         level_values: world,
         stats,
         mesh,
-        minima,
-        sweep_state_bytes: state_bytes,
+        minima: swept.minima,
+        sweep_state_bytes: swept.state_bytes,
         timings,
         attribute_name: String::new(),
     })
@@ -584,7 +616,7 @@ fn run_on<G: CellGraph, F: ScalarField>(
 /// Merges per-block pieces into one mesh: per level, polygons sorted by
 /// (source cell, slot) (stable), vertices welded by grid edge in first-use
 /// order. The result does not depend on the number of blocks.
-fn canonical_mesh(blocks: Vec<Pieces>, world: &[f64]) -> PolyMesh {
+fn canonical_mesh(parts: &[Part], world: &[f64]) -> PolyMesh {
     let mut m = PolyMesh {
         poly_offsets: vec![0],
         level_values: world.to_vec(),
@@ -593,8 +625,11 @@ fn canonical_mesh(blocks: Vec<Pieces>, world: &[f64]) -> PolyMesh {
     let k = world.len();
     let mut weld: HashMap<u64, u32> = HashMap::new();
     for lv in 0..k {
-        let mut polys: Vec<&(u32, u32, Vec<(u64, [f32; 3], f32)>)> =
-            blocks.iter().flat_map(|b| b[lv].iter()).collect();
+        let mut polys: Vec<&(u32, u32, Vec<(u64, [f32; 3], f32)>)> = parts
+            .iter()
+            .filter_map(|p| p.pieces.get(lv.checked_sub(p.first)?))
+            .flatten()
+            .collect();
         polys.sort_by_key(|p| (p.0, p.1));
         weld.clear();
         for (cell, _, corners) in polys {

@@ -1,8 +1,8 @@
 //! Property transfer: per-cell values to the vertices by volume-weighted
 //! averaging over the live cells that share each vertex.
 
+use crate::cellgraph::CellGraph;
 use crate::metacell::MAX_META_VERTICES;
-use crate::sweep::CellGraph;
 
 /// Volume-weighted average of `cell_values` (indexed by source cell id) at
 /// each vertex, over the live cells incident to it. Vertices of no live

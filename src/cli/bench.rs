@@ -9,6 +9,7 @@ use clap::Args;
 use serde_json::json;
 use std::time::Instant;
 use stratasweep::generate;
+use stratasweep::gpu::context::GpuContext;
 use stratasweep::gpu::emit::GpuEmitter;
 use stratasweep::gpu::slice::prepare;
 use stratasweep::grid::Grid;
@@ -433,19 +434,66 @@ pub(crate) fn cmd_bench_devices(a: &BenchArgs, devices: &[String], quiet: bool) 
         collect_mesh: false,
         sweep: Default::default(),
     };
-    let noop = |_: usize| {};
+    let frame = Frame {
+        grid: &grid,
+        s: &s,
+        req: &req,
+        all,
+        repeat: a.repeat.max(1),
+    };
     let mut rows = Vec::new();
     let mut adapter = None;
-    let repeat = a.repeat.max(1);
     if devices.iter().any(|d| d == "cpu") {
-        for threads in [1, all] {
+        rows.extend(frame.cpu_rows()?);
+    }
+    if devices.iter().any(|d| d == "gpu") {
+        let ctx = open(&a.adapter, quiet)?;
+        adapter = Some(ctx.name.clone());
+        rows.extend(frame.gpu_rows(&ctx)?);
+    }
+    let out = json!({"file": name, "structure": s.name(), "axis": a.axis, "count": a.count,
+        "vertices": grid.points.len(), "cells": grid.cell_count(), "adapter": adapter,
+        "repeat": frame.repeat, "rows": rows});
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+        return Ok(());
+    }
+    println!(
+        "{name}: {} vertices, {} cells, {} levels along {}; adapter: {}",
+        grid.points.len(),
+        grid.cell_count(),
+        a.count,
+        a.axis,
+        adapter.as_deref().unwrap_or("(none)")
+    );
+    print_device_rows(&rows);
+    Ok(())
+}
+
+/// The frame that `bench --device` times on every path: the grid, its
+/// structure, the request per thread count, the machine's thread count and
+/// the repeats (the best is kept).
+struct Frame<'a> {
+    grid: &'a Grid,
+    s: &'a Structure,
+    req: &'a (dyn Fn(usize) -> SliceRequest + Sync),
+    all: usize,
+    repeat: usize,
+}
+
+impl Frame<'_> {
+    /// The CPU rows: sweep and emission on 1 thread, then on all.
+    fn cpu_rows(&self) -> Result<Vec<serde_json::Value>> {
+        let noop = |_: usize| {};
+        let mut rows = Vec::new();
+        for threads in [1, self.all] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()?;
             let mut best = f64::INFINITY;
             let mut last = None;
-            for _ in 0..repeat {
-                let r = pool.install(|| slice(&grid, &s, &req(threads), &noop))?;
+            for _ in 0..self.repeat {
+                let r = pool.install(|| slice(self.grid, self.s, &(self.req)(threads), &noop))?;
                 best = best.min(r.timings.minima + r.timings.sweep);
                 last = Some(r);
             }
@@ -457,18 +505,21 @@ pub(crate) fn cmd_bench_devices(a: &BenchArgs, devices: &[String], quiet: bool) 
                 "cut_cells": cut, "triangles": tris, "ms_per_frame": best * 1e3,
                 "cut_cells_per_s": cut as f64 / best, "triangles_per_s": tris as f64 / best}),
             );
-            if all == 1 {
+            if self.all == 1 {
                 break;
             }
         }
+        Ok(rows)
     }
-    if devices.iter().any(|d| d == "gpu") {
-        let ctx = open(&a.adapter, quiet)?;
-        adapter = Some(ctx.name.clone());
+
+    /// The GPU rows on `ctx`: CPU sweep + GPU emission, the GPU-only span
+    /// space, and the GPU emission alone.
+    fn gpu_rows(&self, ctx: &GpuContext) -> Result<Vec<serde_json::Value>> {
+        let (all, repeat) = (self.all, self.repeat);
         let pool = rayon::ThreadPoolBuilder::new().num_threads(all).build()?;
-        let p = pool.install(|| prepare(&grid, &s, &req(all)))?;
+        let p = pool.install(|| prepare(self.grid, self.s, &(self.req)(all)))?;
         let t = Instant::now();
-        let mut e = GpuEmitter::new(&ctx, p.grid.clone())?;
+        let mut e = GpuEmitter::new(ctx, p.grid.clone())?;
         let grid_upload = t.elapsed().as_secs_f64();
         let mut best = (f64::INFINITY, Default::default());
         for _ in 0..repeat {
@@ -483,11 +534,13 @@ pub(crate) fn cmd_bench_devices(a: &BenchArgs, devices: &[String], quiet: bool) 
         let cut = p.frame.entries.len() as u64;
         let tris = e.triangles as u64;
         let frame_s = p.sweep_s + gpu_s;
-        rows.push(json!({"path": format!("CPU sweep ({all} threads) + GPU emission"),
+        let mut rows = vec![
+            json!({"path": format!("CPU sweep ({all} threads) + GPU emission"),
             "cut_cells": cut, "triangles": tris, "ms_per_frame": frame_s * 1e3,
             "cut_cells_per_s": cut as f64 / frame_s, "triangles_per_s": tris as f64 / frame_s,
             "sweep_ms": p.sweep_s * 1e3, "upload_ms": tm.upload * 1e3, "count_scan_ms": tm.count * 1e3,
-            "emit_ms": tm.emit * 1e3, "grid_upload_ms_once": grid_upload * 1e3}));
+            "emit_ms": tm.emit * 1e3, "grid_upload_ms_once": grid_upload * 1e3}),
+        ];
         let mut span = (f64::INFINITY, 0u32, 0u32);
         for _ in 0..repeat {
             let n = e.run_span(&p.frame.levels, false)?;
@@ -506,27 +559,17 @@ pub(crate) fn cmd_bench_devices(a: &BenchArgs, devices: &[String], quiet: bool) 
             "cut_cells": cut, "triangles": tris, "ms_per_frame": gpu_s * 1e3,
             "cut_cells_per_s": cut as f64 / gpu_s, "triangles_per_s": tris as f64 / gpu_s}),
         );
+        Ok(rows)
     }
-    let out = json!({"file": name, "structure": s.name(), "axis": a.axis, "count": a.count,
-        "vertices": grid.points.len(), "cells": grid.cell_count(), "adapter": adapter,
-        "repeat": repeat, "rows": rows});
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&out)?);
-        return Ok(());
-    }
-    println!(
-        "{name}: {} vertices, {} cells, {} levels along {}; adapter: {}",
-        grid.points.len(),
-        grid.cell_count(),
-        a.count,
-        a.axis,
-        adapter.as_deref().unwrap_or("(none)")
-    );
+}
+
+/// The table of `bench --device`'s rows.
+fn print_device_rows(rows: &[serde_json::Value]) {
     println!(
         "  {:<48} {:>12} {:>12} {:>14} {:>14}",
         "path", "ms/frame", "cut cells", "M cut cells/s", "M triangles/s"
     );
-    for r in &rows {
+    for r in rows {
         println!(
             "  {:<48} {:>12.3} {:>12} {:>14.2} {:>14.2}",
             r["path"].as_str().unwrap_or(""),
@@ -546,5 +589,4 @@ pub(crate) fn cmd_bench_devices(a: &BenchArgs, devices: &[String], quiet: bool) 
             );
         }
     }
-    Ok(())
 }

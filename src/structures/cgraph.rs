@@ -18,10 +18,10 @@ use std::sync::atomic::Ordering::Relaxed;
 
 use rayon::prelude::*;
 
+use crate::cellgraph::{BitSet, CellGraph};
 use crate::grid::{Cells, Grid, Topology, hex_corner_offsets, is_lower_dimensional, vtk_type};
 use crate::metacell::{Catalog, MAX_META_VERTICES, VOXEL_TO_HEX, builtin};
-use crate::structures::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
-use crate::sweep::CellGraph;
+use crate::structures::{CellClass, StructureError, classify_cell, is_sweepable};
 
 /// "No neighbour" marker.
 pub const NONE: u32 = u32::MAX;

@@ -17,8 +17,8 @@ pub use common::{
     is_sweepable, quad_is_bow_tie,
 };
 
+use crate::cellgraph::CellGraph;
 use crate::grid::{Grid, Topology};
-use crate::sweep::CellGraph;
 use cgraph::CGraph;
 use ciel::Ciel;
 use convex_split::{Split, SplitMap, split_non_convex_cells};

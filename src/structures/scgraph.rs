@@ -10,11 +10,10 @@ use crate::grid::{Grid, Topology, hex_corner_offsets};
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use rayon::prelude::*;
 
+use crate::cellgraph::{BitSet, CellGraph, Lattice, LatticeHexTable};
 use crate::extract::{EmitContext, prefetch};
 use crate::field::ScalarField;
-use crate::structures::{BitSet, CellClass, StructureError, classify_cell, is_sweepable};
-use crate::sweep::lattice::weld::LatticeHexTable;
-use crate::sweep::{CellGraph, Lattice};
+use crate::structures::{CellClass, StructureError, classify_cell, is_sweepable};
 
 /// The structured cellular graph.
 #[derive(Clone, Debug)]

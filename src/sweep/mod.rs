@@ -4,122 +4,18 @@
 
 use rayon::prelude::*;
 
-use crate::extract::{EmitContext, LevelMesh, code_of, emit_cell, intersects, prefetch};
+use crate::extract::{CutCell, EmitContext, LevelMesh, code_of, emit_cell, intersects};
 use crate::field::ScalarField;
-use crate::metacell::{Catalog, MAX_META_VERTICES};
+use crate::metacell::MAX_META_VERTICES;
 
 mod cp_loop;
 mod cp_weld;
 pub mod lattice;
 
+pub use crate::cellgraph::{CellGraph, NEVER, Stamp, cell_lo};
+pub use crate::extract::LevelStats;
 pub use lattice::Lattice;
-use lattice::{LatticeState, block_minima_lattice, chunks, sweep_block_lattice};
-
-/// Per-cell step stamp. 16 bits keep the S-CGraph within 20 bytes per
-/// vertex; the stamps are reset once every 65 534 levels.
-pub type Stamp = u16;
-
-/// Stamp value of slots that are never swept: ghosts, hidden and degenerate cells.
-pub const NEVER: Stamp = Stamp::MAX;
-
-/// A cell graph the sweep can walk. Cells live in *slots*; some slots may be
-/// ghosts (S-CGraph's border layer) or dead cells (hidden, degenerate).
-pub trait CellGraph: Sync {
-    /// Number of slots (length of the stamp array).
-    fn slot_count(&self) -> usize;
-    /// True for slots holding a cell to sweep; false for ghost/hidden/degenerate slots.
-    fn is_live(&self, slot: u32) -> bool;
-    /// Initial stamps: 0 for live cells, [`NEVER`] for the rest.
-    fn initial_stamps(&self) -> Vec<Stamp> {
-        (0..self.slot_count() as u32)
-            .map(|s| if self.is_live(s) { 0 } else { NEVER })
-            .collect()
-    }
-    /// The catalog of meta-cells.
-    fn catalog(&self) -> &Catalog;
-    /// Rebased vertex positions.
-    fn positions(&self) -> &[[f32; 3]];
-    /// Meta-cell id and global vertex ids (local order) of the cell in `slot`;
-    /// returns the vertex count written into `out`.
-    fn cell(&self, slot: u32, out: &mut [u32; MAX_META_VERTICES]) -> (u16, usize);
-    /// Calls `f` with every face-neighbour slot of `slot` (ghost slots included).
-    fn for_each_neighbour(&self, slot: u32, f: impl FnMut(u32));
-    /// Visits the face neighbours of `slot` in [`CellGraph::for_each_neighbour`]
-    /// order: for each neighbour `nb` with `want(nb)` true, calls
-    /// `found(nb, lo)` where `lo` is the minimum of φ over `nb`'s vertices.
-    /// `want` must return false for ghost and dead slots.
-    ///
-    /// `ids` and `phi` hold `slot`'s vertex ids (as written by
-    /// [`CellGraph::cell`]) and their φ values; implementations may reuse
-    /// them for the vertices a neighbour shares with `slot`.
-    #[inline(always)]
-    fn scan_neighbours<F: ScalarField>(
-        &self,
-        f: &F,
-        slot: u32,
-        ids: &[u32; MAX_META_VERTICES],
-        phi: &[f32; MAX_META_VERTICES],
-        mut want: impl FnMut(u32) -> bool,
-        mut found: impl FnMut(u32, f32),
-    ) where
-        Self: Sized,
-    {
-        let _ = (ids, phi);
-        self.for_each_neighbour(slot, |nb| {
-            if want(nb) {
-                found(nb, cell_lo(self, f, nb));
-            }
-        });
-    }
-    /// Prefetch hint, issued some cells ahead of processing `slot`: fetches
-    /// what the sweep will read for it (vertex positions and attribute; the
-    /// S-CGraph adds its neighbours' far vertices). Never changes results.
-    #[inline(always)]
-    fn prefetch_cell(&self, slot: u32, ctx: &EmitContext) {
-        let mut ids = [0u32; MAX_META_VERTICES];
-        let (_, n) = self.cell(slot, &mut ids);
-        for &v in &ids[..n] {
-            prefetch(ctx.positions, v as usize);
-            if let Some(a) = ctx.attribute {
-                prefetch(a, v as usize);
-            }
-        }
-    }
-    /// Id of the cell in `slot` in the input grid's numbering.
-    fn source_cell(&self, slot: u32) -> u32;
-    /// The range (min, max) of φ over the vertices of live cells, when the
-    /// structure can tell it without a scan of every cell: when every cell
-    /// is live and every vertex belongs to a cell, it is the range over all
-    /// vertices. `None`: the caller scans the live cells.
-    fn phi_range_if_all_live<F: ScalarField>(&self, f: &F) -> Option<(f32, f32)>
-    where
-        Self: Sized,
-    {
-        let _ = f;
-        None
-    }
-    /// The lattice layout when every cell is a hexahedron with vertex ids
-    /// `slot - base + offsets[local]` (the S-CGraph): the sweep then runs a
-    /// specialised loop ([`Lattice`]). `None` for general graphs.
-    fn lattice(&self) -> Option<Lattice<'_>> {
-        None
-    }
-    /// The corner-point graph, when this is one: the sweep then runs its
-    /// own loop (`sweep/cp_loop.rs`).
-    fn cpgraph(&self) -> Option<&crate::structures::cpgraph::CpGraph> {
-        None
-    }
-    /// Splits `0..slot_count` into at most `n` contiguous, roughly equal,
-    /// spatially coherent ranges for parallel sweeping.
-    fn blocks(&self, n: usize) -> Vec<(u32, u32)> {
-        let total = self.slot_count() as u64;
-        let n = n.max(1) as u64;
-        (0..n)
-            .map(|b| ((total * b / n) as u32, (total * (b + 1) / n) as u32))
-            .filter(|r| r.0 < r.1)
-            .collect()
-    }
-}
+use lattice::{LatticeState, LatticeSweep, block_minima_lattice, chunks, sweep_block_lattice};
 
 /// Minimum of φ over the vertices of `slot`, with the vertex φ values in `phi`.
 #[inline(always)]
@@ -142,18 +38,6 @@ fn load_phi<G: CellGraph, F: ScalarField>(
     (m, n, lo, hi)
 }
 
-/// Minimum of φ over the vertices of `slot`.
-#[inline(always)]
-pub fn cell_lo<G: CellGraph + ?Sized, F: ScalarField>(g: &G, f: &F, slot: u32) -> f32 {
-    let mut ids = [0u32; MAX_META_VERTICES];
-    let (_, n) = g.cell(slot, &mut ids);
-    let mut lo = f32::INFINITY;
-    for &v in &ids[..n] {
-        lo = lo.min(f.phi(v));
-    }
-    lo
-}
-
 /// How many work-queue entries ahead [`CellGraph::prefetch_cell`] is issued.
 pub(crate) const PREFETCH_AHEAD: usize = 2;
 
@@ -164,42 +48,6 @@ pub struct Minimum {
     pub lo: f32,
     /// Slot.
     pub slot: u32,
-}
-
-/// Per-level statistics of one sweep step.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct LevelStats {
-    /// Intersected cells.
-    pub cells: u64,
-    /// Cells popped from the work queue (intersected + swept).
-    pub visited: u64,
-    /// Polygons emitted.
-    pub polygons: u64,
-    /// Triangles of their fan triangulation.
-    pub triangles: u64,
-    /// Total area.
-    pub area: f64,
-}
-
-impl LevelStats {
-    /// The figures of one level's output `mesh`, with `visited` cells popped.
-    pub fn of(mesh: &LevelMesh, visited: u64) -> Self {
-        LevelStats {
-            cells: mesh.cut_cells as u64,
-            visited,
-            polygons: mesh.polygon_count() as u64,
-            triangles: mesh.accumulated_triangles() as u64,
-            area: mesh.accumulated_area(),
-        }
-    }
-    /// Adds another block's figures.
-    pub fn add(&mut self, o: &LevelStats) {
-        self.cells += o.cells;
-        self.visited += o.visited;
-        self.polygons += o.polygons;
-        self.triangles += o.triangles;
-        self.area += o.area;
-    }
 }
 
 /// One spatial block's sweep state: its slot range, stamps, the two queues,
@@ -473,10 +321,16 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
         return;
     }
     if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {
+        let input = LatticeSweep {
+            lat,
+            phi,
+            ctx,
+            hash_weld: false,
+        };
         if b.options.per_cell_loop || levels.len() > chunks::MAX_LEVELS {
-            sweep_block_lattice(&lat, phi, b, minima, levels, ctx, false, on_level);
+            sweep_block_lattice(&input, b, minima, levels, on_level);
         } else {
-            chunks::sweep_block_chunks(&lat, phi, b, minima, levels, ctx, false, on_level);
+            chunks::sweep_block_chunks(&input, b, minima, levels, on_level);
         }
         return;
     }
@@ -507,17 +361,14 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
                 b.stamps[(c - start) as usize] = done;
             } else {
                 b.active.push(c);
-                let code = code_of(&phi[..n], t);
-                emit_cell(
-                    catalog.get(m),
-                    &ids[..n],
-                    &phi[..n],
+                let cell = CutCell {
+                    gids: &ids[..n],
+                    phi: &phi[..n],
                     t,
-                    code,
-                    c,
-                    ctx,
-                    &mut b.mesh,
-                );
+                    code: code_of(&phi[..n], t),
+                    slot: c,
+                };
+                emit_cell(catalog.get(m), &cell, ctx, &mut b.mesh);
             }
             let stamps = &mut b.stamps;
             let work = &mut b.work;

@@ -1,6 +1,6 @@
 //! Unit tests of the sweep loops (generic, per-cell lattice, chunked).
 
-use super::{Sweeper, block_minima_generic, block_minima_lattice, radix_sort_slots};
+use super::{LatticeSweep, Sweeper, block_minima_generic, block_minima_lattice, radix_sort_slots};
 use crate::field::VertexField;
 use crate::grid::{Grid, Property, Topology};
 use crate::structures::scgraph::SCGraph;
@@ -124,14 +124,16 @@ fn lattice_hash_weld_fallback_equals_the_ownership_weld() {
                         out[k].push((mesh.cells[p], corners));
                     }
                 };
+                let input = LatticeSweep {
+                    lat,
+                    phi: &phi,
+                    ctx: &ctx,
+                    hash_weld,
+                };
                 if chunked {
-                    super::chunks::sweep_block_chunks(
-                        &lat, &phi, b, &minima, &levels, &ctx, hash_weld, on_level,
-                    );
+                    super::chunks::sweep_block_chunks(&input, b, &minima, &levels, on_level);
                 } else {
-                    super::sweep_block_lattice(
-                        &lat, &phi, b, &minima, &levels, &ctx, hash_weld, on_level,
-                    );
+                    super::sweep_block_lattice(&input, b, &minima, &levels, on_level);
                 }
             }
             for l in &mut out {
@@ -208,9 +210,13 @@ fn batched_emission_equals_the_hash_weld() {
                 mesh.accumulated_triangles(),
             );
         };
-        super::chunks::sweep_block_chunks(
-            &lat, &phi, b, &minima, &levels, &ctx, hash_weld, on_level,
-        );
+        let input = LatticeSweep {
+            lat,
+            phi: &phi,
+            ctx: &ctx,
+            hash_weld,
+        };
+        super::chunks::sweep_block_chunks(&input, b, &minima, &levels, on_level);
         out
     };
     let batched = run(false);
@@ -329,29 +335,24 @@ fn chunked_loop_equals_the_cell_loop() {
                                 st.area.to_bits(),
                             ));
                         };
-                    let (lat, phi) = (&lat, &phi[..]);
+                    let input = LatticeSweep {
+                        lat,
+                        phi: &phi,
+                        ctx: &ctx,
+                        hash_weld: false,
+                    };
                     match width {
                         Some(w) => super::chunks::sweep_block_patches(
                             w,
-                            lat,
-                            phi,
+                            &input,
                             b,
                             &minima,
                             levels,
-                            &ctx,
-                            false,
                             &mut on_level,
                         ),
-                        None => super::sweep_block_lattice(
-                            lat,
-                            phi,
-                            b,
-                            &minima,
-                            levels,
-                            &ctx,
-                            false,
-                            &mut on_level,
-                        ),
+                        None => {
+                            super::sweep_block_lattice(&input, b, &minima, levels, &mut on_level)
+                        }
                     }
                 }
                 out

@@ -42,37 +42,8 @@ pub(super) const KNOWN_PROPERTIES: [&str; 26] = [
     "SWCR", "SWU", "SGU", "SOWCR", "PORV", "PERMXY",
 ];
 
-pub(super) fn is_keyword_like(t: &[u8]) -> bool {
-    !t.is_empty()
-        && t.len() <= 8
-        && t[0].is_ascii_alphabetic()
-        && t.iter()
-            .all(|c| c.is_ascii_alphanumeric() || matches!(c, b'_' | b'-' | b'+'))
-}
-
 // ---------------------------------------------------------------------------
 // Parser
-
-/// A numeric sink with an expected count.
-pub(super) struct Sink<'a> {
-    pub(super) out: &'a mut Vec<f64>,
-    pub(super) expected: usize,
-    pub(super) found: usize,
-}
-
-impl Sink<'_> {
-    #[inline(always)]
-    pub(super) fn push(&mut self, v: f64, n: usize) {
-        let room = self.expected.saturating_sub(self.found);
-        let k = n.min(room);
-        if k == 1 {
-            self.out.push(v);
-        } else if k > 0 {
-            self.out.resize(self.out.len() + k, v);
-        }
-        self.found = self.found.saturating_add(n);
-    }
-}
 
 pub(super) struct Parser {
     pub(super) dims: Option<[usize; 3]>,
@@ -172,41 +143,7 @@ impl Parser {
         line: usize,
     ) -> Result<Flow, GrdeclError> {
         match kw {
-            "SPECGRID" | "DIMENS" => {
-                let v = read_small(lx, kw, line, 3, if kw == "SPECGRID" { 5 } else { 3 })?;
-                let mut d = [0usize; 3];
-                for a in 0..3 {
-                    let x =
-                        v[a].ok_or_else(|| lx.bad(line, kw, "the dimensions have no default"))?;
-                    if x.fract() != 0.0 || !(1.0..=1e9).contains(&x) {
-                        return Err(lx.bad(
-                            line,
-                            kw,
-                            format!("dimension {x} is not a positive integer"),
-                        ));
-                    }
-                    d[a] = x as usize;
-                }
-                if d.iter().map(|&x| x as u128).product::<u128>() * 8 >= u32::MAX as u128 {
-                    return Err(lx.bad(line, kw, format!("grid {d:?} is too large")));
-                }
-                if kw == "SPECGRID"
-                    && let Some(Some(c)) = v.get(4)
-                    && *c != 0.0
-                {
-                    return Err(lx.bad(line, kw, "radial (cylindrical) grids are not supported"));
-                }
-                if let Some(old) = self.dims
-                    && old != d
-                {
-                    return Err(lx.bad(
-                        line,
-                        kw,
-                        format!("grid size {d:?} differs from the earlier {old:?}"),
-                    ));
-                }
-                self.dims = Some(d);
-            }
+            "SPECGRID" | "DIMENS" => self.dimensions(lx, kw, line)?,
             "COORD" => {
                 let [nx, ny, _] = self.dims_or(lx, line, kw)?;
                 let n = 6 * (nx + 1) * (ny + 1);
@@ -220,25 +157,7 @@ impl Parser {
                 read_values(lx, kw, line, n, &mut v, None)?;
                 self.zcorn = Some(v);
             }
-            "ACTNUM" => {
-                let n = self.cells(lx, line, kw)?;
-                let mut v = Vec::with_capacity(lx.reserve_hint(n));
-                read_values(lx, kw, line, n, &mut v, Some(1.0))?;
-                let mut a = Vec::with_capacity(n);
-                for (i, &x) in v.iter().enumerate() {
-                    if x != 0.0 && x != 1.0 {
-                        return Err(GrdeclError::NotActnum {
-                            file: lx.file.clone(),
-                            line,
-                            keyword: kw.into(),
-                            value: x,
-                            index: i,
-                        });
-                    }
-                    a.push(x as u8);
-                }
-                self.actnum = Some(a);
-            }
+            "ACTNUM" => self.actnum(lx, kw, line)?,
             "MAPAXES" => {
                 let mut v = Vec::with_capacity(6);
                 read_values(lx, kw, line, 6, &mut v, None)?;
@@ -260,18 +179,7 @@ impl Parser {
                 };
                 self.include(lx, line, p)?;
             }
-            "TITLE" => {
-                // The title is the next line, without '/'.
-                let t = lx.next()?;
-                let l = t.line;
-                loop {
-                    let u = lx.next()?;
-                    if u.kind == Kind::Eof || u.line != l {
-                        lx.push_back(u);
-                        break;
-                    }
-                }
-            }
+            "TITLE" => skip_title(lx)?,
             _ if OPERATORS.contains(&kw) => self.operator(lx, kw, line)?,
             "BOX" => {
                 let dims = self.dims_or(lx, line, kw)?;
@@ -290,12 +198,7 @@ impl Parser {
             _ if NO_DATA.contains(&kw) => {}
             _ if SINGLE_RECORD.contains(&kw) => {
                 self.skip_note(kw);
-                loop {
-                    let t = lx.next()?;
-                    if matches!(t.kind, Kind::Eof | Kind::Slash) {
-                        break;
-                    }
-                }
+                skip_record(lx)?;
             }
             _ if MULTI_RECORD.contains(&kw) => {
                 self.skip_note(kw);
@@ -305,12 +208,7 @@ impl Parser {
                         Kind::Eof => break,
                         Kind::Slash => break,
                         // A record runs to its '/', whatever column its words start in.
-                        _ => loop {
-                            let u = lx.next()?;
-                            if matches!(u.kind, Kind::Eof | Kind::Slash) {
-                                break;
-                            }
-                        },
+                        _ => skip_record(lx)?,
                     }
                 }
             }
@@ -323,6 +221,61 @@ impl Parser {
             _ => self.unknown(lx, kw)?,
         }
         Ok(Flow::Go)
+    }
+
+    /// SPECGRID or DIMENS: the grid size (the same as any earlier one).
+    fn dimensions(&mut self, lx: &mut Lexer, kw: &str, line: usize) -> Result<(), GrdeclError> {
+        let v = read_small(lx, kw, line, 3, if kw == "SPECGRID" { 5 } else { 3 })?;
+        let mut d = [0usize; 3];
+        for a in 0..3 {
+            let x = v[a].ok_or_else(|| lx.bad(line, kw, "the dimensions have no default"))?;
+            if x.fract() != 0.0 || !(1.0..=1e9).contains(&x) {
+                return Err(lx.bad(line, kw, format!("dimension {x} is not a positive integer")));
+            }
+            d[a] = x as usize;
+        }
+        if d.iter().map(|&x| x as u128).product::<u128>() * 8 >= u32::MAX as u128 {
+            return Err(lx.bad(line, kw, format!("grid {d:?} is too large")));
+        }
+        if kw == "SPECGRID"
+            && let Some(Some(c)) = v.get(4)
+            && *c != 0.0
+        {
+            return Err(lx.bad(line, kw, "radial (cylindrical) grids are not supported"));
+        }
+        if let Some(old) = self.dims
+            && old != d
+        {
+            return Err(lx.bad(
+                line,
+                kw,
+                format!("grid size {d:?} differs from the earlier {old:?}"),
+            ));
+        }
+        self.dims = Some(d);
+        Ok(())
+    }
+
+    /// ACTNUM: one 0/1 flag per cell.
+    fn actnum(&mut self, lx: &mut Lexer, kw: &str, line: usize) -> Result<(), GrdeclError> {
+        let n = self.cells(lx, line, kw)?;
+        let mut v = Vec::with_capacity(lx.reserve_hint(n));
+        read_values(lx, kw, line, n, &mut v, Some(1.0))?;
+        let mut a = Vec::with_capacity(n);
+        for (i, &x) in v.iter().enumerate() {
+            if x != 0.0 && x != 1.0 {
+                return Err(GrdeclError::NotActnum {
+                    file: lx.file.clone(),
+                    line,
+                    keyword: kw.into(),
+                    value: x,
+                    index: i,
+                });
+            }
+            a.push(x as u8);
+        }
+        self.actnum = Some(a);
+        Ok(())
     }
 
     /// EQUALS, MULTIPLY, ADD (`array value [box]`) and COPY (`source
@@ -340,20 +293,22 @@ impl Parser {
     ) -> Result<(), GrdeclError> {
         let dims = self.dims_or(lx, line, kw)?;
         let [nx, ny, nz] = dims;
-        let n = nx * ny * nz;
         let mut last = self.input_box.unwrap_or([1, nx, 1, ny, 1, nz]);
         while let Some((items, rline)) = read_record(lx, kw, line)? {
-            let bad = |why: String| lx.bad(rline, kw, why);
             if items.len() < 2 || items.len() > 8 || items[..2].iter().any(|x| x.is_none()) {
-                return Err(bad(format!(
-                    "a record needs {} then at most 6 box indices; found {} item(s)",
-                    if kw == "COPY" {
-                        "a source and a target array"
-                    } else {
-                        "an array and a value"
-                    },
-                    items.len()
-                )));
+                return Err(lx.bad(
+                    rline,
+                    kw,
+                    format!(
+                        "a record needs {} then at most 6 box indices; found {} item(s)",
+                        if kw == "COPY" {
+                            "a source and a target array"
+                        } else {
+                            "an array and a value"
+                        },
+                        items.len()
+                    ),
+                ));
             }
             let name = items[0]
                 .as_deref()
@@ -363,111 +318,170 @@ impl Parser {
             let arg = items[1].as_deref().unwrap_or_default().trim().to_string();
             let bx = op_box(lx, kw, rline, dims, &items[2..], Some(last))?;
             last = bx;
-            // The box's cells, I fastest (iterated, never collected).
-            let cells = || {
-                (bx[4] - 1..bx[5]).flat_map(move |k| {
-                    (bx[2] - 1..bx[3])
-                        .flat_map(move |j| (bx[0] - 1..bx[1]).map(move |i| i + nx * (j + ny * k)))
-                })
+            let op = Op {
+                kw,
+                line: rline,
+                dims,
+                bx,
             };
-            let whole = (bx[1] - bx[0] + 1) * (bx[3] - bx[2] + 1) * (bx[5] - bx[4] + 1) == n;
-            let target_name = if kw == "COPY" {
-                arg.to_ascii_uppercase()
+            self.check_creation(lx, &op, &name, &arg)?;
+            let (target, value) = self.op_value(lx, &op, &name, &arg)?;
+            if matches!(target.as_str(), "COORD" | "ZCORN" | "MAPAXES") {
+                return Err(op.bad(lx, format!("{kw} cannot change {target}")));
+            }
+            if target == "ACTNUM" {
+                self.operate_on_actnum(lx, &op, &value)?;
             } else {
-                name.clone()
-            };
-            let missing = |t: &str| {
-                if t == "ACTNUM" {
-                    self.actnum.is_none()
-                } else {
-                    !self.properties.iter().any(|p| p.name == t)
-                }
-            };
-            let creates =
-                missing(&target_name) || (kw == "COPY" && name == "ACTNUM" && missing(&name));
-            if creates && self.zcorn.is_none() && n > MAX_CELLS_BEFORE_GEOMETRY {
-                return Err(bad(format!(
+                self.operate_on_property(lx, &op, &target, &value)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Refuses an operator record that would create an array of more than
+    /// [`MAX_CELLS_BEFORE_GEOMETRY`] cells before the geometry.
+    fn check_creation(
+        &self,
+        lx: &Lexer,
+        op: &Op,
+        name: &str,
+        arg: &str,
+    ) -> Result<(), GrdeclError> {
+        let (kw, dims) = (op.kw, op.dims);
+        let n = op.cell_count();
+        let target_name = if kw == "COPY" {
+            arg.to_ascii_uppercase()
+        } else {
+            name.to_string()
+        };
+        let missing = |t: &str| {
+            if t == "ACTNUM" {
+                self.actnum.is_none()
+            } else {
+                !self.properties.iter().any(|p| p.name == t)
+            }
+        };
+        let creates = missing(&target_name) || (kw == "COPY" && name == "ACTNUM" && missing(name));
+        if creates && self.zcorn.is_none() && n > MAX_CELLS_BEFORE_GEOMETRY {
+            return Err(op.bad(
+                lx,
+                format!(
                     "{kw} would create an array of {n} cells before COORD and ZCORN were read \
                      (more than {MAX_CELLS_BEFORE_GEOMETRY} cells are allowed only once the geometry has arrived): \
                      is COORD or ZCORN missing, or does the grid size {dims:?} hold a typo?"
-                )));
-            }
-            let (target, value) = if kw == "COPY" {
-                let src = name.clone();
-                let v: Vec<f64> = if src == "ACTNUM" {
-                    match &self.actnum {
-                        Some(a) => a.iter().map(|&x| x as f64).collect(),
-                        None => vec![1.0; n],
-                    }
-                } else {
-                    match self.properties.iter().find(|p| p.name == src) {
-                        Some(p) => p.values.clone(),
-                        None => return Err(bad(format!("COPY from {src}, which is not defined"))),
-                    }
-                };
-                (arg.to_ascii_uppercase(), Err(v))
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// An operator record's target array and value: `Ok(number)` for
+    /// EQUALS, MULTIPLY and ADD, `Err(source values)` for COPY.
+    fn op_value(
+        &self,
+        lx: &Lexer,
+        op: &Op,
+        name: &str,
+        arg: &str,
+    ) -> Result<(String, OpValue), GrdeclError> {
+        if op.kw == "COPY" {
+            let src = name;
+            let v: Vec<f64> = if src == "ACTNUM" {
+                match &self.actnum {
+                    Some(a) => a.iter().map(|&x| x as f64).collect(),
+                    None => vec![1.0; op.cell_count()],
+                }
             } else {
-                let x = parse_number(arg.as_bytes())
-                    .filter(|x| x.is_finite())
-                    .ok_or_else(|| bad(format!("'{arg}' is not a finite number")))?;
-                (name.clone(), Ok(x))
-            };
-            if matches!(target.as_str(), "COORD" | "ZCORN" | "MAPAXES") {
-                return Err(bad(format!("{kw} cannot change {target}")));
-            }
-            if target == "ACTNUM" {
-                if kw == "MULTIPLY" || kw == "ADD" {
-                    return Err(bad(format!("{kw} cannot change ACTNUM (0/1 flags)")));
-                }
-                let a = self.actnum.get_or_insert_with(|| vec![1; n]);
-                for c in cells() {
-                    let x = match &value {
-                        Ok(x) => *x,
-                        Err(v) => v[c],
-                    };
-                    if x != 0.0 && x != 1.0 {
-                        return Err(GrdeclError::NotActnum {
-                            file: lx.file.clone(),
-                            line: rline,
-                            keyword: format!("{kw} ACTNUM"),
-                            value: x,
-                            index: c,
-                        });
+                match self.properties.iter().find(|p| p.name == src) {
+                    Some(p) => p.values.clone(),
+                    None => {
+                        return Err(op.bad(lx, format!("COPY from {src}, which is not defined")));
                     }
-                    a[c] = x as u8;
                 }
-                continue;
+            };
+            Ok((arg.to_ascii_uppercase(), Err(v)))
+        } else {
+            let x = parse_number(arg.as_bytes())
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| op.bad(lx, format!("'{arg}' is not a finite number")))?;
+            Ok((name.to_string(), Ok(x)))
+        }
+    }
+
+    /// EQUALS or COPY into ACTNUM over the record's box (0/1 values only).
+    fn operate_on_actnum(
+        &mut self,
+        lx: &Lexer,
+        op: &Op,
+        value: &OpValue,
+    ) -> Result<(), GrdeclError> {
+        let kw = op.kw;
+        if kw == "MULTIPLY" || kw == "ADD" {
+            return Err(op.bad(lx, format!("{kw} cannot change ACTNUM (0/1 flags)")));
+        }
+        let n = op.cell_count();
+        let a = self.actnum.get_or_insert_with(|| vec![1; n]);
+        for c in op.cells() {
+            let x = match value {
+                Ok(x) => *x,
+                Err(v) => v[c],
+            };
+            if x != 0.0 && x != 1.0 {
+                return Err(GrdeclError::NotActnum {
+                    file: lx.file.clone(),
+                    line: op.line,
+                    keyword: format!("{kw} ACTNUM"),
+                    value: x,
+                    index: c,
+                });
             }
-            let exists = self.properties.iter().any(|p| p.name == target);
-            if !exists {
-                if kw == "MULTIPLY" || kw == "ADD" {
-                    return Err(bad(format!("{kw} on {target}, which is not defined")));
-                }
-                let default = if target.starts_with("MULT") || target == "NTG" {
-                    1.0
-                } else if whole {
-                    0.0
-                } else {
-                    return Err(bad(format!(
+            a[c] = x as u8;
+        }
+        Ok(())
+    }
+
+    /// An operator record on the property `target` over its box, the
+    /// property created first (EQUALS, COPY) when it is not defined.
+    fn operate_on_property(
+        &mut self,
+        lx: &Lexer,
+        op: &Op,
+        target: &str,
+        value: &OpValue,
+    ) -> Result<(), GrdeclError> {
+        let kw = op.kw;
+        let exists = self.properties.iter().any(|p| p.name == target);
+        if !exists {
+            if kw == "MULTIPLY" || kw == "ADD" {
+                return Err(op.bad(lx, format!("{kw} on {target}, which is not defined")));
+            }
+            let default = if target.starts_with("MULT") || target == "NTG" {
+                1.0
+            } else if op.whole() {
+                0.0
+            } else {
+                return Err(op.bad(
+                    lx,
+                    format!(
                         "{kw} defines {target} in part of the grid only, and {target} has no default value"
-                    )));
-                };
-                self.set_property(&target, vec![default; n]);
-            }
-            let p = self
-                .properties
-                .iter_mut()
-                .find(|p| p.name == target)
-                .expect("defined above");
-            for c in cells() {
-                let v = &mut p.values[c];
-                match (kw, &value) {
-                    ("EQUALS", Ok(x)) => *v = *x,
-                    ("MULTIPLY", Ok(x)) => *v *= *x,
-                    ("ADD", Ok(x)) => *v += *x,
-                    (_, Err(src)) => *v = src[c],
-                    _ => unreachable!("value kinds match the keyword"),
-                }
+                    ),
+                ));
+            };
+            self.set_property(target, vec![default; op.cell_count()]);
+        }
+        let p = self
+            .properties
+            .iter_mut()
+            .find(|p| p.name == target)
+            .expect("defined above");
+        for c in op.cells() {
+            let v = &mut p.values[c];
+            match (kw, value) {
+                ("EQUALS", Ok(x)) => *v = *x,
+                ("MULTIPLY", Ok(x)) => *v *= *x,
+                ("ADD", Ok(x)) => *v += *x,
+                (_, Err(src)) => *v = src[c],
+                _ => unreachable!("value kinds match the keyword"),
             }
         }
         Ok(())
@@ -656,5 +670,68 @@ impl Parser {
             files: self.files,
             bytes: self.bytes,
         })
+    }
+}
+
+/// An operator record's value: a number (EQUALS, MULTIPLY, ADD) or the
+/// source array's values (COPY).
+type OpValue = Result<f64, Vec<f64>>;
+
+/// One record of an array operator: the keyword, its line, the grid size
+/// and the record's box (1-based inclusive `i1 i2 j1 j2 k1 k2`).
+struct Op<'a> {
+    kw: &'a str,
+    line: usize,
+    dims: [usize; 3],
+    bx: [usize; 6],
+}
+
+impl Op<'_> {
+    /// Cells of the grid.
+    fn cell_count(&self) -> usize {
+        self.dims[0] * self.dims[1] * self.dims[2]
+    }
+
+    /// The box covers the whole grid.
+    fn whole(&self) -> bool {
+        let bx = self.bx;
+        (bx[1] - bx[0] + 1) * (bx[3] - bx[2] + 1) * (bx[5] - bx[4] + 1) == self.cell_count()
+    }
+
+    /// The box's cells, I fastest (iterated, never collected).
+    fn cells(&self) -> impl Iterator<Item = usize> + use<> {
+        let (bx, nx, ny) = (self.bx, self.dims[0], self.dims[1]);
+        (bx[4] - 1..bx[5]).flat_map(move |k| {
+            (bx[2] - 1..bx[3])
+                .flat_map(move |j| (bx[0] - 1..bx[1]).map(move |i| i + nx * (j + ny * k)))
+        })
+    }
+
+    /// A bad-record error at this record.
+    fn bad(&self, lx: &Lexer, why: String) -> GrdeclError {
+        lx.bad(self.line, self.kw, why)
+    }
+}
+
+/// Skips the rest of a record, to its '/' (or the end).
+fn skip_record(lx: &mut Lexer) -> Result<(), GrdeclError> {
+    loop {
+        let t = lx.next()?;
+        if matches!(t.kind, Kind::Eof | Kind::Slash) {
+            return Ok(());
+        }
+    }
+}
+
+/// TITLE: the title is the next line, without '/'.
+fn skip_title(lx: &mut Lexer) -> Result<(), GrdeclError> {
+    let t = lx.next()?;
+    let l = t.line;
+    loop {
+        let u = lx.next()?;
+        if u.kind == Kind::Eof || u.line != l {
+            lx.push_back(u);
+            return Ok(());
+        }
     }
 }

@@ -1,7 +1,7 @@
 //! The streaming tokenizer over a fixed window: tokens, comments, quotes, `N*v` repeats, line numbers.
 
+use super::number::*;
 use super::*;
-use super::{deck::*, number::*, records::*};
 
 // ---------------------------------------------------------------------------
 // Lexer
@@ -318,5 +318,36 @@ impl<'r> Lexer<'r> {
                 col0,
             });
         }
+    }
+}
+
+/// Whether `t` can be a keyword: up to 8 letters, digits, `_`, `-` or `+`,
+/// starting with a letter.
+pub(super) fn is_keyword_like(t: &[u8]) -> bool {
+    !t.is_empty()
+        && t.len() <= 8
+        && t[0].is_ascii_alphabetic()
+        && t.iter()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, b'_' | b'-' | b'+'))
+}
+
+/// A numeric sink with an expected count.
+pub(super) struct Sink<'a> {
+    pub(super) out: &'a mut Vec<f64>,
+    pub(super) expected: usize,
+    pub(super) found: usize,
+}
+
+impl Sink<'_> {
+    #[inline(always)]
+    pub(super) fn push(&mut self, v: f64, n: usize) {
+        let room = self.expected.saturating_sub(self.found);
+        let k = n.min(room);
+        if k == 1 {
+            self.out.push(v);
+        } else if k > 0 {
+            self.out.resize(self.out.len() + k, v);
+        }
+        self.found = self.found.saturating_add(n);
     }
 }

@@ -124,6 +124,24 @@ pub(super) fn parse_slow(t: &[u8]) -> Option<f64> {
     s.parse::<f64>().ok()
 }
 
+/// The repeat count `N` of an `N*value` item: a plain positive integer.
+pub(super) fn repeat_count(s: &[u8]) -> Result<usize, &'static str> {
+    if s.is_empty() {
+        return Err("the repeat count is missing");
+    }
+    if !s.iter().all(|c| c.is_ascii_digit()) {
+        return Err("the repeat count is not a positive integer");
+    }
+    if s.len() > 12 {
+        return Err("the repeat count is too large");
+    }
+    let r = s.iter().fold(0usize, |a, &c| a * 10 + (c - b'0') as usize);
+    if r == 0 {
+        return Err("the repeat count is zero");
+    }
+    Ok(r)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

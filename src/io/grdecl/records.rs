@@ -1,7 +1,7 @@
 //! Reading one keyword's records: values with repeats and defaults, small records, strings, operator boxes; count errors.
 
 use super::*;
-use super::{deck::*, lexer::*, number::*};
+use super::{lexer::*, number::*};
 
 /// Splits a value token into `(repeat, value)`; value `None` = default.
 /// Returns `None` when the token is malformed (the caller reports why).
@@ -17,23 +17,6 @@ pub(super) fn value_token(s: &[u8]) -> Option<(usize, Option<f64>)> {
             }
         }
     }
-}
-
-pub(super) fn repeat_count(s: &[u8]) -> Result<usize, &'static str> {
-    if s.is_empty() {
-        return Err("the repeat count is missing");
-    }
-    if !s.iter().all(|c| c.is_ascii_digit()) {
-        return Err("the repeat count is not a positive integer");
-    }
-    if s.len() > 12 {
-        return Err("the repeat count is too large");
-    }
-    let r = s.iter().fold(0usize, |a, &c| a * 10 + (c - b'0') as usize);
-    if r == 0 {
-        return Err("the repeat count is zero");
-    }
-    Ok(r)
 }
 
 /// Reads a numeric record of exactly `expected` values into `out`.

@@ -117,8 +117,9 @@ fn keyword_is(t: &[u8], k: &str) -> bool {
 }
 
 /// Which attribute section we are in.
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, Default, PartialEq)]
 enum Section {
+    #[default]
     None,
     Point(usize),
     Cell(usize),
@@ -128,6 +129,21 @@ enum Section {
 enum Dataset {
     Unstructured,
     Structured,
+}
+
+/// What the keywords read so far gave, each with the byte offset of its
+/// keyword (for messages).
+#[derive(Default)]
+struct Sections {
+    dataset: Option<Dataset>,
+    points: Option<(usize, Vec<f64>)>,
+    cells: Option<(usize, Vec<usize>, Vec<i64>)>,
+    types: Option<(usize, Vec<i64>)>,
+    dims: Option<(usize, [usize; 3])>,
+    /// The attribute section being read.
+    section: Section,
+    point_data: Vec<Property>,
+    cell_data: Vec<Property>,
 }
 
 struct Parser<'a> {
@@ -426,8 +442,19 @@ impl<'a> Parser<'a> {
         })
     }
 
+    /// Reads the file: the header, then its keywords in order, then the
+    /// grid assembled from the sections read.
     fn parse(&mut self) -> Result<Grid, VtkReadError> {
-        // Header: magic line, title line, ASCII|BINARY.
+        self.header()?;
+        let mut s = Sections::default();
+        while let Some((kw, t)) = self.lx.token() {
+            self.keyword(kw, t, &mut s)?;
+        }
+        self.assemble(s)
+    }
+
+    /// The header: magic line, title line, ASCII|BINARY.
+    fn header(&mut self) -> Result<(), VtkReadError> {
         let magic = self.lx.rest_of_line();
         if magic.len() < 5 || !magic[..5].eq_ignore_ascii_case(b"# vtk") {
             return Err(self.err(
@@ -450,217 +477,249 @@ impl<'a> Parser<'a> {
                 format!("expected ASCII or BINARY, found '{}'", lossy(fmt)),
             ));
         };
+        Ok(())
+    }
 
-        let mut dataset = None;
-        let mut points: Option<(usize, Vec<f64>)> = None;
-        let mut cells: Option<(usize, Vec<usize>, Vec<i64>)> = None;
-        let mut types: Option<(usize, Vec<i64>)> = None;
-        let mut dims: Option<(usize, [usize; 3])> = None;
-        let mut section = Section::None;
-        let mut point_data = Vec::new();
-        let mut cell_data = Vec::new();
-
-        while let Some((kw, t)) = self.lx.token() {
-            let key = t.to_ascii_uppercase();
-            match key.as_slice() {
-                b"DATASET" => {
-                    let (p, d) = self.word("dataset type", kw)?;
-                    dataset = Some(if keyword_is(d, "UNSTRUCTURED_GRID") {
-                        Dataset::Unstructured
-                    } else if keyword_is(d, "STRUCTURED_GRID") {
-                        Dataset::Structured
-                    } else {
-                        return Err(self.unsupported(p, format!("dataset type '{}'", lossy(d))));
-                    });
-                }
-                b"METADATA" => self.skip_metadata(),
-                b"FIELD" => {
-                    let tuples = match section {
-                        Section::None => None,
-                        Section::Point(n) | Section::Cell(n) => Some(n),
-                    };
-                    let arrays = self.field(kw, tuples)?;
-                    match section {
-                        Section::None => {} // dataset-level field data (TIME, CYCLE, ...) is not grid data
-                        Section::Point(_) => point_data.extend(arrays),
-                        Section::Cell(_) => cell_data.extend(arrays),
-                    }
-                }
-                b"POINTS" => {
-                    let n = self.count("point count", kw)?;
-                    let ty = self.scalar(kw)?;
-                    self.end_header();
-                    let total = n
-                        .checked_mul(3)
-                        .ok_or_else(|| self.err(kw, "point count overflows"))?;
-                    if let Some((_, d)) = dims
-                        && dataset == Some(Dataset::Structured)
-                    {
-                        let need = d[0].checked_mul(d[1]).and_then(|v| v.checked_mul(d[2]));
-                        if need != Some(n) {
-                            return Err(self.err(
-                                kw,
-                                format!(
-                                    "POINTS {n}, but DIMENSIONS {} {} {} give {} points",
-                                    d[0],
-                                    d[1],
-                                    d[2],
-                                    need.map_or("too many".into(), |x| x.to_string())
-                                ),
-                            ));
-                        }
-                    }
-                    let v = if self.binary {
-                        let bytes = self.binary_bytes(total, ty, "POINTS", kw)?;
-                        let v = decode_f64(bytes, ty, true, total);
-                        if let Some(why) = super::byte_order::little_endian_hint(bytes, ty, &v) {
-                            return Err(self.err(kw, why));
-                        }
-                        v
-                    } else {
-                        self.read_f64(total, ty, "POINTS", kw)?
-                    };
-                    self.skip_optional_metadata();
-                    points = Some((kw, v));
-                }
-                b"DIMENSIONS" => {
-                    let d = [
-                        self.count("dimension", kw)?,
-                        self.count("dimension", kw)?,
-                        self.count("dimension", kw)?,
-                    ];
-                    dims = Some((kw, d));
-                }
-                b"CELLS" => {
-                    let a = self.count("cell count", kw)?;
-                    let b = self.count("cell array size", kw)?;
-                    let c = if self.lx.peek().is_some_and(|t| keyword_is(t, "OFFSETS")) {
-                        self.cells_51(kw, a, b)?
-                    } else {
-                        self.cells_old(kw, a, b)?
-                    };
-                    cells = Some((kw, c.0, c.1));
-                }
-                b"CELL_TYPES" => {
-                    let n = self.count("cell count", kw)?;
-                    self.end_header();
-                    types = Some((kw, self.read_i64(n, Scalar::I32, "CELL_TYPES", kw)?));
-                }
-                b"POINT_DATA" | b"CELL_DATA" => {
-                    let n = self.count("tuple count", kw)?;
-                    let is_point = key.as_slice() == b"POINT_DATA";
-                    let known = if is_point {
-                        points.as_ref().map(|p| p.1.len() / 3)
-                    } else if let Some((_, d)) = dims {
-                        structured_cells(d)
-                    } else {
-                        types
-                            .as_ref()
-                            .map(|t| t.1.len())
-                            .or(cells.as_ref().map(|c| c.1.len().saturating_sub(1)))
-                    };
-                    if let Some(k) = known
-                        && k != n
-                    {
-                        let what = if is_point {
-                            "POINT_DATA count vs points"
-                        } else {
-                            "CELL_DATA count vs cells"
-                        };
-                        return Err(self.count_err(kw, what, k, n));
-                    }
-                    section = if is_point {
-                        Section::Point(n)
-                    } else {
-                        Section::Cell(n)
-                    };
-                }
-                _ => {
-                    let n = match section {
-                        Section::Point(n) | Section::Cell(n) => n,
-                        Section::None => {
-                            return Err(
-                                self.err(kw, format!("unrecognized keyword '{}'", lossy(t)))
-                            );
-                        }
-                    };
-                    let kname = String::from_utf8_lossy(&key).into_owned();
-                    let prop = match key.as_slice() {
-                        b"SCALARS" => Some(self.scalars(kw, n)?),
-                        b"VECTORS" | b"NORMALS" => Some(self.fixed(kw, &kname, n, 3)?),
-                        b"TENSORS" => Some(self.fixed(kw, &kname, n, 9)?),
-                        b"TENSORS6" => Some(self.fixed(kw, &kname, n, 6)?),
-                        b"GLOBAL_IDS" | b"PEDIGREE_IDS" | b"EDGE_FLAGS" => {
-                            Some(self.fixed(kw, &kname, n, 1)?)
-                        }
-                        b"TEXTURE_COORDINATES" => {
-                            let (_, name) = self.word("array name", kw)?;
-                            let name = decode_name(name);
-                            let dim = self.count("texture dimension", kw)?;
-                            if !(1..=3).contains(&dim) {
-                                return Err(
-                                    self.err(kw, format!("texture dimension {dim} not in 1..=3"))
-                                );
-                            }
-                            let ty = self.scalar(kw)?;
-                            self.end_header();
-                            let total = n.saturating_mul(dim);
-                            let values = self.read_f64(total, ty, "TEXTURE_COORDINATES", kw)?;
-                            Some(Property {
-                                name,
-                                components: dim,
-                                values,
-                            })
-                        }
-                        b"COLOR_SCALARS" => {
-                            let (_, name) = self.word("array name", kw)?;
-                            let name = decode_name(name);
-                            let m = self.count("color component count", kw)?;
-                            if !(1..=4).contains(&m) {
-                                return Err(
-                                    self.err(kw, format!("color component count {m} not in 1..=4"))
-                                );
-                            }
-                            self.end_header();
-                            let total = n.saturating_mul(m);
-                            let values = if self.binary {
-                                let v = self.read_f64(total, Scalar::U8, "COLOR_SCALARS", kw)?;
-                                v.into_iter().map(|x| x / 255.0).collect()
-                            } else {
-                                self.read_f64(total, Scalar::F32, "COLOR_SCALARS", kw)?
-                            };
-                            Some(Property {
-                                name,
-                                components: m,
-                                values,
-                            })
-                        }
-                        b"LOOKUP_TABLE" => {
-                            self.word("lookup table name", kw)?;
-                            let m = self.count("lookup table size", kw)?;
-                            self.end_header();
-                            let total = m.saturating_mul(4);
-                            let ty = if self.binary { Scalar::U8 } else { Scalar::F32 };
-                            self.read_f64(total, ty, "LOOKUP_TABLE", kw)?;
-                            None
-                        }
-                        _ => {
-                            return Err(
-                                self.err(kw, format!("unrecognized keyword '{}'", lossy(t)))
-                            );
-                        }
-                    };
-                    if let Some(p) = prop {
-                        match section {
-                            Section::Point(_) => point_data.push(p),
-                            _ => cell_data.push(p),
-                        }
-                    }
-                    self.skip_optional_metadata();
+    /// One keyword `t` at byte `kw` and what follows it, into `s`.
+    fn keyword(&mut self, kw: usize, t: &[u8], s: &mut Sections) -> Result<(), VtkReadError> {
+        let key = t.to_ascii_uppercase();
+        match key.as_slice() {
+            b"DATASET" => {
+                let (p, d) = self.word("dataset type", kw)?;
+                s.dataset = Some(if keyword_is(d, "UNSTRUCTURED_GRID") {
+                    Dataset::Unstructured
+                } else if keyword_is(d, "STRUCTURED_GRID") {
+                    Dataset::Structured
+                } else {
+                    return Err(self.unsupported(p, format!("dataset type '{}'", lossy(d))));
+                });
+            }
+            b"METADATA" => self.skip_metadata(),
+            b"FIELD" => {
+                let tuples = match s.section {
+                    Section::None => None,
+                    Section::Point(n) | Section::Cell(n) => Some(n),
+                };
+                let arrays = self.field(kw, tuples)?;
+                match s.section {
+                    Section::None => {} // dataset-level field data (TIME, CYCLE, ...) is not grid data
+                    Section::Point(_) => s.point_data.extend(arrays),
+                    Section::Cell(_) => s.cell_data.extend(arrays),
                 }
             }
+            b"POINTS" => {
+                let v = self.points(kw, s)?;
+                s.points = Some((kw, v));
+            }
+            b"DIMENSIONS" => {
+                let d = [
+                    self.count("dimension", kw)?,
+                    self.count("dimension", kw)?,
+                    self.count("dimension", kw)?,
+                ];
+                s.dims = Some((kw, d));
+            }
+            b"CELLS" => {
+                let a = self.count("cell count", kw)?;
+                let b = self.count("cell array size", kw)?;
+                let c = if self.lx.peek().is_some_and(|t| keyword_is(t, "OFFSETS")) {
+                    self.cells_51(kw, a, b)?
+                } else {
+                    self.cells_old(kw, a, b)?
+                };
+                s.cells = Some((kw, c.0, c.1));
+            }
+            b"CELL_TYPES" => {
+                let n = self.count("cell count", kw)?;
+                self.end_header();
+                s.types = Some((kw, self.read_i64(n, Scalar::I32, "CELL_TYPES", kw)?));
+            }
+            b"POINT_DATA" | b"CELL_DATA" => {
+                s.section = self.data_section(kw, key.as_slice() == b"POINT_DATA", s)?;
+            }
+            _ => {
+                let n = match s.section {
+                    Section::Point(n) | Section::Cell(n) => n,
+                    Section::None => {
+                        return Err(self.err(kw, format!("unrecognized keyword '{}'", lossy(t))));
+                    }
+                };
+                if let Some(p) = self.attribute(kw, t, &key, n)? {
+                    match s.section {
+                        Section::Point(_) => s.point_data.push(p),
+                        _ => s.cell_data.push(p),
+                    }
+                }
+                self.skip_optional_metadata();
+            }
         }
+        Ok(())
+    }
 
+    /// `POINTS n type` and the coordinates (checked against the
+    /// structured grid's DIMENSIONS when these came first).
+    fn points(&mut self, kw: usize, s: &Sections) -> Result<Vec<f64>, VtkReadError> {
+        let n = self.count("point count", kw)?;
+        let ty = self.scalar(kw)?;
+        self.end_header();
+        let total = n
+            .checked_mul(3)
+            .ok_or_else(|| self.err(kw, "point count overflows"))?;
+        if let Some((_, d)) = s.dims
+            && s.dataset == Some(Dataset::Structured)
+        {
+            let need = d[0].checked_mul(d[1]).and_then(|v| v.checked_mul(d[2]));
+            if need != Some(n) {
+                return Err(self.err(
+                    kw,
+                    format!(
+                        "POINTS {n}, but DIMENSIONS {} {} {} give {} points",
+                        d[0],
+                        d[1],
+                        d[2],
+                        need.map_or("too many".into(), |x| x.to_string())
+                    ),
+                ));
+            }
+        }
+        let v = if self.binary {
+            let bytes = self.binary_bytes(total, ty, "POINTS", kw)?;
+            let v = decode_f64(bytes, ty, true, total);
+            if let Some(why) = super::byte_order::little_endian_hint(bytes, ty, &v) {
+                return Err(self.err(kw, why));
+            }
+            v
+        } else {
+            self.read_f64(total, ty, "POINTS", kw)?
+        };
+        self.skip_optional_metadata();
+        Ok(v)
+    }
+
+    /// `POINT_DATA n` or `CELL_DATA n`: the section that starts, its tuple
+    /// count checked against the points or cells read so far.
+    fn data_section(
+        &mut self,
+        kw: usize,
+        is_point: bool,
+        s: &Sections,
+    ) -> Result<Section, VtkReadError> {
+        let n = self.count("tuple count", kw)?;
+        let known = if is_point {
+            s.points.as_ref().map(|p| p.1.len() / 3)
+        } else if let Some((_, d)) = s.dims {
+            structured_cells(d)
+        } else {
+            s.types
+                .as_ref()
+                .map(|t| t.1.len())
+                .or(s.cells.as_ref().map(|c| c.1.len().saturating_sub(1)))
+        };
+        if let Some(k) = known
+            && k != n
+        {
+            let what = if is_point {
+                "POINT_DATA count vs points"
+            } else {
+                "CELL_DATA count vs cells"
+            };
+            return Err(self.count_err(kw, what, k, n));
+        }
+        Ok(if is_point {
+            Section::Point(n)
+        } else {
+            Section::Cell(n)
+        })
+    }
+
+    /// An attribute keyword `t` (upper case `key`) of a data section of
+    /// `n` tuples: its property, or None for a lookup table.
+    fn attribute(
+        &mut self,
+        kw: usize,
+        t: &[u8],
+        key: &[u8],
+        n: usize,
+    ) -> Result<Option<Property>, VtkReadError> {
+        let kname = String::from_utf8_lossy(key).into_owned();
+        Ok(match key {
+            b"SCALARS" => Some(self.scalars(kw, n)?),
+            b"VECTORS" | b"NORMALS" => Some(self.fixed(kw, &kname, n, 3)?),
+            b"TENSORS" => Some(self.fixed(kw, &kname, n, 9)?),
+            b"TENSORS6" => Some(self.fixed(kw, &kname, n, 6)?),
+            b"GLOBAL_IDS" | b"PEDIGREE_IDS" | b"EDGE_FLAGS" => Some(self.fixed(kw, &kname, n, 1)?),
+            b"TEXTURE_COORDINATES" => Some(self.texture_coordinates(kw, n)?),
+            b"COLOR_SCALARS" => Some(self.color_scalars(kw, n)?),
+            b"LOOKUP_TABLE" => {
+                self.word("lookup table name", kw)?;
+                let m = self.count("lookup table size", kw)?;
+                self.end_header();
+                let total = m.saturating_mul(4);
+                let ty = if self.binary { Scalar::U8 } else { Scalar::F32 };
+                self.read_f64(total, ty, "LOOKUP_TABLE", kw)?;
+                None
+            }
+            _ => {
+                return Err(self.err(kw, format!("unrecognized keyword '{}'", lossy(t))));
+            }
+        })
+    }
+
+    /// `TEXTURE_COORDINATES name dim type` and `n` tuples.
+    fn texture_coordinates(&mut self, kw: usize, n: usize) -> Result<Property, VtkReadError> {
+        let (_, name) = self.word("array name", kw)?;
+        let name = decode_name(name);
+        let dim = self.count("texture dimension", kw)?;
+        if !(1..=3).contains(&dim) {
+            return Err(self.err(kw, format!("texture dimension {dim} not in 1..=3")));
+        }
+        let ty = self.scalar(kw)?;
+        self.end_header();
+        let total = n.saturating_mul(dim);
+        let values = self.read_f64(total, ty, "TEXTURE_COORDINATES", kw)?;
+        Ok(Property {
+            name,
+            components: dim,
+            values,
+        })
+    }
+
+    /// `COLOR_SCALARS name m` and `n` tuples (bytes scaled to 0..1 in
+    /// binary files).
+    fn color_scalars(&mut self, kw: usize, n: usize) -> Result<Property, VtkReadError> {
+        let (_, name) = self.word("array name", kw)?;
+        let name = decode_name(name);
+        let m = self.count("color component count", kw)?;
+        if !(1..=4).contains(&m) {
+            return Err(self.err(kw, format!("color component count {m} not in 1..=4")));
+        }
+        self.end_header();
+        let total = n.saturating_mul(m);
+        let values = if self.binary {
+            let v = self.read_f64(total, Scalar::U8, "COLOR_SCALARS", kw)?;
+            v.into_iter().map(|x| x / 255.0).collect()
+        } else {
+            self.read_f64(total, Scalar::F32, "COLOR_SCALARS", kw)?
+        };
+        Ok(Property {
+            name,
+            components: m,
+            values,
+        })
+    }
+
+    /// The grid from the sections read.
+    fn assemble(&self, s: Sections) -> Result<Grid, VtkReadError> {
+        let Sections {
+            dataset,
+            points,
+            cells,
+            types,
+            dims,
+            point_data,
+            cell_data,
+            ..
+        } = s;
         let Some(dataset) = dataset else {
             return Err(self.err(self.lx.pos, "no DATASET section"));
         };

@@ -20,7 +20,7 @@
 
 use rayon::prelude::*;
 
-use super::link::{Linked, vertex_cycles};
+use super::link::{FaceRec, Linked, START, vertex_cycles};
 use super::{
     Ciel, CielCounts, CielError, FIRST_IN_FACE, LAST_IN_FACE, LOOKUP_SHIFT, MAX_CELL_HALF_EDGES,
     NONE, VERTEX_MASK, structured_as_cells,
@@ -32,20 +32,6 @@ use crate::structures::polyhedron::{Scratch, check_cell, parse_faces_into};
 
 /// Cells per parallel task of the per-cell phase.
 const CHUNK_CELLS: usize = 1024;
-
-/// A face as seen by the cross-cell matching: its first half-edge (global),
-/// its smallest vertex `m` and the two loop neighbours of `m`, sorted;
-/// indexed by [`START`], [`M`], [`LO`], [`HI`] (a plain array, so that the
-/// array of all faces is allocated zeroed, without a fill).
-pub(super) type FaceRec = [u32; 4];
-/// [`FaceRec`]'s first half-edge.
-pub(super) const START: usize = 0;
-/// [`FaceRec`]'s smallest vertex.
-pub(super) const M: usize = 1;
-/// [`FaceRec`]'s smaller neighbour of [`M`].
-pub(super) const LO: usize = 2;
-/// [`FaceRec`]'s larger neighbour of [`M`].
-pub(super) const HI: usize = 3;
 
 /// What one chunk of cells produced besides the half-edges, faces and
 /// cell starts it wrote into its parts of the final arrays.
@@ -176,7 +162,6 @@ fn cell_faces(
 }
 
 /// The per-cell phase over cells `range`, written into `parts`.
-#[allow(clippy::too_many_arguments)]
 fn build_chunk(
     range: std::ops::Range<usize>,
     cells: &Cells,

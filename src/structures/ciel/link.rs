@@ -6,8 +6,21 @@ use std::sync::atomic::{AtomicU32, Ordering};
 
 use rayon::prelude::*;
 
-use super::build::{FaceRec, HI, LO, M, START};
 use super::{CielError, FIRST_IN_FACE, NONE, VERTEX_MASK};
+
+/// A face as seen by the cross-cell matching: its first half-edge (global),
+/// its smallest vertex `m` and the two loop neighbours of `m`, sorted;
+/// indexed by [`START`], [`M`], [`LO`], [`HI`] (a plain array, so that the
+/// array of all faces is allocated zeroed, without a fill).
+pub(super) type FaceRec = [u32; 4];
+/// [`FaceRec`]'s first half-edge.
+pub(super) const START: usize = 0;
+/// [`FaceRec`]'s smallest vertex.
+pub(super) const M: usize = 1;
+/// [`FaceRec`]'s smaller neighbour of [`M`].
+pub(super) const LO: usize = 2;
+/// [`FaceRec`]'s larger neighbour of [`M`].
+pub(super) const HI: usize = 3;
 
 /// The faces and half-edges the cross-cell phase reads.
 pub(super) struct Linked<'a> {

@@ -548,14 +548,13 @@ impl Ciel {
     #[inline]
     pub fn draw_cell<F: ScalarField>(
         &self,
-        f: &F,
+        lv: &DrawLevel<F>,
         c: u32,
-        t: f32,
-        ctx: &EmitContext,
         scratch: &mut DrawScratch,
         mesh: &mut LevelMesh,
         mut crossed: impl FnMut(u32),
     ) {
+        let (f, t, ctx) = (lv.f, lv.t, lv.ctx);
         const ABOVE: u8 = 1;
         const USED: u8 = 4;
         let r = self.cell_half_edges(c);
@@ -628,7 +627,7 @@ impl Ciel {
                 let mut y = xn;
                 while y != cur {
                     if flags[y] & ABOVE == 0 {
-                        self.draw_cell_general(f, c, t, ctx, scratch, mesh, &mut crossed);
+                        self.draw_cell_general(lv, c, scratch, mesh, &mut crossed);
                         return;
                     }
                     y = next(y);
@@ -668,19 +667,17 @@ impl Ciel {
     /// through a non-planar face) or a seed that is not an entry sends the
     /// cell to the full path. Emits the same polygon, from the same first
     /// corner, as [`Ciel::draw_cell`].
-    #[allow(clippy::too_many_arguments)]
     #[inline]
     pub fn draw_cell_from<F: ScalarField>(
         &self,
-        f: &F,
+        lv: &DrawLevel<F>,
         c: u32,
         seed: u32,
-        t: f32,
-        ctx: &EmitContext,
         scratch: &mut DrawScratch,
         mesh: &mut LevelMesh,
         mut crossed: impl FnMut(u32),
     ) {
+        let (f, t, ctx) = (lv.f, lv.t, lv.ctx);
         let r = self.cell_half_edges(c);
         let (s, e) = (r.start as usize, r.end as usize);
         let he = &self.origins[s..e];
@@ -713,7 +710,7 @@ impl Ciel {
             above(h0) && !above(if h0 == b { a } else { h0 + 1 })
         };
         if !ok_seed {
-            self.draw_cell(f, c, t, ctx, scratch, mesh, crossed);
+            self.draw_cell(lv, c, scratch, mesh, crossed);
             return;
         }
         mesh.cut_cells += 1;
@@ -740,7 +737,7 @@ impl Ciel {
             while y != cur {
                 y = next(y);
                 if y != cur && !above(y) {
-                    self.draw_cell_general(f, c, t, ctx, scratch, mesh, &mut crossed);
+                    self.draw_cell_general(lv, c, scratch, mesh, &mut crossed);
                     return;
                 }
             }
@@ -749,7 +746,7 @@ impl Ciel {
                 break;
             }
             if loops.len() > n {
-                self.draw_cell_general(f, c, t, ctx, scratch, mesh, &mut crossed);
+                self.draw_cell_general(lv, c, scratch, mesh, &mut crossed);
                 return;
             }
             cur = nxt;
@@ -773,18 +770,16 @@ impl Ciel {
 
     /// [`Ciel::draw_cell`] for cells with an ambiguous face (more than two
     /// crossings): faces decided by [`face_above_connected`].
-    #[allow(clippy::too_many_arguments)]
     #[cold]
     fn draw_cell_general<F: ScalarField>(
         &self,
-        f: &F,
+        lv: &DrawLevel<F>,
         c: u32,
-        t: f32,
-        ctx: &EmitContext,
         scratch: &mut DrawScratch,
         mesh: &mut LevelMesh,
         crossed: &mut impl FnMut(u32),
     ) {
+        let (f, t, ctx) = (lv.f, lv.t, lv.ctx);
         let r = self.cell_half_edges(c);
         let n = (r.end - r.start) as usize;
         let he = &self.origins[r.start as usize..r.end as usize];
@@ -842,6 +837,17 @@ impl Ciel {
             mesh.end_polygon(start, c);
         }
     }
+}
+
+/// A level as the CIEL draws its cut cells: the field, the level value and
+/// the emission context.
+pub struct DrawLevel<'a, F> {
+    /// φ.
+    pub f: &'a F,
+    /// The level.
+    pub t: f32,
+    /// Positions and attribute of the output.
+    pub ctx: &'a EmitContext<'a>,
 }
 
 impl DrawScratch {

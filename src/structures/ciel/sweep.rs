@@ -2,11 +2,11 @@
 
 use rayon::prelude::*;
 
-use super::{Ciel, DrawScratch, NONE};
+use super::{Ciel, DrawLevel, DrawScratch, NONE};
+use crate::cellgraph::BitSet;
+use crate::extract::LevelStats;
 use crate::extract::{EmitContext, LevelMesh, intersects};
 use crate::field::ScalarField;
-use crate::structures::BitSet;
-use crate::sweep::LevelStats;
 
 /// Is vertex `a`'s key `(φ, id)` below `b`'s?
 #[inline(always)]
@@ -201,10 +201,11 @@ impl<'c> CielSweeper<'c> {
                             }
                         }
                     };
+                    let lv = DrawLevel { f, t, ctx };
                     if planar && (all_convex || !non_convex.get(x as usize)) {
-                        c.draw_cell_from(f, x, seed, t, ctx, &mut self.scratch, mesh, visit);
+                        c.draw_cell_from(&lv, x, seed, &mut self.scratch, mesh, visit);
                     } else {
-                        c.draw_cell(f, x, t, ctx, &mut self.scratch, mesh, visit);
+                        c.draw_cell(&lv, x, &mut self.scratch, mesh, visit);
                     }
                 }
             }
@@ -283,9 +284,10 @@ pub fn brute_force<F: ScalarField>(
     let mut scratch = DrawScratch::default();
     for (k, &t) in levels.iter().enumerate() {
         mesh.clear();
+        let lv = DrawLevel { f, t, ctx };
         for &(x, lo, hi) in &live {
             if intersects(lo, hi, t) {
-                c.draw_cell(f, x, t, ctx, &mut scratch, mesh, |_| {});
+                c.draw_cell(&lv, x, &mut scratch, mesh, |_| {});
             }
         }
         let st = LevelStats::of(mesh, live.len() as u64);

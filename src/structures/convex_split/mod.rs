@@ -43,12 +43,12 @@ use std::ops::Deref;
 
 use thiserror::Error;
 
+use crate::cellgraph::{CellGraph, Lattice, Stamp};
 use crate::extract::EmitContext;
 use crate::field::ScalarField;
 use crate::grid::{Grid, Property};
 use crate::metacell::{Catalog, MAX_META_VERTICES};
 use crate::structures::polyhedron::CONVEXITY_TOLERANCE;
-use crate::sweep::{CellGraph, Lattice};
 use split::split_with;
 
 /// A cell that cannot be split into convex pieces.
@@ -238,7 +238,7 @@ impl<T: CellGraph> CellGraph for Split<T> {
     fn is_live(&self, slot: u32) -> bool {
         self.inner.is_live(slot)
     }
-    fn initial_stamps(&self) -> Vec<crate::sweep::Stamp> {
+    fn initial_stamps(&self) -> Vec<Stamp> {
         self.inner.initial_stamps()
     }
     #[inline(always)]

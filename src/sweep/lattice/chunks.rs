@@ -34,9 +34,10 @@
 //! set. Tests compare every level with the per-cell loop, the generic loop
 //! and the brute force.
 
+use super::index::{Divisor, LevelIndex};
 use super::weld::EdgeOwnership;
-use super::{Lattice, LatticeState, emit_cut_cells};
-use crate::extract::{EmitContext, LevelMesh};
+use super::{CutCells, Lattice, LatticeState, LatticeSweep, emit_cut_cells};
+use crate::extract::LevelMesh;
 use crate::sweep::{Block, LevelStats, Minimum};
 
 /// Chunk state: not reached yet.
@@ -118,6 +119,69 @@ impl ChunkQueues {
     /// Appends the cut cells of the patches in `group` (one row of patches
     /// of `shape`, in order) to `slots` in slot order, and empties the
     /// group.
+    /// Prefetches the level record of patch `w` (touched patches only:
+    /// those pushed by a touch this step are processed right after it).
+    #[inline(always)]
+    fn prefetch_record(&self, w: u32) {
+        let r = self.state[w as usize] as usize;
+        if r < PENDING as usize {
+            prefetch_nta(&self.levels, r * 128);
+            prefetch_nta(&self.levels, r * 128 + 64);
+        }
+    }
+
+    /// Step `k` (of `n`) of the touched patch `w`: records its cut cells,
+    /// schedules its next step or marks it done; returns its cells that
+    /// enter at this step.
+    #[inline(always)]
+    fn step_patch(&mut self, w: u32, k: usize, n: usize) -> u64 {
+        let r = self.state[w as usize] as usize;
+        let m = step_masks(&self.levels[r * 128..r * 128 + 128], k as u8);
+        if m.cut != 0 {
+            self.cut[w as usize] = m.cut;
+            self.cut_chunks[w as usize / 64] |= 1 << (w % 64);
+        }
+        if (m.next as usize) < n {
+            self.scheduled[m.next as usize].push(w);
+        } else {
+            self.state[w as usize] = DONE;
+            self.free.push(r as u32);
+        }
+        m.new
+    }
+
+    /// Marks patch `w` pending, unless it was touched already.
+    #[inline(always)]
+    fn reach(&mut self, w: u32) {
+        if self.state[w as usize] == UNTOUCHED {
+            self.state[w as usize] = PENDING;
+            self.pending.push(w);
+        }
+    }
+
+    /// This step's cut cells into `slots` in slot order, from the cut
+    /// patches (emptied): per patch row of a layer (the cut patches in
+    /// order, grouped), row by row of cells, patch by patch.
+    #[inline(always)]
+    fn order_cut_cells(&mut self, patches: &Patches) {
+        self.slots.clear();
+        let mut group_end = 0u32;
+        for x in 0..self.cut_chunks.len() {
+            while self.cut_chunks[x] != 0 {
+                let w = 64 * x as u32 + self.cut_chunks[x].trailing_zeros();
+                self.cut_chunks[x] &= self.cut_chunks[x] - 1;
+                let place = patches.place(w);
+                if w >= group_end {
+                    self.flush_group(patches);
+                    group_end = w - place.2 + patches.columns;
+                }
+                self.group
+                    .push((patches.first_slot_at(place), self.cut[w as usize]));
+            }
+        }
+        self.flush_group(patches);
+    }
+
     fn flush_group(&mut self, shape: &Patches) {
         let (width, row_bits) = (shape.width, shape.row_bits());
         let dj = shape.dj;
@@ -148,77 +212,6 @@ impl ChunkQueues {
     }
 }
 
-/// `#{t in levels : t <= x}` (the index of the first level above x), for
-/// ascending levels, 64 values at a time: a guess from the levels' mean
-/// spacing (vectorised), moved by at most one level and checked against
-/// the levels around it; values whose check fails (unevenly spaced levels)
-/// take a binary search.
-struct LevelIndex<'a> {
-    levels: &'a [f32],
-    /// The levels between −∞ and +∞ sentinels: the count c of x has
-    /// `padded[c] <= x < padded[c + 1]`.
-    padded: Vec<f32>,
-    first: f32,
-    inv_step: f32,
-}
-
-impl<'a> LevelIndex<'a> {
-    fn new(levels: &'a [f32]) -> Self {
-        let n = levels.len();
-        let span = levels[n - 1] - levels[0];
-        let inv_step = if n > 1 && span > 0.0 && ((n - 1) as f32 / span).is_finite() {
-            (n - 1) as f32 / span
-        } else {
-            0.0
-        };
-        let mut padded = Vec::with_capacity(n + 2);
-        padded.push(f32::NEG_INFINITY);
-        padded.extend_from_slice(levels);
-        padded.push(f32::INFINITY);
-        LevelIndex {
-            levels,
-            padded,
-            first: levels[0],
-            inv_step,
-        }
-    }
-
-    /// `out[p]` = the count of `xs[p]` (finite values, or ±∞).
-    #[inline(always)]
-    fn count_le_64(&self, xs: &[f32; 64], out: &mut [u8]) {
-        let n = self.levels.len();
-        let nf = n as f32;
-        let mut guess = [0u32; 64];
-        for (g, &x) in guess.iter_mut().zip(xs) {
-            // f32::max/min drop a NaN ((±∞ − ±∞)·0): the guess is then 0.
-            let y = ((x - self.first) * self.inv_step + 1.0).max(0.0).min(nf);
-            // SAFETY: y is finite and in 0..=n (< 256).
-            *g = unsafe { y.to_int_unchecked::<u32>() };
-        }
-        let p = &self.padded[..];
-        debug_assert_eq!(p.len(), n + 2);
-        let mut all_ok = true;
-        for ((o, &x), &g) in out.iter_mut().zip(xs).zip(&guess) {
-            let mut c = g as usize;
-            // SAFETY: c <= n, so c + 1 <= n + 1 < p.len(); after the moves
-            // c stays in 0..=n (p[n + 1] = +∞ is only <= x = +∞, then c is
-            // clamped; p[0] = −∞ is never > x).
-            unsafe {
-                c += (*p.get_unchecked(c + 1) <= x) as usize;
-                c = c.min(n);
-                c -= (*p.get_unchecked(c) > x) as usize;
-                all_ok &= *p.get_unchecked(c) <= x && (x < *p.get_unchecked(c + 1) || c == n);
-            }
-            *o = c as u8;
-        }
-        if !all_ok {
-            for (o, &x) in out.iter_mut().zip(xs) {
-                *o = self.levels.partition_point(|&t| t <= x) as u8;
-            }
-        }
-    }
-}
-
 /// Patch flags: it has a neighbour patch before it along i, after it along
 /// i, before it along j, after it along j.
 const HAS_LEFT: u8 = 1;
@@ -231,34 +224,6 @@ const HAS_UP: u8 = 8;
 /// The patch widths (cells along i) the loop is built for; the height is
 /// 64 / width.
 pub(crate) const WIDTHS: [u32; 4] = [8, 16, 32, 64];
-
-/// Division by a fixed `u32` through one multiplication (Lemire, Kaser and
-/// Kurz, "Faster remainder by direct computation", 2019): `⌊n / d⌋ =
-/// ⌊M·n / 2⁶⁴⌋` with `M = ⌊2⁶⁴ / d⌋ + 1`, exact for every u32 `n`. The
-/// patch arithmetic runs per cut patch per step, where a hardware
-/// division would cost tens of cycles.
-#[derive(Clone, Copy, Debug)]
-struct Divisor {
-    d: u32,
-    m: u128,
-}
-
-impl Divisor {
-    fn new(d: u32) -> Self {
-        assert!(d > 0, "division by zero");
-        Divisor {
-            d,
-            m: (1u128 << 64) / d as u128 + 1,
-        }
-    }
-
-    /// `(n / d, n % d)`.
-    #[inline(always)]
-    fn div_rem(&self, n: u32) -> (u32, u32) {
-        let q = ((self.m * n as u128) >> 64) as u32;
-        (q, n - q * self.d)
-    }
-}
 
 /// The block's slots cut into patches of `width × height` cells (i × j,
 /// 64 in all) in one layer: patch `w = (layer · rows + row) · columns +
@@ -505,6 +470,22 @@ fn fill_levels(
     least
 }
 
+/// Prefetches the φ rows that touching the `W`-wide patch whose first
+/// vertex is `v` reads (its height + 1 rows on both vertex layers).
+#[inline(always)]
+fn prefetch_patch<const W: usize>(phi: &[f32], v: i64, dj: u32, dk: u32) {
+    for r in 0..=64 / W as u32 {
+        for l in [0, dk] {
+            let x = v + (r * dj + l) as i64;
+            for line in (0..=W).step_by(16) {
+                if x >= 0 {
+                    prefetch_nta(phi, x as usize + line);
+                }
+            }
+        }
+    }
+}
+
 /// A prefetch of `s[i]` that keeps the line out of the outer caches.
 #[inline(always)]
 fn prefetch_nta<T>(s: &[T], i: usize) {
@@ -634,42 +615,34 @@ pub(super) fn patch_width(
 /// docs) of the width [`patch_width`] picks: the same cut cells per level,
 /// emitted in slot order with the same polygons. Needs at most
 /// [`MAX_LEVELS`] levels.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn sweep_block_chunks(
-    lat: &Lattice,
-    phi: &[f32],
+    input: &LatticeSweep,
     b: &mut Block,
     minima: &[Minimum],
     levels: &[f32],
-    ctx: &EmitContext,
-    hash_weld: bool,
     on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
     let width = patch_width(
-        lat,
-        phi,
+        &input.lat,
+        input.phi,
         b.start,
         b.stamps.len() as u32,
         b.options.patch_width,
     );
-    sweep_block_patches(width, lat, phi, b, minima, levels, ctx, hash_weld, on_level);
+    sweep_block_patches(width, input, b, minima, levels, on_level);
 }
 
 /// [`sweep_block_chunks`] with patches `width` cells wide (one of
 /// [`WIDTHS`]).
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn sweep_block_patches(
     width: u32,
-    lat: &Lattice,
-    phi: &[f32],
+    input: &LatticeSweep,
     b: &mut Block,
     minima: &[Minimum],
     levels: &[f32],
-    ctx: &EmitContext,
-    hash_weld: bool,
     on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
-    let args = (lat, phi, b, minima, levels, ctx, hash_weld, on_level);
+    let args = (input, b, minima, levels, on_level);
     match width {
         8 => sweep_shaped::<8>(args),
         16 => sweep_shaped::<16>(args),
@@ -681,25 +654,28 @@ pub(crate) fn sweep_block_patches(
 
 /// The arguments of [`sweep_block_chunks`].
 type SweepArgs<'a, 'l, L> = (
-    &'a Lattice<'l>,
-    &'a [f32],
+    &'a LatticeSweep<'l>,
     &'a mut Block,
     &'a [Minimum],
     &'a [f32],
-    &'a EmitContext<'a>,
-    bool,
     L,
 );
 
 /// [`sweep_block_patches`] for patches `W` cells wide.
 #[inline(never)]
 fn sweep_shaped<const W: usize>(
-    (lat, phi, b, minima, levels, ctx, hash_weld, mut on_level): SweepArgs<
+    (input, b, minima, levels, mut on_level): SweepArgs<
         '_,
         '_,
         impl FnMut(usize, &LevelMesh, &LevelStats),
     >,
 ) {
+    let LatticeSweep {
+        ref lat,
+        phi,
+        hash_weld,
+        ..
+    } = *input;
     let n = levels.len();
     assert!(n <= MAX_LEVELS, "{n} levels: at most {MAX_LEVELS}");
     if n == 0 {
@@ -719,7 +695,6 @@ fn sweep_shaped<const W: usize>(
     if own_weld {
         state.window.fit(&owner);
     }
-    let index = LevelIndex::new(levels);
     let Block {
         stamps,
         mesh,
@@ -731,35 +706,11 @@ fn sweep_shaped<const W: usize>(
         window, chunks: q, ..
     } = lattice.as_deref_mut().expect("set above");
     let len = stamps.len() as u32;
-    let patches = Patches::new(W as u32, lat, start, len);
-    let (row_bits, column_bits) = (patches.row_bits(), patches.column_bits());
-    let (first_row, last_row) = (row_bits, row_bits << (64 - W));
-    let (first_column, last_column) = (column_bits, column_bits << (W - 1));
-    let chunks = patches.count;
+    let sh = Shaped::<W>::new(lat, phi, Patches::new(W as u32, lat, start, len), levels);
+    let chunks = sh.patches.count;
     q.begin(chunks as usize, n);
     q.flags.clear();
-    q.flags.extend((0..chunks).map(|w| patches.flags(w)));
-    // First vertex of patch w's first cell.
-    let first_vertex = |w: u32| patches.first_slot(w) as i64 - lat.base as i64;
-    let layer = patches.columns * patches.rows;
-    // Touches patch w at step k: fills its record, then queues it for this
-    // step (a cell enters at k), schedules it, or marks it done.
-    let touch = |q: &mut ChunkQueues, work: &mut Vec<u32>, w: u32, k: usize| {
-        let (lo, hi) = patch_ranges::<W>(phi, first_vertex(w), dj, dk);
-        let r = q.alloc();
-        let rec = &mut q.levels[r as usize * 128..r as usize * 128 + 128];
-        let least = fill_levels(rec, &lo, &hi, patches.dead_bits(lat, w), &index) as usize;
-        debug_assert!(least >= k, "a patch is touched by its first entry step");
-        q.state[w as usize] = r;
-        if least == k {
-            work.push(w);
-        } else if least < n {
-            q.scheduled[least].push(w);
-        } else {
-            q.state[w as usize] = DONE;
-            q.free.push(r);
-        }
-    };
+    q.flags.extend((0..chunks).map(|w| sh.patches.flags(w)));
     let mut prev_cut = 0u64;
     let mut next_min = 0;
     for (k, &t) in levels.iter().enumerate() {
@@ -770,11 +721,7 @@ fn sweep_shaped<const W: usize>(
         while next_min < minima.len() && minima[next_min].lo < t {
             let c = minima[next_min].slot;
             if c.wrapping_sub(start) < len {
-                let w = patches.of_slot(c);
-                if q.state[w as usize] == UNTOUCHED {
-                    q.state[w as usize] = PENDING;
-                    q.pending.push(w);
-                }
+                q.reach(sh.patches.of_slot(c));
             }
             next_min += 1;
         }
@@ -782,200 +729,141 @@ fn sweep_shaped<const W: usize>(
         let mut i = 0;
         loop {
             if i == work.len() {
-                // Touch the patches reached so far (their rows prefetched a
-                // few patches ahead); those with a cell entering now join
-                // this step's work.
+                // Touch the patches reached so far; those with a cell
+                // entering now join this step's work.
                 if q.pending.is_empty() {
                     break;
                 }
-                let mut pending = std::mem::take(&mut q.pending);
-                for (p, &w) in pending.iter().enumerate() {
-                    if let Some(&ahead) = pending.get(p + 2) {
-                        let v = first_vertex(ahead);
-                        for r in 0..=64 / W as u32 {
-                            for l in [0, dk] {
-                                let x = v + (r * dj + l) as i64;
-                                for line in (0..=W).step_by(16) {
-                                    if x >= 0 {
-                                        prefetch_nta(phi, x as usize + line);
-                                    }
-                                }
-                            }
-                        }
-                    }
-                    touch(q, work, w, k);
-                }
-                pending.clear();
-                q.pending = pending;
+                sh.touch_pending(q, work, k);
                 continue;
             }
             let w = work[i];
             if let Some(&ahead) = work.get(i + 4) {
-                // Its level record (touched patches only: those pushed by a
-                // touch this step are processed right after it).
-                let r = q.state[ahead as usize] as usize;
-                if r < PENDING as usize {
-                    prefetch_nta(&q.levels, r * 128);
-                    prefetch_nta(&q.levels, r * 128 + 64);
-                }
+                q.prefetch_record(ahead);
             }
             i += 1;
-            let r = q.state[w as usize] as usize;
-            let m = step_masks(&q.levels[r * 128..r * 128 + 128], k as u8);
-            if m.cut != 0 {
-                q.cut[w as usize] = m.cut;
-                q.cut_chunks[w as usize / 64] |= 1 << (w % 64);
-            }
-            if (m.next as usize) < n {
-                q.scheduled[m.next as usize].push(w);
-            } else {
-                q.state[w as usize] = DONE;
-                q.free.push(r as u32);
-            }
-            let new = m.new;
-            if new == 0 {
-                continue;
-            }
-            entered += new.count_ones() as u64;
-            // The patches across the faces of the entering cells: along i
-            // and j those at the patch's sides, along k the ones above and
-            // below.
-            let reach = |w: u32, q: &mut ChunkQueues| {
-                if q.state[w as usize] == UNTOUCHED {
-                    q.state[w as usize] = PENDING;
-                    q.pending.push(w);
-                }
-            };
-            let flags = q.flags[w as usize];
-            if new & first_column != 0 && flags & HAS_LEFT != 0 {
-                reach(w - 1, q);
-            }
-            if new & last_column != 0 && flags & HAS_RIGHT != 0 {
-                reach(w + 1, q);
-            }
-            if new & first_row != 0 && flags & HAS_DOWN != 0 {
-                reach(w - patches.columns, q);
-            }
-            if new & last_row != 0 && flags & HAS_UP != 0 {
-                reach(w + patches.columns, q);
-            }
-            if w >= layer {
-                reach(w - layer, q);
-            }
-            if w + layer < chunks {
-                reach(w + layer, q);
+            let new = q.step_patch(w, k, n);
+            if new != 0 {
+                entered += new.count_ones() as u64;
+                sh.reach_across(q, w, new);
             }
         }
-        // This step's cut cells in slot order: per patch row of a layer
-        // (the cut patches in order, grouped), row by row of cells, patch
-        // by patch.
-        q.slots.clear();
-        let mut group_end = 0u32;
-        for x in 0..q.cut_chunks.len() {
-            while q.cut_chunks[x] != 0 {
-                let w = 64 * x as u32 + q.cut_chunks[x].trailing_zeros();
-                q.cut_chunks[x] &= q.cut_chunks[x] - 1;
-                let place = patches.place(w);
-                if w >= group_end {
-                    q.flush_group(&patches);
-                    group_end = w - place.2 + patches.columns;
-                }
-                q.group
-                    .push((patches.first_slot_at(place), q.cut[w as usize]));
-            }
-        }
-        q.flush_group(&patches);
-        let weld = own_weld.then_some(&owner);
-        emit_cut_cells(
-            lat,
-            phi,
-            &q.slots,
-            |c| c,
+        q.order_cut_cells(&sh.patches);
+        let cells = CutCells {
+            cut: &q.slots,
+            slot_of: |c| c,
             start,
             len,
             t,
-            ctx,
-            weld,
-            mesh,
-            window,
-        );
+        };
+        emit_cut_cells(input, cells, own_weld.then_some(&owner), mesh, window);
         let stats = LevelStats::of(mesh, entered + prev_cut);
         prev_cut = q.slots.len() as u64;
         on_level(k, mesh, &stats);
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::{Divisor, LevelIndex};
+/// What [`sweep_shaped`] reads besides its queues: the lattice, φ, the
+/// block's `W`-wide patches, the level index, and the bits of a patch's
+/// first and last rows and columns.
+struct Shaped<'a, 'l, const W: usize> {
+    lat: &'a Lattice<'l>,
+    phi: &'a [f32],
+    patches: Patches,
+    index: LevelIndex<'a>,
+    levels: usize,
+    first_row: u64,
+    last_row: u64,
+    first_column: u64,
+    last_column: u64,
+}
 
-    /// The multiply-shift division equals `/` and `%` for small, large and
-    /// random divisors and dividends, u32::MAX included.
-    #[test]
-    fn divisor_equals_hardware_division() {
-        let mut x = 0x9E37_79B9u32;
-        let mut rnd = move || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            x
-        };
-        let mut divisors = vec![1, 2, 3, 7, 17, 33, 64, 65, 1000, u32::MAX - 1, u32::MAX];
-        divisors.extend((0..50).map(|_| rnd() % 5000 + 1));
-        divisors.extend((0..50).map(|_| rnd().max(1)));
-        for d in divisors {
-            let by = Divisor::new(d);
-            let mut ns = vec![0, 1, d - 1, d, d.wrapping_add(1), u32::MAX, u32::MAX - 1];
-            ns.extend((0..2000).map(|_| rnd()));
-            ns.extend((0..200).map(|_| rnd() % 100_000));
-            for n in ns {
-                assert_eq!(by.div_rem(n), (n / d, n % d), "{n} / {d}");
-            }
+impl<'a, 'l, const W: usize> Shaped<'a, 'l, W> {
+    #[inline(always)]
+    fn new(lat: &'a Lattice<'l>, phi: &'a [f32], patches: Patches, levels: &'a [f32]) -> Self {
+        let (row_bits, column_bits) = (patches.row_bits(), patches.column_bits());
+        Shaped {
+            lat,
+            phi,
+            patches,
+            index: LevelIndex::new(levels),
+            levels: levels.len(),
+            first_row: row_bits,
+            last_row: row_bits << (64 - W),
+            first_column: column_bits,
+            last_column: column_bits << (W - 1),
         }
     }
 
-    /// The batched level index equals a binary search over the levels, for
-    /// evenly and unevenly spaced levels, values on, between and outside
-    /// the levels, and ±∞.
-    #[test]
-    fn level_index_equals_the_binary_search() {
-        let mut x = 0x1234_5678u32;
-        let mut rnd = move || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            x
-        };
-        let even: Vec<f32> = (0..200).map(|k| -3.7 + k as f32 * 0.031).collect();
-        let uneven: Vec<f32> = (0..50).map(|k| (k * k) as f32 * 0.01 - 2.0).collect();
-        let single = vec![0.5f32];
-        let tight: Vec<f32> = (0..255).map(|k| 1000.0 + k as f32 * 0.000_1).collect();
-        for levels in [even, uneven, single, tight] {
-            let index = LevelIndex::new(&levels);
-            for round in 0..200 {
-                let xs: [f32; 64] = std::array::from_fn(|p| match (round + p) % 5 {
-                    // A level itself, or its neighbours in f32.
-                    0 => levels[rnd() as usize % levels.len()],
-                    1 => f32::from_bits(levels[rnd() as usize % levels.len()].to_bits() + 1),
-                    2 => f32::from_bits(levels[rnd() as usize % levels.len()].to_bits() - 1),
-                    3 if p % 17 == 0 => [f32::INFINITY, f32::NEG_INFINITY][p % 2],
-                    _ => {
-                        let (a, b) = (levels[0], levels[levels.len() - 1]);
-                        a - 1.0 + (b - a + 2.0) * (rnd() % 10_000) as f32 / 10_000.0
-                    }
-                });
-                let mut got = [0u8; 64];
-                index.count_le_64(&xs, &mut got);
-                for (p, &x) in xs.iter().enumerate() {
-                    let want = levels.partition_point(|&t| t <= x);
-                    assert_eq!(
-                        got[p] as usize,
-                        want,
-                        "x = {x} among {} levels",
-                        levels.len()
-                    );
-                }
+    /// First vertex of patch w's first cell.
+    #[inline(always)]
+    fn first_vertex(&self, w: u32) -> i64 {
+        self.patches.first_slot(w) as i64 - self.lat.base as i64
+    }
+
+    /// Touches patch w at step k: fills its record, then queues it for this
+    /// step (a cell enters at k), schedules it, or marks it done.
+    #[inline(always)]
+    fn touch(&self, q: &mut ChunkQueues, work: &mut Vec<u32>, w: u32, k: usize) {
+        let [_, dj, dk] = self.lat.deltas;
+        let (lo, hi) = patch_ranges::<W>(self.phi, self.first_vertex(w), dj, dk);
+        let r = q.alloc();
+        let rec = &mut q.levels[r as usize * 128..r as usize * 128 + 128];
+        let dead = self.patches.dead_bits(self.lat, w);
+        let least = fill_levels(rec, &lo, &hi, dead, &self.index) as usize;
+        debug_assert!(least >= k, "a patch is touched by its first entry step");
+        q.state[w as usize] = r;
+        if least == k {
+            work.push(w);
+        } else if least < self.levels {
+            q.scheduled[least].push(w);
+        } else {
+            q.state[w as usize] = DONE;
+            q.free.push(r);
+        }
+    }
+
+    /// Touches the pending patches at step k (their rows prefetched a few
+    /// patches ahead).
+    #[inline(always)]
+    fn touch_pending(&self, q: &mut ChunkQueues, work: &mut Vec<u32>, k: usize) {
+        let [_, dj, dk] = self.lat.deltas;
+        let mut pending = std::mem::take(&mut q.pending);
+        for (p, &w) in pending.iter().enumerate() {
+            if let Some(&ahead) = pending.get(p + 2) {
+                prefetch_patch::<W>(self.phi, self.first_vertex(ahead), dj, dk);
             }
+            self.touch(q, work, w, k);
+        }
+        pending.clear();
+        q.pending = pending;
+    }
+
+    /// Reaches the patches across the faces of patch w's entering cells
+    /// `new`: along i and j those at the patch's sides, along k the ones
+    /// above and below.
+    #[inline(always)]
+    fn reach_across(&self, q: &mut ChunkQueues, w: u32, new: u64) {
+        let columns = self.patches.columns;
+        let layer = columns * self.patches.rows;
+        let flags = q.flags[w as usize];
+        if new & self.first_column != 0 && flags & HAS_LEFT != 0 {
+            q.reach(w - 1);
+        }
+        if new & self.last_column != 0 && flags & HAS_RIGHT != 0 {
+            q.reach(w + 1);
+        }
+        if new & self.first_row != 0 && flags & HAS_DOWN != 0 {
+            q.reach(w - columns);
+        }
+        if new & self.last_row != 0 && flags & HAS_UP != 0 {
+            q.reach(w + columns);
+        }
+        if w >= layer {
+            q.reach(w - layer);
+        }
+        if w + layer < self.patches.count {
+            q.reach(w + layer);
         }
     }
 }

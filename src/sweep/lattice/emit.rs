@@ -1,31 +1,50 @@
 //! Emission of a level's cut lattice cells, in slot order, welded by edge
 //! ownership (or by the mesh's hash map).
 
-use super::weld::{EdgeOwnership, EdgeWindow};
-use super::{Lattice, code8, load8};
-use crate::extract::{EmitContext, LevelMesh, norm2_of, prefetch};
+use super::weld::{EdgeOwnership, EdgeWindow, HexCell, HexLevel};
+use super::writer::HexWriter;
+use super::{LatticeSweep, code8, load8};
+use crate::extract::{LevelMesh, prefetch};
 use crate::sweep::PREFETCH_AHEAD;
 
-/// Emits level `t`'s polygons of a block's cut cells `cut` (slots
-/// `slot_of(x)`, ascending; the block has `len` slots from `start`) into
-/// `mesh`, welded by edge ownership through `window` when `owner` is given,
-/// else by the mesh's hash map. With [`EmitContext::cells_only`] it records
-/// only the cells.
-#[allow(clippy::too_many_arguments)]
+/// A level's cut cells as [`emit_cut_cells`] takes them: `cut`, whose
+/// slots `slot_of(x)` ascend, in the block of `len` slots from `start`, at
+/// level `t`.
+pub(crate) struct CutCells<'c, T, S> {
+    /// The cut cells.
+    pub(crate) cut: &'c [T],
+    /// The slot of an entry of `cut`.
+    pub(crate) slot_of: S,
+    /// The block's first slot.
+    pub(crate) start: u32,
+    /// The block's slot count.
+    pub(crate) len: u32,
+    /// The level.
+    pub(crate) t: f32,
+}
+
+/// Emits the polygons of a level's cut cells `cells` into `mesh`, welded
+/// by edge ownership through `window` when `owner` is given, else by the
+/// mesh's hash map. With [`crate::extract::EmitContext::cells_only`] it records only the
+/// cells.
 #[inline(never)]
 pub(crate) fn emit_cut_cells<T: Copy>(
-    lat: &Lattice,
-    phi: &[f32],
-    cut: &[T],
-    slot_of: impl Fn(T) -> u32,
-    start: u32,
-    len: u32,
-    t: f32,
-    ctx: &EmitContext,
+    input: &LatticeSweep,
+    cells: CutCells<T, impl Fn(T) -> u32>,
     owner: Option<&EdgeOwnership>,
     mesh: &mut LevelMesh,
     window: &mut EdgeWindow,
 ) {
+    let LatticeSweep {
+        ref lat, phi, ctx, ..
+    } = *input;
+    let CutCells {
+        cut,
+        slot_of,
+        start,
+        len,
+        t,
+    } = cells;
     let [di, dj, dk] = lat.deltas;
     if ctx.cells_only {
         mesh.cells.extend(cut.iter().map(|&x| slot_of(x)));
@@ -55,7 +74,7 @@ pub(crate) fn emit_cut_cells<T: Copy>(
             let c = slot_of(x);
             let f = load(c);
             lat.table
-                .emit_hashed(lat.meta, c - lat.base, &f, t, c, ctx, mesh);
+                .emit_hashed(lat.meta, (c - lat.base, &f, c), t, ctx, mesh);
         }
         return;
     };
@@ -85,6 +104,7 @@ pub(crate) fn emit_cut_cells<T: Copy>(
     };
     // Batches of cells written without capacity checks; a cell with an
     // ambiguous face ends its batch and is written through the mesh.
+    let level = HexLevel { t, ctx, owner };
     let mut n = 0;
     while n < cut.len() {
         let batch = (cut.len() - n).min(1024);
@@ -96,174 +116,25 @@ pub(crate) fn emit_cut_cells<T: Copy>(
             let c = slot_of(cut[n]);
             n += 1;
             let f = load(c);
-            let code = code8(&f, t);
-            let live = live_lower(c);
-            let v0 = c - lat.base;
-            if !lat
-                .table
-                .emit(v0, &f, t, code, owner, live, c, ctx, &mut out, window)
-            {
-                ambiguous = Some((c, f, code, live));
+            let cell = HexCell {
+                v0: c - lat.base,
+                f,
+                code: code8(&f, t),
+                live: live_lower(c),
+                slot: c,
+            };
+            if !lat.table.emit(&level, &cell, &mut out, window) {
+                ambiguous = Some(cell);
                 break;
             }
         }
         drop(out);
-        if let Some((c, f, code, live)) = ambiguous {
-            lat.table.emit_ambiguous(
-                lat.meta,
-                c - lat.base,
-                &f,
-                t,
-                code,
-                live,
-                owner,
-                c,
-                ctx,
-                mesh,
-                window,
-            );
+        if let Some(cell) = ambiguous {
+            // A level of its own for the out-of-line call, so that `level`'s
+            // address never escapes and its fields stay in registers.
+            let level = HexLevel { t, ctx, owner };
+            lat.table
+                .emit_ambiguous(lat.meta, &level, &cell, mesh, window);
         }
     }
-}
-
-/// Appends to a [`LevelMesh`] without a capacity check per element: made
-/// for a batch of at most `cells` cells, for which it reserves room (at
-/// most [`HexWriter::PER_CELL`] new vertices, corners and polygons per
-/// cell: a hexahedron's); the vectors' lengths and the sums are set when it
-/// is dropped. The lattice emitter writes through it: on warped 128³ (200
-/// levels) the `Vec` pushes of the emission took about a third of its
-/// instructions. Keep it a local that is only used by inlined code, so that
-/// its counters stay in registers.
-pub(crate) struct HexWriter<'m> {
-    mesh: &'m mut LevelMesh,
-    positions: *mut [f32; 3],
-    values: *mut f32,
-    keys: *mut u64,
-    indices: *mut u32,
-    offsets: *mut u32,
-    cells: *mut u32,
-    /// Vertices written (the lengths of positions, values and keys).
-    nv: usize,
-    /// Corners written (the length of indices).
-    ni: usize,
-    /// Polygons written (the length of cells; offsets holds one more).
-    np: usize,
-    /// Cells that may still begin.
-    room: usize,
-    area: f64,
-    triangles: usize,
-    cut_cells: u32,
-}
-
-impl<'m> HexWriter<'m> {
-    /// Most vertices, corners or polygons one cell may add.
-    pub(crate) const PER_CELL: usize = 12;
-
-    /// A writer appending at most `cells` cells to `mesh`.
-    #[inline(always)]
-    pub(crate) fn new(mesh: &'m mut LevelMesh, cells: usize) -> Self {
-        debug_assert_eq!(mesh.offsets.len(), mesh.cells.len() + 1);
-        reserve_cells(mesh, cells);
-        HexWriter {
-            positions: mesh.positions.as_mut_ptr(),
-            values: mesh.values.as_mut_ptr(),
-            keys: mesh.edge_keys.as_mut_ptr(),
-            indices: mesh.indices.as_mut_ptr(),
-            offsets: mesh.offsets.as_mut_ptr(),
-            cells: mesh.cells.as_mut_ptr(),
-            nv: mesh.positions.len(),
-            ni: mesh.indices.len(),
-            np: mesh.cells.len(),
-            room: cells,
-            area: mesh.area,
-            triangles: mesh.triangle_sum,
-            cut_cells: mesh.cut_cells,
-            mesh,
-        }
-    }
-
-    /// Starts a cut cell (one of the `cells` the writer was made for).
-    #[inline(always)]
-    pub(crate) fn begin_cell(&mut self) {
-        assert!(self.room > 0, "more cells than the writer was made for");
-        self.room -= 1;
-        self.cut_cells += 1;
-    }
-
-    /// Appends a vertex welded by the caller (grid edge `key`); returns its
-    /// index. At most [`HexWriter::PER_CELL`] per [`HexWriter::begin_cell`].
-    #[inline(always)]
-    pub(crate) fn vertex(&mut self, key: u64, p: [f32; 3], value: f32) -> u32 {
-        let vi = self.nv;
-        // SAFETY: `begin_cell` left room for PER_CELL vertices of this cell.
-        unsafe {
-            self.positions.add(vi).write(p);
-            self.values.add(vi).write(value);
-            self.keys.add(vi).write(key);
-        }
-        self.nv = vi + 1;
-        vi as u32
-    }
-
-    /// Appends the polygon of source cell `slot` with the `m` corners
-    /// `corner(0..m)` (vertices already written), adding its area as
-    /// [`LevelMesh::end_polygon`] does. At most [`HexWriter::PER_CELL`]
-    /// corners and polygons per [`HexWriter::begin_cell`].
-    #[inline(always)]
-    pub(crate) fn polygon(&mut self, m: usize, corner: impl Fn(usize) -> u32, slot: u32) {
-        debug_assert!((3..=Self::PER_CELL).contains(&m));
-        let start = self.ni;
-        // SAFETY: room for PER_CELL corners and PER_CELL polygons of this cell
-        // (`begin_cell`); every corner is a vertex index below `nv`, so its
-        // position was written.
-        unsafe {
-            for i in 0..m {
-                self.indices.add(start + i).write(corner(i));
-            }
-            let ids = std::slice::from_raw_parts(self.indices.add(start), m);
-            let pos = self.positions;
-            let n2 = norm2_of(m, |i| {
-                (*pos.add(*ids.get_unchecked(i) as usize)).map(f64::from)
-            });
-            self.area += 0.5 * n2.sqrt();
-            self.ni = start + m;
-            self.offsets.add(self.np + 1).write(self.ni as u32);
-            self.cells.add(self.np).write(slot);
-        }
-        self.np += 1;
-        self.triangles += m - 2;
-    }
-}
-
-impl Drop for HexWriter<'_> {
-    #[inline(always)]
-    fn drop(&mut self) {
-        // SAFETY: every element below these lengths was written (vertices,
-        // corners and polygons are appended in order) within the room
-        // reserved by `new`: at most PER_CELL of each per begun cell.
-        unsafe {
-            self.mesh.positions.set_len(self.nv);
-            self.mesh.values.set_len(self.nv);
-            self.mesh.edge_keys.set_len(self.nv);
-            self.mesh.indices.set_len(self.ni);
-            self.mesh.offsets.set_len(self.np + 1);
-            self.mesh.cells.set_len(self.np);
-        }
-        self.mesh.area = self.area;
-        self.mesh.triangle_sum = self.triangles;
-        self.mesh.cut_cells = self.cut_cells;
-    }
-}
-
-/// Makes room in `mesh` for `cells` more cells of at most
-/// [`HexWriter::PER_CELL`] vertices, corners and polygons each.
-#[inline(never)]
-fn reserve_cells(mesh: &mut LevelMesh, cells: usize) {
-    let extra = cells * HexWriter::PER_CELL;
-    mesh.positions.reserve(extra);
-    mesh.values.reserve(extra);
-    mesh.edge_keys.reserve(extra);
-    mesh.indices.reserve(extra);
-    mesh.offsets.reserve(extra);
-    mesh.cells.reserve(extra);
 }

@@ -6,39 +6,35 @@
 
 pub(super) mod chunks;
 mod emit;
+mod index;
 pub mod weld;
+mod writer;
 
 use super::{
     Block, LevelStats, Minimum, NEVER, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots,
 };
+use crate::cellgraph::BitSet;
+pub use crate::cellgraph::Lattice;
 use crate::extract::{EmitContext, LevelMesh, prefetch};
-use crate::metacell::MetaCell;
-use crate::structures::BitSet;
-pub(super) use emit::emit_cut_cells;
+use emit::{CutCells, emit_cut_cells};
+use weld::EdgeOwnership;
 use weld::EdgeWindow;
-use weld::{EdgeOwnership, LatticeHexTable};
 
-/// An implicit hexahedral lattice, for the specialised sweep loop: cell
-/// `slot` has first vertex `v0 = slot - base`, vertices
-/// `v0 + {0, di} + {0, dj} + {0, dk}` (`deltas = [di, dj, dk]`, with
-/// `di = 1`) and face neighbours `slot ± deltas[axis]`. Neighbour slots
-/// outside the grid are dead (never-sweep) slots, so no bounds checks.
-#[derive(Clone, Copy, Debug)]
-pub struct Lattice<'a> {
-    /// Vertex count: every live cell's vertex ids are below it.
-    pub vertices: usize,
-    /// Slot of the cell whose first vertex is 0.
-    pub base: u32,
-    /// Slot (and vertex id) steps along i, j, k.
-    pub deltas: [u32; 3],
-    /// Per slot: live (the never-sweep slots are the others).
-    pub live: &'a BitSet,
-    /// Per slot: live, and so are its 18 face and edge neighbours.
-    pub surrounded: &'a BitSet,
-    /// The hexahedron's meta-cell.
-    pub meta: &'a MetaCell,
-    /// Its tables flattened for the lattice's offsets.
-    pub table: &'a LatticeHexTable,
+/// What a lattice block sweep reads besides the block and its levels: the
+/// lattice, φ per vertex (at least [`Lattice::vertices`] values), the
+/// emission context, and whether to weld by the mesh's hash map instead of
+/// by edge ownership.
+#[derive(Clone, Copy)]
+pub(crate) struct LatticeSweep<'a> {
+    /// The lattice.
+    pub(crate) lat: Lattice<'a>,
+    /// φ per vertex.
+    pub(crate) phi: &'a [f32],
+    /// Positions and attribute of the output.
+    pub(crate) ctx: &'a EmitContext<'a>,
+    /// Weld by the mesh's hash map (the lattices whose weld window would
+    /// not fit always do).
+    pub(crate) hash_weld: bool,
 }
 
 /// A block's lattice-loop state, made on the first lattice sweep and kept
@@ -242,15 +238,18 @@ pub(super) fn block_minima_lattice(lat: &Lattice, phi: &[f32], b: &Block) -> Vec
 /// constants of the lattice.
 #[inline(never)]
 pub(super) fn sweep_block_lattice(
-    lat: &Lattice,
-    phi: &[f32],
+    input: &LatticeSweep,
     b: &mut Block,
     minima: &[Minimum],
     levels: &[f32],
-    ctx: &EmitContext,
-    hash_weld: bool,
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
+    let LatticeSweep {
+        ref lat,
+        phi,
+        hash_weld,
+        ..
+    } = *input;
     let start = b.start;
     let [di, dj, dk] = lat.deltas;
     debug_assert_eq!(
@@ -259,25 +258,19 @@ pub(super) fn sweep_block_lattice(
     );
     // Every live cell's vertices, and those of its live neighbours, are
     // below `lat.vertices`: this one check makes the unchecked φ reads
-    // below sound.
+    // of `read_cell` sound.
     assert!(
         phi.len() >= lat.vertices,
         "φ has {} values for {} vertices",
         phi.len(),
         lat.vertices
     );
-    // SAFETY (for `at` and `cell`): callers pass vertex ids of a live cell,
-    // or of a live neighbour (not in `seen`, so not a never-sweep slot),
-    // all < lat.vertices.
-    let at = |v: u32| unsafe { *phi.get_unchecked(v as usize) };
-    let cell = |c: u32| unsafe { load8(phi, c - lat.base, dj, dk) };
     let owner = EdgeOwnership::new(dj, dk / dj);
     let own_weld = owner.fits && !hash_weld;
     let state = b.lattice.get_or_insert_with(Default::default);
     if own_weld {
         state.window.fit(&owner);
     }
-    let n = levels.len();
     let Block {
         stamps,
         mesh,
@@ -307,104 +300,29 @@ pub(super) fn sweep_block_lattice(
         let mut work = std::mem::take(&mut entering[k]);
         radix_sort_slots(&mut work, sort_scratch, start, len);
         fresh.clear();
+        let step = CellStep {
+            lat,
+            phi,
+            levels,
+            k,
+            t,
+            start,
+            len,
+        };
         let mut i = 0;
         while i < work.len() {
             let c = work[i];
             if let Some(&ahead) = work.get(i + 2 * PREFETCH_AHEAD) {
-                // The four φ rows of the cell four entries ahead, the seen
-                // words of its k neighbours (the i and j ones share or
-                // neighbour its word), and the φ rows of their far faces.
-                let v = ahead - lat.base;
-                for r in [v, v + dj, v + dk, v + dj + dk] {
-                    prefetch(phi, r as usize);
-                }
-                for nb in [ahead - dk, ahead + dk] {
-                    prefetch(seen, nb.wrapping_sub(start) as usize / 64);
-                }
-                for r in [
-                    v.wrapping_sub(dk),
-                    (v + dj).wrapping_sub(dk),
-                    v + 2 * dk,
-                    v + dj + 2 * dk,
-                    v.wrapping_sub(dj),
-                    (v + dk).wrapping_sub(dj),
-                    v + 2 * dj,
-                    v + 2 * dj + dk,
-                ] {
-                    prefetch(phi, r as usize);
-                }
+                step.prefetch(ahead, seen);
             }
             i += 1;
-            let v0 = c - lat.base;
-            let f = cell(c);
-            // Per (i, j) column the min over k; then each face's min.
-            let col = [0, 1, 2, 3].map(|q| fmin(f[q], f[q + 4]));
-            let face = [
-                fmin(col[0], col[2]),
-                fmin(col[1], col[3]),
-                fmin(col[0], col[1]),
-                fmin(col[2], col[3]),
-                fmin(fmin(f[0], f[1]), fmin(f[2], f[3])),
-                fmin(fmin(f[4], f[5]), fmin(f[6], f[7])),
-            ];
-            let hi = max8(&f);
-            debug_assert!(
-                fmin(face[4], face[5]) < t && (k == 0 || fmin(face[4], face[5]) >= levels[k - 1]),
-                "a cell is read at its entry level"
-            );
-            if t <= hi {
-                // Cut from this level through every level up to hi: the
-                // cell stays in A until then without being read again.
-                let mut last = k;
-                while last + 1 < n && levels[last + 1] <= hi {
-                    last += 1;
-                }
-                fresh.push(pack_active(c, last));
-            }
-            // The six neighbours, unrolled. A new one is queued at its
-            // entry level: this step when the shared face dips below t,
-            // else from its lo (the min of the shared face and of its 4
-            // far vertices `far + {0, e1, e2, e1 + e2}`). Its lo is at
-            // least t_{k-1}: every cell with a lower lo was found by the
-            // end of the previous step.
-            macro_rules! visit {
-                ($nb:expr, $face:expr, $far:expr, $e1:expr, $e2:expr) => {{
-                    let nb: u32 = $nb;
-                    let shared = face[$face];
-                    let j = nb.wrapping_sub(start);
-                    if j < len && set_bit(seen, j) {
-                        let far: u32 = $far;
-                        let lo = if shared < t {
-                            shared
-                        } else {
-                            fmin(
-                                shared,
-                                fmin(
-                                    fmin(at(far), at(far + $e1)),
-                                    fmin(at(far + $e2), at(far + $e1 + $e2)),
-                                ),
-                            )
-                        };
-                        if lo < t {
-                            work.push(nb);
-                        } else {
-                            let mut l = k + 1;
-                            while l < n && levels[l] <= lo {
-                                l += 1;
-                            }
-                            if l < n {
-                                entering[l].push(nb);
-                            }
-                        }
-                    }
-                }};
-            }
-            visit!(c - di, 0, v0.wrapping_sub(di), dj, dk);
-            visit!(c + di, 1, v0 + 2 * di, dj, dk);
-            visit!(c - dj, 2, v0.wrapping_sub(dj), di, dk);
-            visit!(c + dj, 3, v0 + 2 * dj, di, dk);
-            visit!(c - dk, 4, v0.wrapping_sub(dk), di, dj);
-            visit!(c + dk, 5, v0 + 2 * dk, di, dj);
+            let mut queues = CellQueues {
+                work: &mut work,
+                entering,
+                fresh,
+                seen,
+            };
+            step.read_cell(c, &mut queues);
         }
         let entered = work.len();
         work.clear();
@@ -418,15 +336,171 @@ pub(super) fn sweep_block_lattice(
         let carried = active.len();
         merge_active(active, fresh, k, scratch);
         std::mem::swap(active, scratch);
-        let slot_of = |x: u64| (x >> 32) as u32;
-        let weld = own_weld.then_some(&owner);
-        emit_cut_cells(
-            lat, phi, active, slot_of, start, len, t, ctx, weld, mesh, window,
-        );
+        let cells = CutCells {
+            cut: active,
+            slot_of: |x: u64| (x >> 32) as u32,
+            start,
+            len,
+            t,
+        };
+        emit_cut_cells(input, cells, own_weld.then_some(&owner), mesh, window);
         // Visited: the cells read at this step (entries) and the queue of
         // A_{k-1} filtered by each cell's last level.
         let stats = LevelStats::of(mesh, (entered + carried) as u64);
         on_level(k, mesh, &stats);
+    }
+}
+
+/// Step `k` of [`sweep_block_lattice`] in the block of `len` slots from
+/// `start`: what reading a cell needs besides the queues.
+struct CellStep<'a, 'l> {
+    lat: &'a Lattice<'l>,
+    phi: &'a [f32],
+    levels: &'a [f32],
+    k: usize,
+    /// `levels[k]`.
+    t: f32,
+    start: u32,
+    len: u32,
+}
+
+/// The queues a cell read at a step writes: the step's work queue, the
+/// per-level entry queues, the step's cut entries and the seen bits (see
+/// [`LatticeQueues`]).
+struct CellQueues<'q> {
+    work: &'q mut Vec<u32>,
+    entering: &'q mut [Vec<u32>],
+    fresh: &'q mut Vec<u64>,
+    seen: &'q mut [u64],
+}
+
+impl CellStep<'_, '_> {
+    /// Prefetches for the cell `ahead`, to be read a few entries later:
+    /// its four φ rows, the seen words of its k neighbours (the i and j
+    /// ones share or neighbour its word), and the φ rows of their far
+    /// faces.
+    #[inline(always)]
+    fn prefetch(&self, ahead: u32, seen: &[u64]) {
+        let [_, dj, dk] = self.lat.deltas;
+        let v = ahead - self.lat.base;
+        for r in [v, v + dj, v + dk, v + dj + dk] {
+            prefetch(self.phi, r as usize);
+        }
+        for nb in [ahead - dk, ahead + dk] {
+            prefetch(seen, nb.wrapping_sub(self.start) as usize / 64);
+        }
+        for r in [
+            v.wrapping_sub(dk),
+            (v + dj).wrapping_sub(dk),
+            v + 2 * dk,
+            v + dj + 2 * dk,
+            v.wrapping_sub(dj),
+            (v + dk).wrapping_sub(dj),
+            v + 2 * dj,
+            v + 2 * dj + dk,
+        ] {
+            prefetch(self.phi, r as usize);
+        }
+    }
+
+    /// Reads cell `c` at its entry level `k`: queues it in `fresh` when
+    /// the level cuts it (with the last level that does), and queues each
+    /// new neighbour at its entry level (this step's work queue, or a
+    /// later entry queue).
+    #[inline(always)]
+    fn read_cell(&self, c: u32, q: &mut CellQueues) {
+        let CellStep {
+            lat,
+            phi,
+            levels,
+            k,
+            t,
+            start,
+            len,
+        } = *self;
+        let CellQueues {
+            work,
+            entering,
+            fresh,
+            seen,
+        } = q;
+        let [di, dj, dk] = lat.deltas;
+        let n = levels.len();
+        // SAFETY (for `at` and `load8`): the cell is live and its
+        // neighbours' far vertices are read only for a live neighbour (not
+        // in `seen`, so not a never-sweep slot): all < lat.vertices <=
+        // phi.len() (checked by the caller).
+        let at = |v: u32| unsafe { *phi.get_unchecked(v as usize) };
+        let v0 = c - lat.base;
+        let f = unsafe { load8(phi, v0, dj, dk) };
+        // Per (i, j) column the min over k; then each face's min.
+        let col = [0, 1, 2, 3].map(|q| fmin(f[q], f[q + 4]));
+        let face = [
+            fmin(col[0], col[2]),
+            fmin(col[1], col[3]),
+            fmin(col[0], col[1]),
+            fmin(col[2], col[3]),
+            fmin(fmin(f[0], f[1]), fmin(f[2], f[3])),
+            fmin(fmin(f[4], f[5]), fmin(f[6], f[7])),
+        ];
+        let hi = max8(&f);
+        debug_assert!(
+            fmin(face[4], face[5]) < t && (k == 0 || fmin(face[4], face[5]) >= levels[k - 1]),
+            "a cell is read at its entry level"
+        );
+        if t <= hi {
+            // Cut from this level through every level up to hi: the
+            // cell stays in A until then without being read again.
+            let mut last = k;
+            while last + 1 < n && levels[last + 1] <= hi {
+                last += 1;
+            }
+            fresh.push(pack_active(c, last));
+        }
+        // The six neighbours, unrolled. A new one is queued at its
+        // entry level: this step when the shared face dips below t,
+        // else from its lo (the min of the shared face and of its 4
+        // far vertices `far + {0, e1, e2, e1 + e2}`). Its lo is at
+        // least t_{k-1}: every cell with a lower lo was found by the
+        // end of the previous step.
+        macro_rules! visit {
+            ($nb:expr, $face:expr, $far:expr, $e1:expr, $e2:expr) => {{
+                let nb: u32 = $nb;
+                let shared = face[$face];
+                let j = nb.wrapping_sub(start);
+                if j < len && set_bit(seen, j) {
+                    let far: u32 = $far;
+                    let lo = if shared < t {
+                        shared
+                    } else {
+                        fmin(
+                            shared,
+                            fmin(
+                                fmin(at(far), at(far + $e1)),
+                                fmin(at(far + $e2), at(far + $e1 + $e2)),
+                            ),
+                        )
+                    };
+                    if lo < t {
+                        work.push(nb);
+                    } else {
+                        let mut l = k + 1;
+                        while l < n && levels[l] <= lo {
+                            l += 1;
+                        }
+                        if l < n {
+                            entering[l].push(nb);
+                        }
+                    }
+                }
+            }};
+        }
+        visit!(c - di, 0, v0.wrapping_sub(di), dj, dk);
+        visit!(c + di, 1, v0 + 2 * di, dj, dk);
+        visit!(c - dj, 2, v0.wrapping_sub(dj), di, dk);
+        visit!(c + dj, 3, v0 + 2 * dj, di, dk);
+        visit!(c - dk, 4, v0.wrapping_sub(dk), di, dj);
+        visit!(c + dk, 5, v0 + 2 * dk, di, dj);
     }
 }
 

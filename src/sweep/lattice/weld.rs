@@ -14,8 +14,10 @@
 //! owner in the same level, and no other edge reaches its window entry
 //! between the owner's write and the last read.
 
-use super::emit::HexWriter;
-use crate::extract::{EmitContext, LevelMesh, code_of, decide_faces, emit_cell};
+use super::writer::HexWriter;
+use crate::cellgraph::hex_table::EDGE_ENDS;
+pub use crate::cellgraph::hex_table::{LatticeHexTable, edge_ends};
+use crate::extract::{CutCell, EmitContext, LevelMesh, code_of, decide_faces, emit_cell};
 use crate::metacell::MetaCell;
 
 /// Largest [`EdgeWindow`] length W per axis (the table holds at most 4W u32s:
@@ -147,21 +149,6 @@ impl EdgeOwnership {
     }
 }
 
-/// Geometric vertices (`g = i + 2j + 4k`) at the ends of geometric edge
-/// `e = 4·axis + q`, where q's two bits place the edge along the other two
-/// axes (lower axis first). The first end is the lower one.
-pub const fn edge_ends(e: usize) -> (usize, usize) {
-    let d = e / 4;
-    let q = e % 4;
-    let (a1, a2) = match d {
-        0 => (1, 2),
-        1 => (0, 2),
-        _ => (0, 1),
-    };
-    let lo = (q & 1) << a1 | (q >> 1) << a2;
-    (lo, lo | 1 << d)
-}
-
 /// Per-level weld table of the lattice emitter: the output vertex of each
 /// cut edge, in its axis's section at (slot of its lower vertex mod W_axis)
 /// ([`EdgeOwnership::slot_of`]). Never cleared: ownership
@@ -219,189 +206,25 @@ impl EdgeWindow {
     }
 }
 
-/// The hexahedron's tables flattened for a lattice (S-CGraph) where every
-/// cell's vertex ids are `v0 + offsets[local]`. The tables are indexed in
-/// *geometric* vertex order: vertex `g = i + 2j + 4k` of the cell is the one
-/// with the g-th smallest offset, so φ loads as four (i, i+1) pairs and
-/// the code needs no permutation. Edges are geometric too (see
-/// [`edge_ends`]): the lower end of an edge has the smaller global id in
-/// every cell. Codes with an ambiguous face take the meta-cell's loops
-/// (with the face decider), mapped onto the same geometric edges.
-#[derive(Clone, Debug)]
-pub struct LatticeHexTable {
-    /// Per geometric code: its polygons (`polys == 0`: ambiguous).
-    codes: Box<[CodePolygons; 256]>,
-    /// Per geometric code: the cut geometric edges (bit mask).
-    cut: Box<[u16; 256]>,
-    /// Per geometric edge: offset of its lower vertex from `v0`.
-    edge_low: [u32; 12],
-    /// Per geometric edge: offset of its upper vertex from `v0`.
-    edge_high: [u32; 12],
-    /// Per meta-cell edge: its geometric edge.
-    local_edge: Vec<u8>,
-    /// Offset of each geometric vertex (ascending).
-    goff: [u32; 8],
-    /// Local vertex offsets (the meta-cell's order).
-    offsets: [u32; 8],
-    /// Geometric vertex of each local vertex.
-    geo: [u8; 8],
-}
-
-/// The polygons of one non-ambiguous code, fixed size: every cut edge is
-/// one corner of exactly one polygon (at most 12 corners and 3 polygons;
-/// codes with more polygons are left to the general path).
-#[derive(Clone, Copy, Debug, Default)]
-struct CodePolygons {
-    /// The corners of all polygons, one after the other (geometric edges).
-    corners: [u8; 12],
-    /// Corner count of each polygon.
-    sizes: [u8; 4],
-    /// Total corner count.
-    count: u8,
-    /// Polygon count; 0 for ambiguous codes (and the two uncut codes).
-    polys: u8,
-}
-
-/// [`edge_ends`] of every geometric edge, as a table.
-const EDGE_ENDS: [(usize, usize); 12] = {
-    let mut t = [(0, 0); 12];
-    let mut e = 0;
-    while e < 12 {
-        t[e] = edge_ends(e);
-        e += 1;
-    }
-    t
-};
-
+/// The lattice emitter's use of the tables: polygons welded by edge
+/// ownership, or by the mesh's hash map.
 impl LatticeHexTable {
-    /// Flattens the tables of hexahedron `meta` for vertex offsets `offsets`
-    /// (eight distinct values of the form `i + j·npi + k·slab`).
-    pub fn new(meta: &MetaCell, offsets: &[u32; 8]) -> Self {
-        let mut goff = *offsets;
-        goff.sort_unstable();
-        let geo = offsets.map(|o| goff.iter().position(|&g| g == o).unwrap_or(0) as u8);
-        let geo_edge = |a: usize, b: usize| -> u8 {
-            let (a, b) = (a.min(b), a.max(b));
-            (0..12).find(|&e| edge_ends(e) == (a, b)).unwrap_or(0) as u8
-        };
-        let local_edge: Vec<u8> = meta
-            .edges
-            .iter()
-            .map(|&[la, lb]| geo_edge(geo[la as usize] as usize, geo[lb as usize] as usize))
-            .collect();
-        let codes = (0..256usize)
-            .map(|code| {
-                let local = (0..8).fold(0, |l, q| l | (code >> geo[q] & 1) << q);
-                let mut cp = CodePolygons::default();
-                if local >= meta.code_count() || meta.config_is_ambiguous(local) {
-                    return cp;
-                }
-                let loops: Vec<&[u8]> = meta.loops(local, 0).collect();
-                let corners: usize = loops.iter().map(|l| l.len()).sum();
-                if loops.len() > 3 || corners > 12 {
-                    // Not a hexahedron's table (its unambiguous codes have
-                    // at most two loops): take the general path.
-                    return cp;
-                }
-                for (n, lp) in loops.iter().enumerate() {
-                    cp.sizes[n] = lp.len() as u8;
-                    for &e in lp.iter() {
-                        let g = local_edge[e as usize];
-                        cp.corners[cp.count as usize] = g;
-                        cp.count += 1;
-                    }
-                }
-                cp.polys = loops.len() as u8;
-                cp
-            })
-            .collect::<Vec<CodePolygons>>()
-            .try_into()
-            .expect("256 codes");
-        let cut = (0..256)
-            .map(|code| {
-                (0..12).fold(0u16, |m, e| {
-                    let (a, b) = edge_ends(e);
-                    m | (((code >> a ^ code >> b) & 1) as u16) << e
-                })
-            })
-            .collect::<Vec<u16>>()
-            .try_into()
-            .expect("256 codes");
-        let edge_low = std::array::from_fn(|e| goff[edge_ends(e).0]);
-        let edge_high = std::array::from_fn(|e| goff[edge_ends(e).1]);
-        LatticeHexTable {
-            codes,
-            cut,
-            edge_low,
-            edge_high,
-            local_edge,
-            goff,
-            offsets: *offsets,
-            geo,
-        }
-    }
-
-    /// Offsets of the geometric vertices `g = i + 2j + 4k` (ascending).
-    pub fn geometric_offsets(&self) -> [u32; 8] {
-        self.goff
-    }
-
-    /// The point at parameter `s` along geometric edge `e` of the cell
-    /// whose vertex positions start at `cell[0]` (`cell` = the positions
-    /// from its first vertex to its last), with the arithmetic of
-    /// [`LevelMesh`]'s hash-welded corners (so the same bits).
+    /// Creates the vertices where level `lv.t` crosses the cut edges in
+    /// `own` of `cell` (positions from [`EmitContext::positions`], see
+    /// [`LatticeHexTable::point_on_edge`]) and records them in the window.
+    /// The attribute, when given, holds every vertex of the cell.
     #[inline(always)]
-    fn point_on_edge(&self, e: usize, s: f32, cell: &[[f32; 3]]) -> [f32; 3] {
-        debug_assert!(cell.len() > self.goff[7] as usize);
-        // SAFETY: `cell` spans offsets 0..=goff[7] (checked by `cell_positions`)
-        // and every edge end is one of the eight offsets goff[0..8].
-        let (pa, pb) = unsafe {
-            (
-                *cell.get_unchecked(self.edge_low[e] as usize),
-                *cell.get_unchecked(self.edge_high[e] as usize),
-            )
-        };
-        [
-            pa[0] + s * (pb[0] - pa[0]),
-            pa[1] + s * (pb[1] - pa[1]),
-            pa[2] + s * (pb[2] - pa[2]),
-        ]
-    }
-
-    /// The cell's global vertex ids and φ in the meta-cell's local order.
-    #[inline(always)]
-    fn local(&self, v0: u32, f: &[f32; 8]) -> ([u32; 8], [f32; 8]) {
-        (
-            self.offsets.map(|o| v0 + o),
-            self.geo.map(|g| f[g as usize]),
-        )
-    }
-
-    /// The positions from the cell's first vertex `v0` to its last.
-    #[inline(always)]
-    fn cell_positions<'p>(&self, v0: u32, pos: &'p [[f32; 3]]) -> &'p [[f32; 3]] {
-        &pos[v0 as usize..=(v0 + self.goff[7]) as usize]
-    }
-
-    /// Creates the vertices where level `t` crosses the cut edges in `own`
-    /// (positions from `cell`, see [`LatticeHexTable::point_on_edge`]) and
-    /// records them in the window. The attribute, when given, holds every
-    /// vertex of the cell.
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn create_owned(
         &self,
         mut own: u32,
-        v0: u32,
-        f: &[f32; 8],
-        t: f32,
-        cell: &[[f32; 3]],
-        owner: &EdgeOwnership,
-        slot: u32,
-        ctx: &EmitContext,
+        lv: &HexLevel,
+        cell: &HexCell,
         out: &mut HexWriter,
         win: &mut EdgeWindow,
     ) {
+        let HexCell { v0, f, slot, .. } = *cell;
+        let (t, ctx, owner) = (lv.t, lv.ctx, lv.owner);
+        let cell = self.cell_positions(v0, ctx.positions);
         while own != 0 {
             let e = own.trailing_zeros() as usize & 15;
             own &= own - 1;
@@ -436,39 +259,32 @@ impl LatticeHexTable {
         }
     }
 
-    /// Emits the polygons of the cut cell `slot` with first vertex `v0`, φ
-    /// `f` and code `code` in geometric order, the same polygons in the
-    /// same order as [`crate::extract::emit_cell`]. Cells are emitted in
-    /// slot order; `live` has bit n set when `owner.lower[n]` is a live
-    /// cell of the same sweep block; the cell creates the vertices of the
-    /// cut edges it owns and reads the others from `win` (sized by
-    /// [`EdgeWindow::fit`] for `owner`). Returns false, having written
+    /// Emits the polygons of the cut cell `cell` at level `lv` in geometric
+    /// order, the same polygons in the same order as
+    /// [`crate::extract::emit_cell`]. Cells are emitted in slot order; the
+    /// cell creates the vertices of the cut edges it owns (by
+    /// [`HexCell::live`]) and reads the others from `win` (sized by
+    /// [`EdgeWindow::fit`] for `lv.owner`). Returns false, having written
     /// nothing, when the code has an ambiguous face: then call
     /// [`LatticeHexTable::emit_ambiguous`].
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn emit(
         &self,
-        v0: u32,
-        f: &[f32; 8],
-        t: f32,
-        code: usize,
-        owner: &EdgeOwnership,
-        live: u32,
-        slot: u32,
-        ctx: &EmitContext,
+        lv: &HexLevel,
+        cell: &HexCell,
         out: &mut HexWriter,
         win: &mut EdgeWindow,
     ) -> bool {
-        let code = code & 255;
-        let own = self.cut[code] as u32 & owner.own[live as usize & 511] as u32;
+        let owner = lv.owner;
+        let code = cell.code & 255;
+        let own = self.cut[code] as u32 & owner.own[cell.live as usize & 511] as u32;
         let cp = &self.codes[code];
         if cp.polys == 0 {
             return false;
         }
         out.begin_cell();
-        let cell = self.cell_positions(v0, ctx.positions);
-        self.create_owned(own, v0, f, t, cell, owner, slot, ctx, out, win);
+        self.create_owned(own, lv, cell, out, win);
+        let slot = cell.slot;
         let mut first = 0;
         // At most 3 polygons (`LatticeHexTable::new`), so the mask keeps
         // the count and proves `p < 4` to the compiler.
@@ -491,51 +307,50 @@ impl LatticeHexTable {
         true
     }
 
-    /// The same polygons as `LatticeHexTable::emit`, welded by the mesh's
-    /// hash map ([`crate::extract::emit_cell`] in the meta-cell's local
-    /// order), for lattices whose weld window would not fit.
-    #[allow(clippy::too_many_arguments)]
+    /// The same polygons as `LatticeHexTable::emit` for the cell with first
+    /// vertex `v0`, φ `f` (geometric order) and slot `slot` at level `t`,
+    /// welded by the mesh's hash map ([`crate::extract::emit_cell`] in the
+    /// meta-cell's local order), for lattices whose weld window would not
+    /// fit.
     pub fn emit_hashed(
         &self,
         meta: &MetaCell,
-        v0: u32,
-        f: &[f32; 8],
+        (v0, f, slot): (u32, &[f32; 8], u32),
         t: f32,
-        slot: u32,
         ctx: &EmitContext,
         mesh: &mut LevelMesh,
     ) {
         let (ids, phi) = self.local(v0, f);
-        emit_cell(meta, &ids, &phi, t, code_of(&phi, t), slot, ctx, mesh);
+        let cell = CutCell {
+            gids: &ids,
+            phi: &phi,
+            t,
+            code: code_of(&phi, t),
+            slot,
+        };
+        emit_cell(meta, &cell, ctx, mesh);
     }
 
     /// [`LatticeHexTable::emit`] for a cell whose code is ambiguous: the
     /// meta-cell's loops (in its local order, with the face decider),
     /// corners mapped to geometric edges.
     #[inline(never)]
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn emit_ambiguous(
         &self,
         meta: &MetaCell,
-        v0: u32,
-        f: &[f32; 8],
-        t: f32,
-        code: usize,
-        live: u32,
-        owner: &EdgeOwnership,
-        slot: u32,
-        ctx: &EmitContext,
+        lv: &HexLevel,
+        cell: &HexCell,
         mesh: &mut LevelMesh,
         win: &mut EdgeWindow,
     ) {
-        let code = code & 255;
-        let own = self.cut[code] as u32 & owner.own[live as usize & 511] as u32;
-        let cell = self.cell_positions(v0, ctx.positions);
+        let (t, owner, slot) = (lv.t, lv.owner, cell.slot);
+        let code = cell.code & 255;
+        let own = self.cut[code] as u32 & owner.own[cell.live as usize & 511] as u32;
         let mut out = HexWriter::new(mesh, 1);
         out.begin_cell();
-        self.create_owned(own, v0, f, t, cell, owner, slot, ctx, &mut out, win);
+        self.create_owned(own, lv, cell, &mut out, win);
         drop(out);
-        let (gids, phi) = self.local(v0, f);
+        let (gids, phi) = self.local(cell.v0, &cell.f);
         let local_code = code_of(&phi, t);
         let outcome = if meta.ambiguous_faces[local_code] != 0 {
             decide_faces(meta, &gids, &phi, t, local_code)
@@ -550,6 +365,33 @@ impl LatticeHexTable {
             mesh.end_polygon(start, slot);
         }
     }
+}
+
+/// A level as the lattice emitter welds it by edge ownership: the level
+/// value, the sweep's emission context and the ownership tables.
+pub(crate) struct HexLevel<'a> {
+    /// The level.
+    pub(crate) t: f32,
+    /// Positions and attribute.
+    pub(crate) ctx: &'a EmitContext<'a>,
+    /// Which edges a cell owns, and their window entries.
+    pub(crate) owner: &'a EdgeOwnership,
+}
+
+/// A cut lattice cell as the emitter reads it.
+#[derive(Clone, Copy)]
+pub(crate) struct HexCell {
+    /// First vertex.
+    pub(crate) v0: u32,
+    /// φ at its vertices in geometric order.
+    pub(crate) f: [f32; 8],
+    /// Geometric code at the level (bit q set iff `f[q] >= t`).
+    pub(crate) code: usize,
+    /// Bit n set when `owner.lower[n]` is a live cell of the same sweep
+    /// block (see [`EdgeOwnership`]).
+    pub(crate) live: u32,
+    /// Slot.
+    pub(crate) slot: u32,
 }
 
 #[cfg(test)]
