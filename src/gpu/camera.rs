@@ -18,21 +18,23 @@ pub const FRAME_MARGIN: f32 = 1.05;
 /// Field of view across the smaller image side (perspective).
 pub const FOV_DEGREES: f32 = 30.0;
 
-/// Extents of the points in view coordinates: (min, max) along the right
-/// vector `s` and the up vector `u`, and the perspective eye distance that
-/// fits every point in a window of half-slopes `tx`, `ty`. Points are
-/// rebased to `origin` and their z multiplied by `zs` (display space).
-#[allow(clippy::too_many_arguments)]
-fn view_extents(
-    points: &[[f64; 3]],
-    origin: [f64; 3],
-    zs: f32,
+/// A view basis (right `s`, up `u`, direction `d`) and the window's
+/// half-slopes `tx`, `ty`.
+#[derive(Clone, Copy)]
+struct ViewFrame {
     s: Vec3,
     u: Vec3,
     d: Vec3,
     tx: f32,
     ty: f32,
-) -> [f32; 5] {
+}
+
+/// Extents of the points in view coordinates: (min, max) along the right
+/// vector and the up vector of `v`, and the perspective eye distance that
+/// fits every point in its window. Points are rebased to `origin` and their
+/// z multiplied by `zs` (display space).
+fn view_extents(points: &[[f64; 3]], origin: [f64; 3], zs: f32, v: ViewFrame) -> [f32; 5] {
+    let ViewFrame { s, u, d, tx, ty } = v;
     use rayon::prelude::*;
     let init = || {
         [
@@ -185,7 +187,7 @@ impl OrbitCamera {
         } else {
             f.points
         };
-        let [x0, x1, y0, y1, fit] = view_extents(pts, f.origin, zs, s, u, d, tx, ty);
+        let [x0, x1, y0, y1, fit] = view_extents(pts, f.origin, zs, ViewFrame { s, u, d, tx, ty });
         let tiny = 1e-6 * r;
         let mut cam = OrbitCamera {
             dir: d,
