@@ -102,9 +102,11 @@ pub trait CellGraph: Sync {
     fn lattice(&self) -> Option<Lattice<'_>> {
         None
     }
-    /// The corner-point graph, when this is one: the sweep then runs its
-    /// own loop (`sweep/cp_loop.rs`).
-    fn cpgraph(&self) -> Option<&crate::structures::cpgraph::CpGraph> {
+    /// A structure with a sweep loop of its own (the corner-point graph:
+    /// `sweep/cp_loop.rs`) returns itself here; the sweep downcasts it to
+    /// the types whose loops it knows. Type-erased so that this trait, below
+    /// every structure, names none of them.
+    fn own_loop(&self) -> Option<&(dyn std::any::Any + Send + Sync)> {
         None
     }
     /// Splits `0..slot_count` into at most `n` contiguous, roughly equal,

@@ -14,7 +14,7 @@ use crate::structures::Structure;
 use super::context::GpuContext;
 use super::emit::GpuEmitter;
 use super::frame::FrameOutput;
-use super::render::{RenderError, SliceKey, SliceSet};
+use super::render::{RenderError, SliceKey, SliceSet, emit_slices};
 use super::shared::{ControlLayout, DrawArgs, OutVertex};
 use super::tables::GridBuffers;
 
@@ -162,6 +162,22 @@ pub fn level_chunks(levels: &[LevelTriangles], budget: u64) -> Vec<std::ops::Ran
         out.push(a..levels.len());
     }
     out
+}
+
+/// The slices of `k` (or its isosurfaces) for any structure: emitted on the
+/// GPU ([`emit_slices`]), or, for CIEL grids (polyhedra the GPU tables
+/// cannot express), the CPU's polygons uploaded ([`build_host_slices`]).
+/// Runs on any thread (the viewer builds a new axis's slices on a worker).
+pub fn build_slices<'c>(
+    ctx: &'c GpuContext,
+    grid: &Grid,
+    s: &Structure,
+    k: &SliceKey,
+) -> Result<SliceSet<'c>, RenderError> {
+    match s {
+        Structure::Ciel(_) => build_host_slices(ctx, grid, s, k),
+        _ => emit_slices(ctx, grid, s, k),
+    }
 }
 
 /// Builds the slices of `k` on a CIEL grid: the CPU sweep's polygons

@@ -9,7 +9,8 @@ use crate::pipeline::LevelSpec;
 use crate::structures::Structure;
 
 use super::context::GpuContext;
-use super::render::{RenderError, SliceKey, SliceSet, build_slices};
+use super::host_slices::build_slices;
+use super::render::{RenderError, SliceKey, SliceSet};
 
 /// Per-isovalue surfaces of one property.
 #[derive(Default)]

@@ -11,9 +11,10 @@ use crate::grid::Grid;
 use crate::structures::Structure;
 
 use super::draw::FrameSetup;
+use super::host_slices::build_slices;
 use super::render::{
-    Image, Mode, RenderError, RenderOptions, Renderer, build_slices, slice_key, slicing_axis,
-    transfer_for, unit_distance,
+    Image, Mode, RenderError, RenderOptions, Renderer, slice_key, slicing_axis, transfer_for,
+    unit_distance,
 };
 use super::scene::fit_camera;
 

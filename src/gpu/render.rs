@@ -626,18 +626,16 @@ pub fn unit_distance(grid: &Grid, o: &RenderOptions, z_scale: f64) -> Result<f64
 }
 
 /// Sweeps and emits the slices of `k` (or its isosurfaces) on `ctx`: the
-/// CPU sweep finds the cut cells, the GPU emits the triangles. Runs on any
-/// thread (the viewer builds a new axis's slices on a worker).
-pub fn build_slices<'c>(
+/// CPU sweep finds the cut cells, the GPU emits the triangles (S-CGraph,
+/// CGraph and CP-Graph; [`super::host_slices::build_slices`] takes any
+/// structure). Runs on any thread (the viewer builds a new axis's slices on
+/// a worker).
+pub fn emit_slices<'c>(
     ctx: &'c GpuContext,
     grid: &Grid,
     s: &Structure,
     k: &SliceKey,
 ) -> Result<SliceSet<'c>, RenderError> {
-    if let Structure::Ciel(_) = s {
-        // Polyhedra the GPU tables cannot express: the CPU's polygons.
-        return super::host_slices::build_host_slices(ctx, grid, s, k);
-    }
     let property = &k.property;
     let req = SliceRequest {
         field: k.field.clone(),

@@ -20,10 +20,11 @@ use crate::structures::Structure;
 use super::camera::{Framing, OrbitCamera};
 use super::context::GpuContext;
 use super::draw::{DrawBindings, FrameSetup, OffscreenTarget};
+use super::host_slices::build_slices;
 use super::iso_cache::{IsoLevels, build_levels};
 use super::render::{
-    Image, Mode, RenderError, RenderOptions, Renderer, SliceKey, SliceSet, Transfer, build_slices,
-    slice_key, slicing_axis, transfer_for, unit_distance,
+    Image, Mode, RenderError, RenderOptions, Renderer, SliceKey, SliceSet, Transfer, slice_key,
+    slicing_axis, transfer_for, unit_distance,
 };
 
 /// What the worker builds: an axis's slices, or the missing isosurfaces.

@@ -29,11 +29,11 @@
 use super::cp_weld::{CpWeld, CutCell};
 use super::lattice::{LatticeQueues, pack_active, set_bit};
 use super::{Block, LevelStats, Minimum, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots};
+use crate::cellgraph::CellGraph;
 use crate::extract::{EmitContext, LevelMesh, code_of, prefetch};
 use crate::field::ScalarField;
 use crate::metacell::MAX_META_VERTICES;
 use crate::structures::cpgraph::CpGraph;
-use crate::sweep::CellGraph;
 
 /// Vertices a [`Cut`] record holds; cells with more (explicit polyhedron
 /// pieces) are decoded again when emitted.

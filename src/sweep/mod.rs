@@ -316,7 +316,10 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     ctx: &EmitContext,
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
-    if let Some(cp) = g.cpgraph() {
+    if let Some(cp) = g
+        .own_loop()
+        .and_then(|a| a.downcast_ref::<crate::structures::cpgraph::CpGraph>())
+    {
         cp_loop::sweep_block_cp(cp, f, b, minima, levels, ctx, on_level);
         return;
     }

@@ -10,12 +10,12 @@ use std::hash::{BuildHasherDefault, Hasher};
 use rayon::prelude::*;
 
 use super::{CpCounts, CpGraph, EXPLICIT, IjkLayout};
+use crate::cellgraph::CellGraph;
 use crate::grid::{Grid, Topology};
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use crate::structures::cgraph::{NON_VOLUMETRIC, classify_and_orient, resolve_cells};
 use crate::structures::convex_split::SplitMap;
 use crate::structures::{BitSet, CellClass, StructureError, is_sweepable};
-use crate::sweep::CellGraph;
 
 /// A multiply-rotate hasher for the stencil table's `[u32; 8]` keys.
 #[derive(Default)]

@@ -26,10 +26,10 @@
 //! finds the far side from another neighbour or as an extra minimum (see
 //! the completeness argument in `sweep/cp_loop.rs`).
 
+use crate::cellgraph::BitSet;
+use crate::cellgraph::CellGraph;
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
-use crate::structures::BitSet;
 use crate::structures::convex_split::SplitMap;
-use crate::sweep::CellGraph;
 
 mod build;
 
@@ -236,7 +236,7 @@ impl CellGraph for CpGraph {
         let below = self.kept.word_at(64 * w as i64) & ((1u64 << (slot % 64)) - 1);
         self.kept_rank[w] + below.count_ones()
     }
-    fn cpgraph(&self) -> Option<&CpGraph> {
+    fn own_loop(&self) -> Option<&(dyn std::any::Any + Send + Sync)> {
         Some(self)
     }
 }
