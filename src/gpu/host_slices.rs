@@ -8,13 +8,13 @@
 
 use crate::grid::Grid;
 use crate::mesh::PolyMesh;
-use crate::pipeline::{SliceRequest, slice, vertex_property};
+use crate::pipeline::{SliceRequest, slice};
 use crate::structures::Structure;
 
 use super::context::GpuContext;
 use super::emit::GpuEmitter;
 use super::frame::FrameOutput;
-use super::render::{RenderError, SliceKey, SliceSet, emit_slices};
+use super::render::{RenderError, SliceKey, SliceSet, emit_slices, shown_range};
 use super::shared::{ControlLayout, DrawArgs, OutVertex};
 use super::tables::GridBuffers;
 
@@ -227,23 +227,13 @@ pub fn build_host_slices<'c>(
             hi[k.axis] - lo[k.axis]
         }
     };
-    let range = match (&k.property, &cell_values) {
-        (_, Some(v)) => {
-            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-            let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            (lo as f32 as f64, hi as f32 as f64)
-        }
-        (Some(name), None) => {
-            let v = vertex_property(grid, s, name)?;
-            let lo = v.iter().copied().fold(f32::INFINITY, f32::min) as f64;
-            let hi = v.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
-            (lo, hi)
-        }
-        (None, None) => {
-            let l = &r.level_values;
-            (l[0], l[l.len() - 1])
-        }
-    };
+    let range = shown_range(
+        grid,
+        s,
+        &k.property,
+        cell_values.as_deref(),
+        &r.level_values,
+    )?;
     let cut_cells = r.stats.iter().map(|x| x.cells).sum();
     // Level chunks within one storage binding, as the GPU emission's.
     let budget = ctx

@@ -625,6 +625,31 @@ pub fn unit_distance(grid: &Grid, o: &RenderOptions, z_scale: f64) -> Result<f64
     }
 }
 
+/// The range of the shown values: the cell property's (rounded to f32),
+/// the vertex property's, or the level values' when no property is shown.
+pub(super) fn shown_range(
+    grid: &Grid,
+    s: &Structure,
+    property: &Option<String>,
+    cell_values: Option<&[f64]>,
+    level_values: &[f64],
+) -> Result<(f64, f64), RenderError> {
+    Ok(match (property, cell_values) {
+        (_, Some(v)) => {
+            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            (lo as f32 as f64, hi as f32 as f64)
+        }
+        (Some(name), None) => {
+            let v = vertex_property(grid, s, name)?;
+            let lo = v.iter().copied().fold(f32::INFINITY, f32::min) as f64;
+            let hi = v.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
+            (lo, hi)
+        }
+        (None, None) => (level_values[0], level_values[level_values.len() - 1]),
+    })
+}
+
 /// Sweeps and emits the slices of `k` (or its isosurfaces) on `ctx`: the
 /// CPU sweep finds the cut cells, the GPU emits the triangles (S-CGraph,
 /// CGraph and CP-Graph; [`super::host_slices::build_slices`] takes any
@@ -690,23 +715,7 @@ pub fn emit_slices<'c>(
             hi[k.axis] - lo[k.axis]
         }
     };
-    let range = match (property, &cell_values) {
-        (_, Some(v)) => {
-            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-            let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            (lo as f32 as f64, hi as f32 as f64)
-        }
-        (Some(name), None) => {
-            let v = vertex_property(grid, s, name)?;
-            let lo = v.iter().copied().fold(f32::INFINITY, f32::min) as f64;
-            let hi = v.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
-            (lo, hi)
-        }
-        (None, None) => {
-            let l = &p.level_values;
-            (l[0], l[l.len() - 1])
-        }
-    };
+    let range = shown_range(grid, s, property, cell_values.as_deref(), &p.level_values)?;
     if let Some(c) = k.clip {
         let Structure::SCGraph(g) = s else {
             return Err(RenderError::Options(

@@ -35,7 +35,6 @@
 //! and the brute force.
 
 use super::index::{Divisor, LevelIndex};
-use super::weld::EdgeOwnership;
 use super::{CutCells, Lattice, LatticeState, LatticeSweep, emit_cut_cells};
 use crate::extract::LevelMesh;
 use crate::sweep::{Block, LevelStats, Minimum};
@@ -670,31 +669,14 @@ fn sweep_shaped<const W: usize>(
         impl FnMut(usize, &LevelMesh, &LevelStats),
     >,
 ) {
-    let LatticeSweep {
-        ref lat,
-        phi,
-        hash_weld,
-        ..
-    } = *input;
+    let LatticeSweep { ref lat, phi, .. } = *input;
     let n = levels.len();
     assert!(n <= MAX_LEVELS, "{n} levels: at most {MAX_LEVELS}");
     if n == 0 {
         return;
     }
     let start = b.start;
-    let [_, dj, dk] = lat.deltas;
-    assert!(
-        phi.len() >= lat.vertices,
-        "φ has {} values for {} vertices",
-        phi.len(),
-        lat.vertices
-    );
-    let owner = EdgeOwnership::new(dj, dk / dj);
-    let own_weld = owner.fits && !hash_weld;
-    let state = b.lattice.get_or_insert_with(Default::default);
-    if own_weld {
-        state.window.fit(&owner);
-    }
+    let owner = super::prepare_block(input, b);
     let Block {
         stamps,
         mesh,
@@ -756,7 +738,7 @@ fn sweep_shaped<const W: usize>(
             len,
             t,
         };
-        emit_cut_cells(input, cells, own_weld.then_some(&owner), mesh, window);
+        emit_cut_cells(input, cells, owner.as_ref(), mesh, window);
         let stats = LevelStats::of(mesh, entered + prev_cut);
         prev_cut = q.slots.len() as u64;
         on_level(k, mesh, &stats);

@@ -226,6 +226,30 @@ pub(super) fn block_minima_lattice(lat: &Lattice, phi: &[f32], b: &Block) -> Vec
     out
 }
 
+/// The set-up both lattice loops share: checks that φ covers the lattice's
+/// vertices (every live cell's vertices, and those of its live neighbours,
+/// are below `lat.vertices`: this one check makes the unchecked φ reads
+/// sound), creates the block's lattice state and fits its weld window.
+/// Returns the edge ownership when the polygons are welded by it (`None`:
+/// the hash weld).
+pub(super) fn prepare_block(input: &LatticeSweep, b: &mut Block) -> Option<EdgeOwnership> {
+    let lat = &input.lat;
+    assert!(
+        input.phi.len() >= lat.vertices,
+        "φ has {} values for {} vertices",
+        input.phi.len(),
+        lat.vertices
+    );
+    let [_, dj, dk] = lat.deltas;
+    let owner = EdgeOwnership::new(dj, dk / dj);
+    let own_weld = owner.fits && !input.hash_weld;
+    let state = b.lattice.get_or_insert_with(Default::default);
+    if own_weld {
+        state.window.fit(&owner);
+    }
+    own_weld.then_some(owner)
+}
+
 /// [`sweep_block`] specialised for a hexahedral [`Lattice`] with φ stored
 /// per vertex: the same cut cells `A_k` and output (tests compare it with
 /// the generic loop and the brute force), but each cell is read once, at
@@ -244,33 +268,14 @@ pub(super) fn sweep_block_lattice(
     levels: &[f32],
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
-    let LatticeSweep {
-        ref lat,
-        phi,
-        hash_weld,
-        ..
-    } = *input;
+    let LatticeSweep { ref lat, phi, .. } = *input;
     let start = b.start;
     let [di, dj, dk] = lat.deltas;
     debug_assert_eq!(
         lat.table.geometric_offsets(),
         [0, di, dj, dj + di, dk, dk + di, dk + dj, dk + dj + di]
     );
-    // Every live cell's vertices, and those of its live neighbours, are
-    // below `lat.vertices`: this one check makes the unchecked φ reads
-    // of `read_cell` sound.
-    assert!(
-        phi.len() >= lat.vertices,
-        "φ has {} values for {} vertices",
-        phi.len(),
-        lat.vertices
-    );
-    let owner = EdgeOwnership::new(dj, dk / dj);
-    let own_weld = owner.fits && !hash_weld;
-    let state = b.lattice.get_or_insert_with(Default::default);
-    if own_weld {
-        state.window.fit(&owner);
-    }
+    let owner = prepare_block(input, b);
     let Block {
         stamps,
         mesh,
@@ -343,7 +348,7 @@ pub(super) fn sweep_block_lattice(
             len,
             t,
         };
-        emit_cut_cells(input, cells, own_weld.then_some(&owner), mesh, window);
+        emit_cut_cells(input, cells, owner.as_ref(), mesh, window);
         // Visited: the cells read at this step (entries) and the queue of
         // A_{k-1} filtered by each cell's last level.
         let stats = LevelStats::of(mesh, (entered + carried) as u64);
