@@ -228,6 +228,7 @@ fn lowered(binding: u64) -> Option<GpuContext> {
         GpuContext::new(&ContextOptions {
             adapter: Some(full.adapter.get_info().name),
             limits: Some(limits),
+            ..Default::default()
         })
         .unwrap(),
     )

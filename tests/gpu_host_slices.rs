@@ -221,6 +221,7 @@ fn host_slices_over_one_binding_are_level_chunked_and_render_the_same() {
     let small = GpuContext::new(&ContextOptions {
         adapter: Some(full.adapter.get_info().name),
         limits: Some(limits),
+        ..Default::default()
     })
     .unwrap();
     let grid = voronoi(2000, 11);

@@ -23,12 +23,25 @@ pub(crate) enum DeviceArg {
     Auto,
 }
 
+/// The device options of `--adapter`, with wgpu's own environment
+/// variables: `WGPU_ADAPTER_NAME` when no `--adapter` is given, and
+/// `WGPU_BACKEND` (for example `vulkan` or `gl`) for the backends.
+pub(crate) fn context_options(adapter: &Option<String>) -> ContextOptions {
+    let from_env = || {
+        std::env::var("WGPU_ADAPTER_NAME")
+            .ok()
+            .filter(|s| !s.is_empty())
+    };
+    ContextOptions {
+        adapter: adapter.clone().or_else(from_env),
+        backends: wgpu::Backends::from_env(),
+        limits: None,
+    }
+}
+
 /// Opens the GPU, printing the adapter's name unless quiet.
 pub(crate) fn open(adapter: &Option<String>, quiet: bool) -> Result<GpuContext, GpuError> {
-    let ctx = GpuContext::new(&ContextOptions {
-        adapter: adapter.clone(),
-        limits: None,
-    })?;
+    let ctx = GpuContext::new(&context_options(adapter))?;
     if !quiet {
         eprintln!("GPU adapter: {}", ctx.name);
     }

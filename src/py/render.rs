@@ -24,20 +24,15 @@ pub struct AdapterInfo {
     pub device_type: String,
 }
 
-/// Every adapter of the backends `WGPU_BACKEND` allows (default: all).
+/// The adapters a render would choose among: the primary backends', or
+/// GL's when they have none.
 pub fn list_adapters() -> Vec<AdapterInfo> {
-    let desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-    let backends = desc.backends;
-    let instance = wgpu::Instance::new(desc);
-    pollster::block_on(instance.enumerate_adapters(backends))
-        .iter()
-        .map(|a| {
-            let i = a.get_info();
-            AdapterInfo {
-                name: format!("{} ({:?})", i.name, i.backend),
-                backend: format!("{:?}", i.backend),
-                device_type: format!("{:?}", i.device_type),
-            }
+    crate::gpu::context::list_adapters(None)
+        .into_iter()
+        .map(|i| AdapterInfo {
+            name: format!("{} ({:?})", i.name, i.backend),
+            backend: format!("{:?}", i.backend),
+            device_type: format!("{:?}", i.device_type),
         })
         .collect()
 }
@@ -220,6 +215,7 @@ pub fn render<'py>(
             let ctx = GpuContext::new(&ContextOptions {
                 adapter,
                 limits: None,
+                ..Default::default()
             })
             .map_err(|e| gpu_error(&e))?;
             let mut r = Renderer::new(&ctx).map_err(render_error)?;

@@ -90,6 +90,7 @@ fn open_gpu(
     let opts = ContextOptions {
         adapter: adapter.clone(),
         limits: None,
+        ..Default::default()
     };
     match device {
         Device::Cpu => Ok(None),

@@ -15,7 +15,7 @@ use clap::Args;
 use serde_json::json;
 use winit::event_loop::EventLoop;
 
-use stratasweep::gpu::context::{ContextOptions, GpuContext};
+use stratasweep::gpu::context::GpuContext;
 use stratasweep::gpu::render::{
     Image, RenderOptions, Renderer, slice_key, slicing_axis, transfer_for,
 };
@@ -95,11 +95,8 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let event_loop = EventLoop::new().context("cannot start the window event loop")?;
     let ctx = GpuContext::with_display(
-        Box::new(event_loop.owned_display_handle()),
-        &ContextOptions {
-            adapter: a.scene.adapter.clone(),
-            limits: None,
-        },
+        || Box::new(event_loop.owned_display_handle()),
+        &crate::cli::device::context_options(&a.scene.adapter),
     )?;
     if !quiet {
         eprintln!("GPU adapter: {}", ctx.name);
