@@ -8,7 +8,7 @@
 
 mod gpu_common;
 
-use stratasweep::gpu::render::{Mode, RenderOptions, Renderer, Transfer};
+use stratasweep::gpu::render::{Mode, RenderOptions, Renderer, Transfer, slice_key};
 use stratasweep::grid::{Grid, Property, Topology};
 use stratasweep::structures::{Structure, StructureChoice};
 
@@ -71,7 +71,9 @@ fn layer_value(k: usize) -> f64 {
 /// The cell property `c` constant per K layer.
 fn layer_box() -> Grid {
     let (points, dims) = lattice(LAYERS + 1);
-    let c = (0..4 * 4 * LAYERS).map(|cid| layer_value(cid / 16)).collect();
+    let c = (0..4 * 4 * LAYERS)
+        .map(|cid| layer_value(cid / 16))
+        .collect();
     Grid {
         point_data: Vec::new(),
         points,
@@ -193,4 +195,39 @@ fn cell_layers_are_integrated_exactly_in_index_space() {
         assert!(ijk < cgraph / 5.0, "{deg}°: {ijk} vs CGraph {cgraph}");
         assert!(ijk < plain / 5.0, "{deg}°: {ijk} vs plain {plain}");
     }
+}
+
+#[test]
+fn a_lattice_over_the_3d_texture_limit_keeps_the_gradient_path() {
+    let Some(full) = gpu_common::gpu("a_lattice_over_the_3d_texture_limit_keeps_the_gradient_path")
+    else {
+        return;
+    };
+    let mut limits = full.limits.clone();
+    // The wave box has 41 points along K.
+    limits.max_texture_dimension_3d = 32;
+    let low =
+        stratasweep::gpu::context::GpuContext::new(&stratasweep::gpu::context::ContextOptions {
+            adapter: Some(full.adapter.get_info().name),
+            limits: Some(limits),
+        })
+        .unwrap();
+    let g = wave_box();
+    let t = ramp_transfer();
+    let o = options("v", 0.0, 5);
+    let want = integrate(&t, wave_field, 0.0);
+    let s = Structure::build(&g, StructureChoice::SCGraph).unwrap();
+    let mut r = Renderer::new(&low).unwrap();
+    r.set_preintegrated(true);
+    r.render_exaggerated(&g, &s, &o, 1.0).unwrap();
+    let k = slice_key(&g, &o, 2).unwrap().with_attr_gradient();
+    let set = r.slices(&k.key).expect("the rendered slices");
+    assert!(set.field.is_none());
+    let why = set.field_fallback.as_deref().unwrap_or_default();
+    assert!(why.contains("3D texture limit 32"), "{why}");
+    // The same frame as the gradient path's (the box read as a CGraph).
+    let low_err = centre_error(&low, &g, StructureChoice::SCGraph, &o, true, want);
+    let gradient = centre_error(full, &g, StructureChoice::CGraph, &o, true, want);
+    eprintln!("over the limit: error {low_err:.5}, gradient path {gradient:.5}");
+    assert!((low_err - gradient).abs() < 1e-3, "{low_err} vs {gradient}");
 }
