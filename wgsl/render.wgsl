@@ -204,7 +204,7 @@ fn segment(v: f32, slope: f32, x: f32, sub: f32, k: f32) -> vec4<f32> {
 const FIELD_POINT: u32 = 1u;
 const FIELD_CELL: u32 = 2u;
 // Point fields: sub-steps per cell crossed, and at most this many per segment.
-const STEPS_PER_CELL: f32 = 4.0;
+const STEPS_PER_CELL: f32 = 2.0;
 const MAX_STEPS: u32 = 64u;
 
 fn field_load(c: vec3<i32>) -> f32 {
@@ -256,11 +256,12 @@ fn next_plane(a: f32, d: f32, s: f32) -> f32 {
     return min((plane - a) / d, 1.0);
 }
 
-// The ray from index point a to b, x display units long, through the
+// The ray from index point a (point field value va there) to b, x display
+// units long, through the
 // field: a cell field exactly, cell by cell; a point field in sub-steps
 // (STEPS_PER_CELL per cell crossed, none longer than the table's sub-slab
 // l0), each from the pre-integrated table between its end samples.
-fn march(a: vec3<f32>, b: vec3<f32>, x: f32, l0: f32) -> vec4<f32> {
+fn march(a: vec3<f32>, va: f32, b: vec3<f32>, x: f32, l0: f32) -> vec4<f32> {
     var acc = vec4<f32>(0.0);
     if x <= 0.0 {
         return acc;
@@ -277,9 +278,9 @@ fn march(a: vec3<f32>, b: vec3<f32>, x: f32, l0: f32) -> vec4<f32> {
         }
         return acc;
     }
-    let n = clamp(u32(ceil(max(x / l0, STEPS_PER_CELL * length(d)))), 1u, MAX_STEPS);
+    let n = clamp(u32(ceil(STEPS_PER_CELL * length(d))), 1u, MAX_STEPS);
     let h = 1.0 / f32(n);
-    var f = field_point(a);
+    var f = va;
     for (var i = 1u; i <= n; i++) {
         let v = field_point(a + d * (f32(i) * h));
         acc = under(acc, sub_slab(f, v, x * h / l0));
@@ -290,18 +291,18 @@ fn march(a: vec3<f32>, b: vec3<f32>, x: f32, l0: f32) -> vec4<f32> {
 
 // fs_pre on an IJK grid: the slab to the far slice (or to the ray's exit)
 // marched through the field.
-fn pre_ijk(ijk: vec3<f32>, t: f32, far: vec4<f32>, px: vec2<i32>, len: f32) -> vec4<f32> {
+fn pre_ijk(ijk: vec3<f32>, v: f32, t: f32, far: vec4<f32>, px: vec2<i32>, len: f32) -> vec4<f32> {
     let l0 = rp.slab / view_cos(rp.view_dir.xyz) / f32(SUB_SLABS);
     if far.x > 0.5 * NO_VALUE {
-        return march(ijk, far.xyz, max(far.w - t, 0.0), l0);
+        return march(ijk, v, far.xyz, max(far.w - t, 0.0), l0);
     }
     let exit = textureLoad(bound_t, px, 0);
     if exit.x > 0.5 * NO_VALUE {
         let gap = max(exit.x - t, 0.0);
         let x = min(gap, len);
-        return march(ijk, mix(ijk, exit.yzw, x / max(gap, 1e-30)), x, l0);
+        return march(ijk, v, mix(ijk, exit.yzw, x / max(gap, 1e-30)), x, l0);
     }
-    return march(ijk, ijk, 0.5 * len, l0);
+    return march(ijk, v, ijk, 0.5 * len, l0);
 }
 
 @fragment
@@ -323,7 +324,7 @@ fn fs_pre(in: VsOut) -> PreOut {
     var acc = vec4<f32>(0.0);
     if rp.field_mode != 0u {
         var o: PreOut;
-        o.color = pre_ijk(in.normal, t, far, px, len);
+        o.color = pre_ijk(in.normal, in.value, t, far, px, len);
         o.slice = vec4<f32>(in.normal, t);
         o.nearest = o.slice;
         return o;
@@ -387,17 +388,18 @@ fn fs_front(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
             return vec4<f32>(0.0);
         }
         let len = rp.slab / view_cos(rp.view_dir.xyz);
-        return march(e.yzw, x.yzw, x.x - e.x, len / f32(SUB_SLABS));
+        return march(e.yzw, field_point(e.yzw), x.yzw, x.x - e.x, len / f32(SUB_SLABS));
     }
     let len = rp.slab / view_cos(rp.view_dir.xyz);
     if rp.field_mode != 0u {
         let e = textureLoad(bound_t, px, 0);
         if e.x <= 0.5 * NO_VALUE {
-            return march(s.xyz, s.xyz, 0.5 * len, len / f32(SUB_SLABS));
+            return march(s.xyz, field_point(s.xyz), s.xyz, 0.5 * len, len / f32(SUB_SLABS));
         }
         let gap = max(s.w - e.x, 0.0);
         let x = min(gap, len);
-        return march(mix(s.xyz, e.yzw, x / max(gap, 1e-30)), s.xyz, x, len / f32(SUB_SLABS));
+        let a = mix(s.xyz, e.yzw, x / max(gap, 1e-30));
+        return march(a, field_point(a), s.xyz, x, len / f32(SUB_SLABS));
     }
     let entry = textureLoad(bound_t, px, 0).x;
     var x = 0.5 * len;
