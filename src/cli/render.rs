@@ -50,9 +50,13 @@ pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
     if o.mode == Mode::Iso && o.iso.is_empty() {
         bail!("--mode iso needs --iso VALUES (comma-separated)");
     }
-    let (grid, name, _) = load(&a.input, quiet, &outputs)?;
+    let (grid, name, _, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
     let z_scale = a.scene.z_scale(&grid, quiet);
-    let s = Structure::build(&grid, StructureChoice::Auto)
+    // Pre-integrated slabs march corner-point cells in index space: the
+    // corner-point graph keeps the IJK lattice (plain frames keep Auto's
+    // choice without it).
+    let layout = ijk.as_ref().filter(|_| a.scene.preintegrated);
+    let s = Structure::build_with(&grid, StructureChoice::Auto, layout)
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let iso = if o.mode == Mode::Iso { &o.iso[..] } else { &[] };
     for v in super::render_checks::check_before(&grid, o.property.as_deref(), iso)? {

@@ -15,6 +15,7 @@
 use crate::cellgraph::CellGraph;
 use crate::grid::Grid;
 use crate::structures::Structure;
+use crate::structures::cpgraph::CpGraph;
 use crate::structures::scgraph::SCGraph;
 
 use super::context::GpuContext;
@@ -93,6 +94,40 @@ pub fn field_texels(grid: &Grid, g: &SCGraph, property: &str) -> Result<FieldTex
     })
 }
 
+/// The cell texels of `property` on a corner-point graph: IJK cell
+/// `(i, j, k)` holds its input cell's value, [`NO_CELL`] where the IJK box
+/// has no input cell. Point properties are refused (a faulted pillar holds
+/// several vertices per node).
+pub fn cp_texels(grid: &Grid, g: &CpGraph, property: &str) -> Result<FieldTexels, String> {
+    if grid.point_property(property).is_some() {
+        return Err(format!(
+            "'{property}' is a point property on a corner-point grid (no one value per node)"
+        ));
+    }
+    let Some(c) = grid.cell_property(property) else {
+        return Err(format!("no property '{property}'"));
+    };
+    let inputs = g.input_slots();
+    if c.len() != inputs.len() {
+        return Err(format!(
+            "the cell property '{property}' has {} values for {} cells",
+            c.len(),
+            inputs.len()
+        ));
+    }
+    let [nx, ny, nz] = g.dims;
+    let mut values = vec![NO_CELL; nx * ny * nz];
+    for (cell, &slot) in inputs.iter().enumerate() {
+        let [i, j, k] = g.slot_ijk(slot);
+        values[i + nx * (j + ny * k)] = c.scalar_at(cell) as f32;
+    }
+    Ok(FieldTexels {
+        kind: FieldKind::Cell,
+        dims: [nx, ny, nz].map(|n| n as u32),
+        values,
+    })
+}
+
 /// Per vertex of an `npi × npj × npk` lattice (I fastest): `(i, j, k, 0)`,
 /// what the slices carry in place of the gradient.
 pub fn vertex_ijk(dims: [usize; 3]) -> Vec<[f32; 4]> {
@@ -117,22 +152,25 @@ pub struct IjkField {
 }
 
 impl IjkField {
-    /// The texture of `property` on `s`, or why the pre-integrated pass
-    /// keeps the gradient path: not an S-CGraph, no such property, or a
-    /// side over the device's `max_texture_dimension_3d`.
+    /// The texture of `property` on `s` and the `(i, j, k)` of each of
+    /// its vertices, or why the pre-integrated pass keeps the gradient
+    /// path: no IJK lattice (S-CGraph, or CP-Graph for cell properties),
+    /// no such property, or a side over the device's
+    /// `max_texture_dimension_3d`.
     pub fn new(
         ctx: &GpuContext,
         grid: &Grid,
         s: &Structure,
         property: Option<&str>,
-    ) -> Result<Self, String> {
-        let Structure::SCGraph(g) = s else {
-            return Err("the grid has no IJK lattice (S-CGraph)".into());
-        };
+    ) -> Result<(Self, Vec<[f32; 4]>), String> {
         let Some(property) = property else {
             return Err("no property shown".into());
         };
-        let t = field_texels(grid, g, property)?;
+        let t = match s {
+            Structure::SCGraph(g) => field_texels(grid, g, property)?,
+            Structure::CpGraph(g) => cp_texels(grid, g, property)?,
+            _ => return Err("the grid has no IJK lattice (S-CGraph or CP-Graph)".into()),
+        };
         let max = ctx.limits.max_texture_dimension_3d;
         if t.dims.iter().any(|&n| n > max || n == 0) {
             return Err(format!(
@@ -170,10 +208,16 @@ impl IjkField {
             },
             size,
         );
-        Ok(IjkField {
+        let ijk = match s {
+            Structure::SCGraph(g) => vertex_ijk(g.dims),
+            Structure::CpGraph(g) => g.vertex_ijk(),
+            _ => unreachable!("refused above"),
+        };
+        let field = IjkField {
             kind: t.kind,
             view: texture.create_view(&Default::default()),
-        })
+        };
+        Ok((field, ijk))
     }
 }
 

@@ -28,7 +28,7 @@ pub use super::camera::{FRAME_MARGIN, frame_camera};
 use super::context::{GpuContext, GpuError};
 use super::emit::{GpuEmitter, emit_chunked};
 use super::gradient::vertex_gradients;
-use super::ijk_field::{IjkField, vertex_ijk};
+use super::ijk_field::IjkField;
 use super::pre_pass::{BoundaryMesh, PrePipeline};
 use super::shaders;
 use super::shared::OutVertex;
@@ -704,13 +704,16 @@ pub fn emit_slices<'c>(
     }
     let (field, field_fallback) = match k.attr_gradient && !k.iso {
         true => match IjkField::new(ctx, grid, s, property.as_deref()) {
-            Ok(f) => (Some(f), None),
+            Ok((f, ijk)) => {
+                p.grid.grad = ijk;
+                (Some(f), None)
+            }
             Err(why) => (None, Some(why)),
         },
         false => (None, None),
     };
-    if let (Some(_), Structure::SCGraph(g)) = (&field, s) {
-        p.grid.grad = vertex_ijk(g.dims);
+    if field.is_some() {
+        // The slices carry (i, j, k) in place of the gradient.
     } else if k.iso {
         p.grid.grad = vertex_gradients(&p.grid);
     } else if k.attr_gradient && cell_values.is_none() && !p.grid.attr.is_empty() {
