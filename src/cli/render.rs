@@ -111,6 +111,8 @@ fn pre_fallback(
         return None;
     }
     let d = glam::Vec3::from_array(o.view_dir.map(|c| c as f32)).normalize();
-    let k = slice_key(grid, o, slicing_axis(d)).ok()?.with_attr_gradient();
+    let k = slice_key(grid, o, slicing_axis(d))
+        .ok()?
+        .with_attr_gradient();
     r.slices(&k.key)?.field_fallback.clone()
 }

@@ -222,14 +222,18 @@ impl BoundaryMesh {
     /// Uploads the outer surface of `grid`; `None` when it has none
     /// extracted (unstructured grids) or it is empty.
     pub fn new(device: &wgpu::Device, grid: &crate::grid::Grid) -> Option<Self> {
+        Self::from_triangles(device, &super::boundary::boundary_triangles(grid)?)
+    }
+
+    /// Uploads triangles of (position, `(i, j, k)`) corners; `None` when empty.
+    pub fn from_triangles(device: &wgpu::Device, t: &[[f32; 6]]) -> Option<Self> {
         use wgpu::util::DeviceExt;
-        let t = super::boundary::boundary_triangles(grid)?;
         if t.is_empty() {
             return None;
         }
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("grid surface"),
-            contents: bytemuck::cast_slice(&t),
+            contents: bytemuck::cast_slice(t),
             usage: wgpu::BufferUsages::VERTEX,
         });
         Some(BoundaryMesh {

@@ -702,9 +702,15 @@ pub fn emit_slices<'c>(
         };
         p.grid.attr_per_cell = true;
     }
+    let mut cp_boundary = None;
     let (field, field_fallback) = match k.attr_gradient && !k.iso {
         true => match IjkField::new(ctx, grid, s, property.as_deref()) {
             Ok((f, ijk)) => {
+                if let Structure::CpGraph(g) = s {
+                    // Corner-point grids: the outer surface of the graph.
+                    cp_boundary =
+                        BoundaryMesh::from_triangles(&ctx.device, &g.boundary_triangles(&ijk));
+                }
                 p.grid.grad = ijk;
                 (Some(f), None)
             }
@@ -762,7 +768,7 @@ pub fn emit_slices<'c>(
         range,
         cut_cells,
         levels,
-        boundary: BoundaryMesh::new(&ctx.device, grid),
+        boundary: cp_boundary.or_else(|| BoundaryMesh::new(&ctx.device, grid)),
         field,
         field_fallback,
     })
