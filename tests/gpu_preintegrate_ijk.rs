@@ -231,3 +231,80 @@ fn a_lattice_over_the_3d_texture_limit_keeps_the_gradient_path() {
     eprintln!("over the limit: error {low_err:.5}, gradient path {gradient:.5}");
     assert!((low_err - gradient).abs() < 1e-3, "{low_err} vs {gradient}");
 }
+
+/// The layered box as a corner-point grid (vertical pillars, 8 flat
+/// layers, depth 0 to 2H, z = −depth): the same cells as [`layer_box`]
+/// 2H lower, K counted downward.
+fn layer_corner_point() -> (Grid, stratasweep::structures::cpgraph::IjkLayout) {
+    let dims = [4usize, 4, LAYERS];
+    let [nx, ny, nz] = dims;
+    let mut coord = Vec::new();
+    for pj in 0..=ny {
+        for pi in 0..=nx {
+            let (x, y) = (pi as f64 - 2.0, pj as f64 - 2.0);
+            coord.extend_from_slice(&[x, y, 0.0, x, y, 2.0 * H]);
+        }
+    }
+    let mut zcorn = vec![0.0; 8 * nx * ny * nz];
+    for k in 0..nz {
+        for kk in 0..2 {
+            for jj in 0..2 * ny {
+                for ii in 0..2 * nx {
+                    zcorn[(2 * k + kk) * 4 * nx * ny + jj * 2 * nx + ii] =
+                        2.0 * H * (k + kk) as f64 / nz as f64;
+                }
+            }
+        }
+    }
+    let c = (0..nx * ny * nz)
+        .map(|cid| layer_value(cid / (nx * ny)))
+        .collect();
+    let cp = stratasweep::cornerpoint::CornerPointGrid {
+        dims,
+        coord,
+        zcorn,
+        actnum: None,
+        mapaxes: None,
+        mapunits: None,
+        gridunit: None,
+        properties: vec![Property::scalar("c", c)],
+    };
+    let (grid, rep) = cp.into_grid().unwrap();
+    let layout = stratasweep::structures::cpgraph::IjkLayout {
+        dims,
+        source_cell: rep.source_cell,
+    };
+    (grid, layout)
+}
+
+#[test]
+fn corner_point_layers_are_integrated_in_index_space() {
+    let Some(ctx) = gpu_common::gpu("corner_point_layers_are_integrated_in_index_space") else {
+        return;
+    };
+    let (g, layout) = layer_corner_point();
+    let t = ramp_transfer();
+    let cp = Structure::build_with(&g, StructureChoice::CpGraph, Some(&layout)).unwrap();
+    assert!(matches!(cp, Structure::CpGraph(_)));
+    // Height z (the box centred on 0) to depth, depth to layer.
+    let field = |z: f64| {
+        let k = ((H - z) / (2.0 * H) * LAYERS as f64).floor() as usize;
+        layer_value(k.min(LAYERS - 1))
+    };
+    for deg in [0.0f64, 35.0] {
+        let o = options("c", deg, 3);
+        let want = integrate(&t, field, deg.to_radians());
+        let err = |s: &Structure, pre: bool| {
+            let mut r = Renderer::new(ctx).unwrap();
+            r.set_preintegrated(pre);
+            let got = r.render_exaggerated(&g, s, &o, 1.0).unwrap().pixel(16, 16);
+            (0..4)
+                .map(|c| (got[c] as f64 - want[c]).abs())
+                .fold(0.0, f64::max)
+        };
+        let (ijk, plain) = (err(&cp, true), err(&cp, false));
+        eprintln!("{deg}°: max channel error CP-Graph index space {ijk:.5}, plain {plain:.5}");
+        assert!(ijk <= 2.0 / 255.0, "{deg}°: index-space error {ijk}");
+        assert!(ijk < plain / 5.0, "{deg}°: {ijk} vs plain {plain}");
+    }
+}

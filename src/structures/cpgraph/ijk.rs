@@ -175,3 +175,75 @@ impl CpGraph {
         out
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::cornerpoint::CornerPointGrid;
+    use crate::structures::cpgraph::IjkLayout;
+    use crate::structures::{Structure, StructureChoice};
+
+    /// A 3 × 2 × 4 corner-point box: pillars at x = i, y = j, layers 0.5
+    /// thick (z = −depth).
+    fn boxed() -> Structure {
+        let dims = [3usize, 2, 4];
+        let [nx, ny, nz] = dims;
+        let mut coord = Vec::new();
+        for pj in 0..=ny {
+            for pi in 0..=nx {
+                coord.extend_from_slice(&[pi as f64, pj as f64, 0.0, pi as f64, pj as f64, 2.0]);
+            }
+        }
+        let mut zcorn = vec![0.0; 8 * nx * ny * nz];
+        for (n, z) in zcorn.iter_mut().enumerate() {
+            *z = 0.5 * (n / (4 * nx * ny)).div_ceil(2) as f64;
+        }
+        let cp = CornerPointGrid {
+            dims,
+            coord,
+            zcorn,
+            actnum: None,
+            mapaxes: None,
+            mapunits: None,
+            gridunit: None,
+            properties: Vec::new(),
+        };
+        let (grid, rep) = cp.into_grid().unwrap();
+        let layout = IjkLayout {
+            dims,
+            source_cell: rep.source_cell,
+        };
+        Structure::build_with(&grid, StructureChoice::CpGraph, Some(&layout)).unwrap()
+    }
+
+    #[test]
+    fn vertices_and_outer_faces_carry_their_lattice_node() {
+        let Structure::CpGraph(g) = boxed() else {
+            panic!("not a CP-Graph");
+        };
+        let ijk = g.vertex_ijk();
+        assert_eq!(ijk.len(), g.positions.len());
+        // Node (i, j, k) sits at x = i, y = j, z = −k/2 (rebased by the origin).
+        let node = |p: [f32; 3]| {
+            let o = g.origin;
+            let w = [0, 1, 2].map(|a| p[a] as f64 + o[a]);
+            [w[0], w[1], -2.0 * w[2]]
+        };
+        for (p, q) in g.positions.iter().zip(&ijk) {
+            let n = node(*p);
+            for a in 0..3 {
+                assert!((q[a] as f64 - n[a]).abs() < 1e-5, "{p:?}: {q:?} vs {n:?}");
+            }
+        }
+        let t = g.boundary_triangles(&ijk);
+        // The outer cell faces: top and bottom 3·2 each, the two j-sides
+        // 3·4 each, the two i-sides 2·4 each; two triangles per face.
+        let quads = 2 * (3 * 2) + 2 * (3 * 4) + 2 * (2 * 4);
+        assert_eq!(t.len(), 6 * quads);
+        for c in &t {
+            let n = node([c[0], c[1], c[2]]);
+            for a in 0..3 {
+                assert!((c[3 + a] as f64 - n[a]).abs() < 1e-5, "{c:?}");
+            }
+        }
+    }
+}
