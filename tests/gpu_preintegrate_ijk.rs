@@ -61,7 +61,7 @@ fn wave_field(z: f64) -> f64 {
 
 /// Layer value of K layer `k`: alternating low and high, rising.
 fn layer_value(k: usize) -> f64 {
-    if k % 2 == 0 {
+    if k.is_multiple_of(2) {
         0.1 + 0.05 * k as f64
     } else {
         0.9 - 0.05 * k as f64

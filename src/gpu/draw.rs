@@ -67,7 +67,6 @@ impl FrameSetup {
                 Some(f) if self.uses_pre(set) => f.kind.mode(),
                 _ => 0,
             },
-            ..Default::default()
         }
     }
 }

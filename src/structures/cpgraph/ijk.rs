@@ -39,9 +39,11 @@ impl CpGraph {
         let mut b = [0u32; MAX_META_VERTICES];
         for s in 0..self.lattice_slots.saturating_sub(self.deltas[2]) {
             let t = s + self.deltas[2];
-            if !(self.kept.get(s as usize) && self.kept.get(t as usize))
-                || !(self.is_stencil_hex(s) && self.is_stencil_hex(t))
-            {
+            let both = self.kept.get(s as usize)
+                && self.kept.get(t as usize)
+                && self.is_stencil_hex(s)
+                && self.is_stencil_hex(t);
+            if !both {
                 continue;
             }
             self.cell(s, &mut a);
