@@ -201,6 +201,7 @@ fn segment(v: f32, slope: f32, x: f32, sub: f32, k: f32) -> vec4<f32> {
 // slab is marched through the field from this slice's index point to the
 // far slice's.
 @group(2) @binding(0) var field_t: texture_3d<f32>;
+@group(2) @binding(1) var field_s: sampler;
 const FIELD_POINT: u32 = 1u;
 const FIELD_CELL: u32 = 2u;
 // Point fields: sub-steps per cell crossed, and at most this many per segment.
@@ -211,18 +212,11 @@ fn field_load(c: vec3<i32>) -> f32 {
     return textureLoad(field_t, c, 0).x;
 }
 
-// The trilinear field at index point p (clamped to the lattice).
+// The trilinear field at index point p (the sampler clamps to the
+// lattice; texel centres sit at index + 0.5).
 fn field_point(p: vec3<f32>) -> f32 {
-    let dims = vec3<i32>(textureDimensions(field_t));
-    let q = clamp(p, vec3<f32>(0.0), vec3<f32>(dims - 1));
-    let i0 = clamp(vec3<i32>(floor(q)), vec3<i32>(0), max(dims - 2, vec3<i32>(0)));
-    let i1 = min(i0 + 1, dims - 1);
-    let f = q - vec3<f32>(i0);
-    let x00 = mix(field_load(i0), field_load(vec3<i32>(i1.x, i0.y, i0.z)), f.x);
-    let x10 = mix(field_load(vec3<i32>(i0.x, i1.y, i0.z)), field_load(vec3<i32>(i1.x, i1.y, i0.z)), f.x);
-    let x01 = mix(field_load(vec3<i32>(i0.x, i0.y, i1.z)), field_load(vec3<i32>(i1.x, i0.y, i1.z)), f.x);
-    let x11 = mix(field_load(vec3<i32>(i0.x, i1.y, i1.z)), field_load(i1), f.x);
-    return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
+    let dims = vec3<f32>(textureDimensions(field_t));
+    return textureSampleLevel(field_t, field_s, (p + 0.5) / dims, 0.0).x;
 }
 
 // The cell containing index point p (clamped to the lattice).

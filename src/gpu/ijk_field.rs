@@ -147,7 +147,7 @@ pub fn vertex_ijk(dims: [usize; 3]) -> Vec<[f32; 4]> {
 pub struct IjkField {
     /// Point or cell texels.
     pub kind: FieldKind,
-    /// The texture's view (`R32Float`, not filtered: the shader reads texels).
+    /// The texture's view (`R32Float`, filtered linearly for point texels).
     pub view: wgpu::TextureView,
 }
 
@@ -171,6 +171,13 @@ impl IjkField {
             Structure::CpGraph(g) => cp_texels(grid, g, property)?,
             _ => return Err("the grid has no IJK lattice (S-CGraph or CP-Graph)".into()),
         };
+        if !ctx
+            .device
+            .features()
+            .contains(wgpu::Features::FLOAT32_FILTERABLE)
+        {
+            return Err("the adapter cannot filter R32Float textures".into());
+        }
         let max = ctx.limits.max_texture_dimension_3d;
         if t.dims.iter().any(|&n| n > max || n == 0) {
             return Err(format!(
@@ -221,24 +228,44 @@ impl IjkField {
     }
 }
 
-/// The layout of the field texture's bind group (group 2 of `fs_pre`).
+/// The layout of the field texture's bind group (group 2 of `fs_pre`):
+/// the texture and a linear clamping sampler.
 pub fn field_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("ijk field"),
-        entries: &[wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                view_dimension: wgpu::TextureViewDimension::D3,
-                multisampled: false,
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                    view_dimension: wgpu::TextureViewDimension::D3,
+                    multisampled: false,
+                },
+                count: None,
             },
-            count: None,
-        }],
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
     })
 }
 
-/// A 1×1×1 field texture's view for frames without a field (never read).
+/// The field's sampler: trilinear, clamped to the lattice.
+pub fn field_sampler(device: &wgpu::Device) -> wgpu::Sampler {
+    device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("ijk field"),
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        ..Default::default()
+    })
+}
+
+/// A 1×1×1 field texture's view for frames without a field (never read;
+/// `R16Float`, filterable on every adapter).
 pub fn empty_field(device: &wgpu::Device) -> wgpu::TextureView {
     device
         .create_texture(&wgpu::TextureDescriptor {
@@ -251,7 +278,7 @@ pub fn empty_field(device: &wgpu::Device) -> wgpu::TextureView {
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D3,
-            format: wgpu::TextureFormat::R32Float,
+            format: wgpu::TextureFormat::R16Float,
             usage: wgpu::TextureUsages::TEXTURE_BINDING,
             view_formats: &[],
         })

@@ -54,6 +54,8 @@ pub struct PrePipeline {
     pub field_layout: wgpu::BindGroupLayout,
     /// The field bound when a frame has none (never read).
     empty_field: wgpu::TextureView,
+    /// The field's trilinear sampler.
+    sampler: wgpu::Sampler,
 }
 
 impl PrePipeline {
@@ -137,6 +139,7 @@ impl PrePipeline {
             far_layout,
             field_layout,
             empty_field: super::ijk_field::empty_field(device),
+            sampler: super::ijk_field::field_sampler(device),
         }
     }
 }
@@ -370,12 +373,18 @@ pub fn encode_pre(enc: &mut wgpu::CommandEncoder, d: &PreDraw) {
     let field = d.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("ijk field"),
         layout: &d.pre.field_layout,
-        entries: &[wgpu::BindGroupEntry {
-            binding: 0,
-            resource: wgpu::BindingResource::TextureView(
-                d.field.map_or(&d.pre.empty_field, |f| &f.view),
-            ),
-        }],
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(
+                    d.field.map_or(&d.pre.empty_field, |f| &f.view),
+                ),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::Sampler(&d.pre.sampler),
+            },
+        ],
     });
     let mut write = 0usize;
     for (c, l) in far_to_near(d.chunks, d.reverse, d.lod) {
