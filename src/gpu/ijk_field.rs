@@ -2,15 +2,20 @@
 //! pre-integrated volume pass on IJK (S-CGraph) grids.
 //!
 //! A point property gets one texel per vertex (texel `(i, j, k)` is vertex
-//! `i + npi·(j + npj·k)`), read trilinearly in `wgsl/render.wgsl`, which is
-//! the grid's own trilinear field in index space. A cell property gets one
-//! texel per cell, read as the exact piecewise-constant field; hidden cells
-//! hold [`NO_CELL`] (transparent). The slices carry each corner's index
-//! coordinate `(i, j, k)` in place of the attribute's gradient (the emit
-//! pass interpolates it along the cut edge like the value), so a slab is
-//! marched in index space from this slice's point to the far slice's.
-//! Grids without an IJK lattice (zoo, Voronoi, corner-point) keep the
-//! gradient path.
+//! `i + npi·(j + npj·k)`), sampled with the hardware's trilinear filter in
+//! `wgsl/render.wgsl`: the grid's own trilinear field in index space
+//! (`R32Float`, so the adapter must have `FLOAT32_FILTERABLE`). A cell
+//! property gets one texel per cell, read as the exact piecewise-constant
+//! field; hidden cells hold [`NO_CELL`] (transparent). The slices carry
+//! each corner's index coordinate `(i, j, k)` in place of the attribute's
+//! gradient (the emit pass interpolates it along the cut edge like the
+//! value), so a slab is marched in index space from this slice's point to
+//! the far slice's. Corner-point graphs (CP-Graph) take cell properties
+//! (their vertices' nodes: `structures::cpgraph::ijk`). Other grids (zoo,
+//! Voronoi, CGraph, CIEL), point properties on corner-point grids, lattices
+//! over `max_texture_dimension_3d` and adapters without the filter keep the
+//! gradient path (or plain slices for a cell property), with the reason on
+//! the slice set.
 
 use crate::cellgraph::CellGraph;
 use crate::grid::Grid;

@@ -17,6 +17,13 @@
 //! full-screen pass puts the half slab in front of the nearest slice over
 //! the image, so each slice stands for the slab centred on it, as in the
 //! plain mode.
+//!
+//! On IJK grids ([`super::ijk_field`]) the slices carry `(i, j, k)` instead
+//! of the gradient, the scalar targets hold `(i, j, k, ray distance)` and
+//! the outer surface's targets `(ray distance, i, j, k)`: each slab, the
+//! segment from the entry to the nearest slice, the one from the farthest
+//! slice to the exit, and whole rays that meet no slice are marched
+//! through the property's 3D texture in index space (group 2).
 
 use super::emit::GpuEmitter;
 use super::shared::{ARGS_WORDS, ControlLayout};
