@@ -111,7 +111,7 @@ fn rust_layouts() -> Vec<Layout> {
                 mode,
                 z_scale,
                 slab,
-                _pad2
+                field_mode
             ]
         ),
     ]

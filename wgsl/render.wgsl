@@ -113,6 +113,8 @@ fn pre_at(f: u32, b: u32) -> vec4<f32> {
 // segment from where the ray enters the grid to the nearest slice.
 @group(1) @binding(0) var scalars: texture_2d<f32>;
 @group(1) @binding(1) var bound_t: texture_2d<f32>;
+// fs_front: the exit target (the other groups bind the entry, unread).
+@group(1) @binding(2) var other_bound_t: texture_2d<f32>;
 const NO_VALUE: f32 = -3.0e38;
 const SUB_SLABS: u32 = 4u;
 
@@ -191,6 +193,112 @@ fn segment(v: f32, slope: f32, x: f32, sub: f32, k: f32) -> vec4<f32> {
     return acc;
 }
 
+// IJK grids (rp.field_mode != 0, `gpu::ijk_field`): the shown property in
+// index space, one texel per vertex (FIELD_POINT, trilinear) or per cell
+// (FIELD_CELL, piecewise constant; NO_VALUE: hidden). The slices carry
+// their corners' (i, j, k) in `normal`, the scalar targets hold (i, j, k,
+// ray distance) and the entry/exit targets (ray distance, i, j, k), so a
+// slab is marched through the field from this slice's index point to the
+// far slice's.
+@group(2) @binding(0) var field_t: texture_3d<f32>;
+@group(2) @binding(1) var field_s: sampler;
+const FIELD_POINT: u32 = 1u;
+const FIELD_CELL: u32 = 2u;
+// Point fields: sub-steps per cell crossed, and at most this many per segment.
+const STEPS_PER_CELL: f32 = 2.0;
+const MAX_STEPS: u32 = 64u;
+
+fn field_load(c: vec3<i32>) -> f32 {
+    return textureLoad(field_t, c, 0).x;
+}
+
+// The trilinear field at index point p (the sampler clamps to the
+// lattice; texel centres sit at index + 0.5).
+fn field_point(p: vec3<f32>) -> f32 {
+    let dims = vec3<f32>(textureDimensions(field_t));
+    return textureSampleLevel(field_t, field_s, (p + 0.5) / dims, 0.0).x;
+}
+
+// The cell containing index point p (clamped to the lattice).
+fn field_cell(p: vec3<f32>) -> f32 {
+    let dims = vec3<i32>(textureDimensions(field_t));
+    return field_load(clamp(vec3<i32>(floor(p)), vec3<i32>(0), dims - 1));
+}
+
+// A constant segment x display units long: the transfer colour, opacity
+// corrected for its length in unit distances.
+fn constant_segment(v: f32, x: f32) -> vec4<f32> {
+    if v <= 0.5 * NO_VALUE || x <= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    let c = transfer(v);
+    let a = 1.0 - pow(1.0 - clamp(c.a, 0.0, 1.0), x * rp.spacing_over_unit / rp.slab);
+    return vec4<f32>(c.rgb * a, a);
+}
+
+// The next parameter in (s, 1] where the segment a + s·d crosses an integer
+// plane of axis c (1 when it does not).
+fn next_plane(a: f32, d: f32, s: f32) -> f32 {
+    if abs(d) < 1e-6 {
+        return 1.0;
+    }
+    let p = a + d * s;
+    var plane = ceil(p - 1e-4) - 1.0;
+    if d > 0.0 {
+        plane = floor(p + 1e-4) + 1.0;
+    }
+    return min((plane - a) / d, 1.0);
+}
+
+// The ray from index point a (point field value va there) to b, x display
+// units long, through the
+// field: a cell field exactly, cell by cell; a point field in sub-steps
+// (STEPS_PER_CELL per cell crossed, none longer than the table's sub-slab
+// l0), each from the pre-integrated table between its end samples.
+fn march(a: vec3<f32>, va: f32, b: vec3<f32>, x: f32, l0: f32) -> vec4<f32> {
+    var acc = vec4<f32>(0.0);
+    if x <= 0.0 {
+        return acc;
+    }
+    let d = b - a;
+    if rp.field_mode == FIELD_CELL {
+        var s = 0.0;
+        for (var it = 0u; it < MAX_STEPS && s < 1.0; it++) {
+            var next = min(next_plane(a.x, d.x, s), next_plane(a.y, d.y, s));
+            next = max(min(next, next_plane(a.z, d.z, s)), s + 1e-3);
+            let v = field_cell(a + d * (0.5 * (s + min(next, 1.0))));
+            acc = under(acc, constant_segment(v, x * (min(next, 1.0) - s)));
+            s = next;
+        }
+        return acc;
+    }
+    let n = clamp(u32(ceil(STEPS_PER_CELL * length(d))), 1u, MAX_STEPS);
+    let h = 1.0 / f32(n);
+    var f = va;
+    for (var i = 1u; i <= n; i++) {
+        let v = field_point(a + d * (f32(i) * h));
+        acc = under(acc, sub_slab(f, v, x * h / l0));
+        f = v;
+    }
+    return acc;
+}
+
+// fs_pre on an IJK grid: the slab to the far slice (or to the ray's exit)
+// marched through the field.
+fn pre_ijk(ijk: vec3<f32>, v: f32, t: f32, far: vec4<f32>, px: vec2<i32>, len: f32) -> vec4<f32> {
+    let l0 = rp.slab / view_cos(rp.view_dir.xyz) / f32(SUB_SLABS);
+    if far.x > 0.5 * NO_VALUE {
+        return march(ijk, v, far.xyz, max(far.w - t, 0.0), l0);
+    }
+    let exit = textureLoad(bound_t, px, 0);
+    if exit.x > 0.5 * NO_VALUE {
+        let gap = max(exit.x - t, 0.0);
+        let x = min(gap, len);
+        return march(ijk, v, mix(ijk, exit.yzw, x / max(gap, 1e-30)), x, l0);
+    }
+    return march(ijk, v, ijk, 0.5 * len, l0);
+}
+
 @fragment
 fn fs_pre(in: VsOut) -> PreOut {
     let disp = vec3<f32>(in.world.xy, in.world.z * rp.z_scale);
@@ -208,6 +316,13 @@ fn fs_pre(in: VsOut) -> PreOut {
     let px = vec2<i32>(floor(in.clip.xy));
     let far = textureLoad(scalars, px, 0);
     var acc = vec4<f32>(0.0);
+    if rp.field_mode != 0u {
+        var o: PreOut;
+        o.color = pre_ijk(in.normal, in.value, t, far, px, len);
+        o.slice = vec4<f32>(in.normal, t);
+        o.nearest = o.slice;
+        return o;
+    }
     if far.x > 0.5 * NO_VALUE {
         let h = 1.0 / f32(SUB_SLABS);
         var f = in.value;
@@ -234,13 +349,13 @@ fn fs_pre(in: VsOut) -> PreOut {
 // The grid's outer surface: its ray distance (the depth test keeps the
 // nearest or the farthest).
 @vertex
-fn vs_boundary(@location(0) pos: vec3<f32>) -> VsOut {
-    return vertex_out(pos, 0.0, vec3<f32>(0.0));
+fn vs_boundary(@location(0) pos: vec3<f32>, @location(2) ijk: vec3<f32>) -> VsOut {
+    return vertex_out(pos, 0.0, ijk);
 }
 
 @fragment
-fn fs_boundary(in: VsOut) -> @location(0) f32 {
-    return ray_t(vec3<f32>(in.world.xy, in.world.z * rp.z_scale));
+fn fs_boundary(in: VsOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(ray_t(vec3<f32>(in.world.xy, in.world.z * rp.z_scale)), in.normal);
 }
 
 // A full-screen triangle.
@@ -259,9 +374,27 @@ fn fs_front(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
     let px = vec2<i32>(floor(p.xy));
     let s = textureLoad(scalars, px, 0);
     if s.x <= 0.5 * NO_VALUE {
-        return vec4<f32>(0.0);
+        // No slice on this ray: on IJK grids, the whole ray from entry to
+        // exit (rays grazing the grid between two slices).
+        let e = textureLoad(bound_t, px, 0);
+        let x = textureLoad(other_bound_t, px, 0);
+        if rp.field_mode == 0u || e.x <= 0.5 * NO_VALUE || x.x <= e.x {
+            return vec4<f32>(0.0);
+        }
+        let len = rp.slab / view_cos(rp.view_dir.xyz);
+        return march(e.yzw, field_point(e.yzw), x.yzw, x.x - e.x, len / f32(SUB_SLABS));
     }
     let len = rp.slab / view_cos(rp.view_dir.xyz);
+    if rp.field_mode != 0u {
+        let e = textureLoad(bound_t, px, 0);
+        if e.x <= 0.5 * NO_VALUE {
+            return march(s.xyz, field_point(s.xyz), s.xyz, 0.5 * len, len / f32(SUB_SLABS));
+        }
+        let gap = max(s.w - e.x, 0.0);
+        let x = min(gap, len);
+        let a = mix(s.xyz, e.yzw, x / max(gap, 1e-30));
+        return march(a, field_point(a), s.xyz, x, len / f32(SUB_SLABS));
+    }
     let entry = textureLoad(bound_t, px, 0).x;
     var x = 0.5 * len;
     if entry > 0.5 * NO_VALUE {

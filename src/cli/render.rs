@@ -50,9 +50,13 @@ pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
     if o.mode == Mode::Iso && o.iso.is_empty() {
         bail!("--mode iso needs --iso VALUES (comma-separated)");
     }
-    let (grid, name, _) = load(&a.input, quiet, &outputs)?;
+    let (grid, name, _, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
     let z_scale = a.scene.z_scale(&grid, quiet);
-    let s = Structure::build(&grid, StructureChoice::Auto)
+    // Pre-integrated slabs march corner-point cells in index space: the
+    // corner-point graph keeps the IJK lattice (plain frames keep Auto's
+    // choice without it).
+    let layout = ijk.as_ref().filter(|_| a.scene.preintegrated);
+    let s = Structure::build_with(&grid, StructureChoice::Auto, layout)
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let iso = if o.mode == Mode::Iso { &o.iso[..] } else { &[] };
     for v in super::render_checks::check_before(&grid, o.property.as_deref(), iso)? {
@@ -69,6 +73,9 @@ pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
         img
     };
     let secs = t.elapsed().as_secs_f64();
+    if let Some(why) = pre_fallback(&r, &grid, &o) {
+        eprintln!("note: pre-integrated slabs without the index-space field ({why})");
+    }
     if super::render_checks::is_blank(&img) {
         eprintln!(
             "warning: nothing was drawn: every pixel of {} is the background (check --property, --transfer, --iso and --view-dir)",
@@ -90,4 +97,22 @@ pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Why a pre-integrated volume frame did not march the property in index
+/// space (the slices' reason), if it did not.
+fn pre_fallback(
+    r: &Renderer,
+    grid: &stratasweep::grid::Grid,
+    o: &stratasweep::gpu::render::RenderOptions,
+) -> Option<String> {
+    use stratasweep::gpu::render::{slice_key, slicing_axis};
+    if !r.preintegrated() || o.mode != Mode::Volume {
+        return None;
+    }
+    let d = glam::Vec3::from_array(o.view_dir.map(|c| c as f32)).normalize();
+    let k = slice_key(grid, o, slicing_axis(d))
+        .ok()?
+        .with_attr_gradient();
+    r.slices(&k.key)?.field_fallback.clone()
 }

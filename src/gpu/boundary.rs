@@ -5,9 +5,10 @@
 
 use crate::grid::{Grid, Topology};
 
-/// Triangle corners of the grid's outer surface, three per triangle, or
-/// `None` for unstructured grids (their outer surface is not extracted).
-pub fn boundary_triangles(grid: &Grid) -> Option<Vec<[f32; 3]>> {
+/// Triangle corners of the grid's outer surface, three per triangle, each
+/// its position then its index coordinate `(i, j, k)`, or `None` for
+/// unstructured grids (their outer surface is not extracted).
+pub fn boundary_triangles(grid: &Grid) -> Option<Vec<[f32; 6]>> {
     let Topology::Structured { dims } = grid.topology else {
         return None;
     };
@@ -17,7 +18,8 @@ pub fn boundary_triangles(grid: &Grid) -> Option<Vec<[f32; 3]>> {
     let o = grid.origin();
     let at = |i: usize, j: usize, k: usize| {
         let p = grid.points[i + dims[0] * (j + dims[1] * k)];
-        [0, 1, 2].map(|a| (p[a] - o[a]) as f32)
+        let x = [0, 1, 2].map(|a| (p[a] - o[a]) as f32);
+        [x[0], x[1], x[2], i as f32, j as f32, k as f32]
     };
     let mut out = Vec::new();
     // Each outer face: fix axis `a` at 0 or its last index; walk the other two.
@@ -72,7 +74,11 @@ mod tests {
         // Every corner lies on the box surface (origin at the centre: ±2).
         let h = (n - 1) as f32 / 2.0;
         for p in &t {
-            assert!(p.iter().any(|c| (c.abs() - h).abs() < 1e-6), "{p:?}");
+            assert!(p[..3].iter().any(|c| (c.abs() - h).abs() < 1e-6), "{p:?}");
+            // The index coordinate is the position shifted by the centre.
+            for a in 0..3 {
+                assert_eq!(p[3 + a], p[a] + h, "{p:?}");
+            }
         }
         // The triangles' areas add up to the box's surface, 6 (n−1)².
         let area: f32 = t

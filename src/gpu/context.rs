@@ -247,6 +247,7 @@ impl GpuContext {
             wgpu::Features::SHADER_F64,
             wgpu::Features::FLOAT32_BLENDABLE,
             wgpu::Features::INDIRECT_FIRST_INSTANCE,
+            wgpu::Features::FLOAT32_FILTERABLE,
         ] {
             if feats.contains(f) {
                 required |= f;

@@ -63,7 +63,10 @@ impl FrameSetup {
             mode,
             z_scale: cam.z_scale,
             slab: if self.uses_pre(set) { slab as f32 } else { 0.0 },
-            ..Default::default()
+            field_mode: match &set.field {
+                Some(f) if self.uses_pre(set) => f.kind.mode(),
+                _ => 0,
+            },
         }
     }
 }
@@ -294,6 +297,8 @@ impl<'c> Renderer<'c> {
                     reverse,
                     lod,
                     boundary: set.boundary.as_ref(),
+                    field: set.field.as_ref(),
+                    device: &self.ctx.device,
                     depth: &target.depth,
                 },
             );

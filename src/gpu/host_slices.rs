@@ -254,5 +254,9 @@ pub fn build_host_slices<'c>(
         cut_cells,
         levels: levels as u32,
         boundary: super::pre_pass::BoundaryMesh::new(&ctx.device, grid),
+        field: None,
+        field_fallback: k
+            .attr_gradient
+            .then(|| "the slices are cut on the host (CIEL)".into()),
     })
 }

@@ -16,6 +16,7 @@ pub mod frame;
 pub mod gradient;
 pub mod grid_parts;
 pub mod host_slices;
+pub mod ijk_field;
 pub mod iso_cache;
 pub mod offscreen;
 pub mod outline;

@@ -17,6 +17,13 @@
 //! full-screen pass puts the half slab in front of the nearest slice over
 //! the image, so each slice stands for the slab centred on it, as in the
 //! plain mode.
+//!
+//! On IJK grids ([`super::ijk_field`]) the slices carry `(i, j, k)` instead
+//! of the gradient, the scalar targets hold `(i, j, k, ray distance)` and
+//! the outer surface's targets `(ray distance, i, j, k)`: each slab, the
+//! segment from the entry to the nearest slice, the one from the farthest
+//! slice to the exit, and whole rays that meet no slice are marched
+//! through the property's 3D texture in index space (group 2).
 
 use super::emit::GpuEmitter;
 use super::shared::{ARGS_WORDS, ControlLayout};
@@ -25,8 +32,9 @@ use super::shared::{ARGS_WORDS, ControlLayout};
 /// the ray per display unit, the ray distance, 1).
 pub const SCALAR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
-/// Format of the entry and exit distance targets.
-pub const BOUNDARY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+/// Format of the entry and exit targets: (ray distance, the point's
+/// `(i, j, k)` on IJK grids).
+pub const BOUNDARY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
 /// Sub-slabs per slab (`SUB_SLABS` in `wgsl/render.wgsl`): the table is
 /// built for slabs `1 / SUB_SLABS` of the slice spacing thick.
@@ -46,8 +54,15 @@ pub struct PrePipeline {
     /// The grid's outer surface: nearest (`[0]`) and farthest (`[1]`) ray
     /// distance per pixel.
     pub boundary: [wgpu::RenderPipeline; 2],
-    /// Group 1: a slice scalar target and an entry or exit distance target.
+    /// Group 1: a slice scalar target, an entry or exit target and the
+    /// other one (read by the front pass only).
     pub far_layout: wgpu::BindGroupLayout,
+    /// Group 2: the index-space field ([`super::ijk_field`]).
+    pub field_layout: wgpu::BindGroupLayout,
+    /// The field bound when a frame has none (never read).
+    empty_field: wgpu::TextureView,
+    /// The field's trilinear sampler.
+    sampler: wgpu::Sampler,
 }
 
 impl PrePipeline {
@@ -61,11 +76,12 @@ impl PrePipeline {
     ) -> Self {
         let far_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("far slice"),
-            entries: &[texture_entry(0), texture_entry(1)],
+            entries: &[texture_entry(0), texture_entry(1), texture_entry(2)],
         });
+        let field_layout = super::ijk_field::field_layout(device);
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("pre-integrated"),
-            bind_group_layouts: &[Some(params), Some(&far_layout)],
+            bind_group_layouts: &[Some(params), Some(&far_layout), Some(&field_layout)],
             immediate_size: 0,
         });
         let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32];
@@ -128,6 +144,9 @@ impl PrePipeline {
             front,
             boundary,
             far_layout,
+            field_layout,
+            empty_field: super::ijk_field::empty_field(device),
+            sampler: super::ijk_field::field_sampler(device),
         }
     }
 }
@@ -158,7 +177,7 @@ fn boundary_pipeline(
         bind_group_layouts: &[Some(params)],
         immediate_size: 0,
     });
-    let attrs = wgpu::vertex_attr_array![0 => Float32x3];
+    let attrs = wgpu::vertex_attr_array![0 => Float32x3, 2 => Float32x3];
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some("grid surface"),
         layout: Some(&layout),
@@ -167,7 +186,7 @@ fn boundary_pipeline(
             entry_point: Some("vs_boundary"),
             compilation_options: Default::default(),
             buffers: &[Some(wgpu::VertexBufferLayout {
-                array_stride: 12,
+                array_stride: 24,
                 step_mode: wgpu::VertexStepMode::Vertex,
                 attributes: &attrs,
             })],
@@ -213,14 +232,18 @@ impl BoundaryMesh {
     /// Uploads the outer surface of `grid`; `None` when it has none
     /// extracted (unstructured grids) or it is empty.
     pub fn new(device: &wgpu::Device, grid: &crate::grid::Grid) -> Option<Self> {
+        Self::from_triangles(device, &super::boundary::boundary_triangles(grid)?)
+    }
+
+    /// Uploads triangles of (position, `(i, j, k)`) corners; `None` when empty.
+    pub fn from_triangles(device: &wgpu::Device, t: &[[f32; 6]]) -> Option<Self> {
         use wgpu::util::DeviceExt;
-        let t = super::boundary::boundary_triangles(grid)?;
         if t.is_empty() {
             return None;
         }
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("grid surface"),
-            contents: bytemuck::cast_slice(&t),
+            contents: bytemuck::cast_slice(t),
             usage: wgpu::BufferUsages::VERTEX,
         });
         Some(BoundaryMesh {
@@ -238,7 +261,7 @@ pub struct ScalarTargets {
     views: [wgpu::TextureView; 3],
     /// Entry, exit.
     bounds: [wgpu::TextureView; 2],
-    /// Slice 0 + exit, slice 1 + exit, nearest + entry.
+    /// Slice 0 + exit, slice 1 + exit, nearest + entry (each + the other).
     groups: [wgpu::BindGroup; 3],
 }
 
@@ -267,7 +290,7 @@ impl ScalarTargets {
         let views =
             ["slice scalars 0", "slice scalars 1", "nearest slice"].map(|l| make(l, SCALAR_FORMAT));
         let bounds = ["ray entry", "ray exit"].map(|l| make(l, BOUNDARY_FORMAT));
-        let group = |s: &wgpu::TextureView, b: &wgpu::TextureView| {
+        let group = |s: &wgpu::TextureView, b: &wgpu::TextureView, other: &wgpu::TextureView| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("pre-integrated scalars"),
                 layout: &pre.far_layout,
@@ -280,13 +303,17 @@ impl ScalarTargets {
                         binding: 1,
                         resource: wgpu::BindingResource::TextureView(b),
                     },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::TextureView(other),
+                    },
                 ],
             })
         };
         let groups = [
-            group(&views[0], &bounds[1]),
-            group(&views[1], &bounds[1]),
-            group(&views[2], &bounds[0]),
+            group(&views[0], &bounds[1], &bounds[0]),
+            group(&views[1], &bounds[1], &bounds[0]),
+            group(&views[2], &bounds[0], &bounds[1]),
         ];
         ScalarTargets {
             views,
@@ -314,6 +341,10 @@ pub struct PreDraw<'a> {
     pub lod: u32,
     /// The grid's outer surface, if extracted.
     pub boundary: Option<&'a BoundaryMesh>,
+    /// The index-space field, on IJK grids.
+    pub field: Option<&'a super::ijk_field::IjkField>,
+    /// The device (the field's bind group).
+    pub device: &'a wgpu::Device,
     /// A depth target of the same size.
     pub depth: &'a wgpu::TextureView,
 }
@@ -346,6 +377,22 @@ pub fn encode_pre(enc: &mut wgpu::CommandEncoder, d: &PreDraw) {
     for (i, b) in d.scalars.bounds.iter().enumerate() {
         encode_boundary(enc, d, i, b);
     }
+    let field = d.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("ijk field"),
+        layout: &d.pre.field_layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(
+                    d.field.map_or(&d.pre.empty_field, |f| &f.view),
+                ),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::Sampler(&d.pre.sampler),
+            },
+        ],
+    });
     let mut write = 0usize;
     for (c, l) in far_to_near(d.chunks, d.reverse, d.lod) {
         let e = &d.chunks[c];
@@ -372,6 +419,7 @@ pub fn encode_pre(enc: &mut wgpu::CommandEncoder, d: &PreDraw) {
         pass.set_pipeline(&d.pre.pipeline);
         pass.set_bind_group(0, d.params, &[]);
         pass.set_bind_group(1, &d.scalars.groups[1 - write], &[]);
+        pass.set_bind_group(2, &field, &[]);
         pass.set_vertex_buffer(0, vb.slice(..));
         pass.set_vertex_buffer(1, nb.slice(..));
         let word = ControlLayout { k: e.level_count }.args_fwd() + l * ARGS_WORDS;
@@ -390,6 +438,7 @@ pub fn encode_pre(enc: &mut wgpu::CommandEncoder, d: &PreDraw) {
     pass.set_pipeline(&d.pre.front);
     pass.set_bind_group(0, d.params, &[]);
     pass.set_bind_group(1, &d.scalars.groups[2], &[]);
+    pass.set_bind_group(2, &field, &[]);
     pass.draw(0..3, 0..1);
 }
 

@@ -28,6 +28,7 @@ pub use super::camera::{FRAME_MARGIN, frame_camera};
 use super::context::{GpuContext, GpuError};
 use super::emit::{GpuEmitter, emit_chunked};
 use super::gradient::vertex_gradients;
+use super::ijk_field::IjkField;
 use super::pre_pass::{BoundaryMesh, PrePipeline};
 use super::shaders;
 use super::shared::OutVertex;
@@ -290,6 +291,12 @@ pub struct SliceSet<'c> {
     pub levels: u32,
     /// The grid's outer surface (structured grids; pre-integrated mode).
     pub boundary: Option<BoundaryMesh>,
+    /// Pre-integrated mode on an IJK grid: the shown property in index
+    /// space (the slices then carry `(i, j, k)` in place of the gradient).
+    pub field: Option<IjkField>,
+    /// Pre-integrated mode without [`Self::field`]: why (the slabs then
+    /// follow the gradient path, or plain slices for a cell property).
+    pub field_fallback: Option<String>,
 }
 
 impl SliceSet<'_> {
@@ -695,7 +702,25 @@ pub fn emit_slices<'c>(
         };
         p.grid.attr_per_cell = true;
     }
-    if k.iso {
+    let mut cp_boundary = None;
+    let (field, field_fallback) = match k.attr_gradient && !k.iso {
+        true => match IjkField::new(ctx, grid, s, property.as_deref()) {
+            Ok((f, ijk)) => {
+                if let Structure::CpGraph(g) = s {
+                    // Corner-point grids: the outer surface of the graph.
+                    cp_boundary =
+                        BoundaryMesh::from_triangles(&ctx.device, &g.boundary_triangles(&ijk));
+                }
+                p.grid.grad = ijk;
+                (Some(f), None)
+            }
+            Err(why) => (None, Some(why)),
+        },
+        false => (None, None),
+    };
+    if field.is_some() {
+        // The slices carry (i, j, k) in place of the gradient.
+    } else if k.iso {
         p.grid.grad = vertex_gradients(&p.grid);
     } else if k.attr_gradient && cell_values.is_none() && !p.grid.attr.is_empty() {
         // The attribute's gradient: φ's slot holds the attribute meanwhile.
@@ -743,7 +768,9 @@ pub fn emit_slices<'c>(
         range,
         cut_cells,
         levels,
-        boundary: BoundaryMesh::new(&ctx.device, grid),
+        boundary: cp_boundary.or_else(|| BoundaryMesh::new(&ctx.device, grid)),
+        field,
+        field_fallback,
     })
 }
 

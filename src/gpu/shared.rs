@@ -220,6 +220,8 @@ pub struct RenderParams {
     /// Pre-integrated volume mode: display-space slab thickness (Δ × LOD
     /// × the z-scale along z); 0 for the plain mode.
     pub slab: f32,
-    /// Padding.
-    pub _pad2: u32,
+    /// Pre-integrated mode on an IJK grid: 1 = the slices carry `(i, j,
+    /// k)` and a point property's texels are read trilinearly, 2 = a cell
+    /// property's piecewise constant; 0 = no index-space field.
+    pub field_mode: u32,
 }

@@ -70,7 +70,7 @@ struct RenderParams {
     mode: u32,
     z_scale: f32,
     slab: f32,
-    _pad2: u32,
+    field_mode: u32,
 }
 
 const ATTR_NONE: u32 = 0u;

@@ -24,7 +24,7 @@ use stratasweep::grid::Grid;
 use stratasweep::structures::{Structure, StructureChoice};
 
 use super::scene_args::SceneArgs;
-use super::{GridArg, load};
+use super::{GridArg, load_with_info};
 use app::{App, Script, Timeline};
 use overlay::{LEGEND_SIZE, Legend, Overlay, paint_legend, read_rgba8};
 
@@ -89,9 +89,12 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
     }
     let o = a.scene.options()?;
     let clip = a.ijk_clip.as_deref().map(parse_clip).transpose()?;
-    let (grid, name, _) = load(&a.input, quiet, &outputs)?;
+    let (grid, name, _, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
     let z_scale = a.scene.z_scale(&grid, quiet);
-    let s = Structure::build(&grid, StructureChoice::Auto)
+    // As `render`: the corner-point graph (IJK lattice) when started
+    // pre-integrated.
+    let layout = ijk.as_ref().filter(|_| a.scene.preintegrated);
+    let s = Structure::build_with(&grid, StructureChoice::Auto, layout)
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let event_loop = EventLoop::new().context("cannot start the window event loop")?;
     let ctx = GpuContext::with_display(

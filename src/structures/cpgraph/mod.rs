@@ -32,6 +32,7 @@ use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use crate::structures::convex_split::SplitMap;
 
 mod build;
+mod ijk;
 
 /// Stencil id of a cell stored explicitly (collapsed cells, pieces, rare
 /// stencils).
