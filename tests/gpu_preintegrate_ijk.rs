@@ -210,6 +210,7 @@ fn a_lattice_over_the_3d_texture_limit_keeps_the_gradient_path() {
         stratasweep::gpu::context::GpuContext::new(&stratasweep::gpu::context::ContextOptions {
             adapter: Some(full.adapter.get_info().name),
             limits: Some(limits),
+            ..Default::default()
         })
         .unwrap();
     let g = wave_box();
