@@ -253,6 +253,9 @@ pub fn build_host_slices<'c>(
         range,
         cut_cells,
         levels: levels as u32,
-        boundary: super::pre_pass::BoundaryMesh::new(&ctx.device, grid),
+        boundary: k
+            .attr_gradient
+            .then(|| super::pre_pass::BoundaryMesh::new(&ctx.device, grid, None))
+            .flatten(),
     })
 }

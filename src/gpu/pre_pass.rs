@@ -210,11 +210,15 @@ pub struct BoundaryMesh {
 }
 
 impl BoundaryMesh {
-    /// Uploads the outer surface of `grid`; `None` when it has none
-    /// extracted (unstructured grids) or it is empty.
-    pub fn new(device: &wgpu::Device, grid: &crate::grid::Grid) -> Option<Self> {
+    /// Uploads the outer surface of `grid`'s cells (those in the IJK box
+    /// `clip` if given); `None` when there is no cell.
+    pub fn new(
+        device: &wgpu::Device,
+        grid: &crate::grid::Grid,
+        clip: Option<super::boundary::IjkBox>,
+    ) -> Option<Self> {
         use wgpu::util::DeviceExt;
-        let t = super::boundary::boundary_triangles(grid)?;
+        let t = super::boundary::boundary_triangles_in(grid, clip)?;
         if t.is_empty() {
             return None;
         }

@@ -743,7 +743,12 @@ pub fn emit_slices<'c>(
         range,
         cut_cells,
         levels,
-        boundary: BoundaryMesh::new(&ctx.device, grid),
+        // Only pre-integrated frames draw the outer surface (O(cells) to find
+        // on unstructured grids): built for their slices alone.
+        boundary: k
+            .attr_gradient
+            .then(|| BoundaryMesh::new(&ctx.device, grid, k.clip))
+            .flatten(),
     })
 }
 

@@ -2,6 +2,8 @@
 //! their sorted vertex ids in one hash pass, and their triangulation.
 
 use std::collections::HashMap;
+use std::collections::hash_map::Entry;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use crate::grid::{Cells, vtk_type};
 use crate::metacell::{
@@ -29,13 +31,40 @@ impl FaceKey {
     }
 }
 
+/// A multiply-rotate hash of the face keys' words (FxHash's): the keys
+/// are vertex ids, not attacker input, and SipHash was the pass's cost.
+#[derive(Default)]
+struct WordHasher(u64);
+
+impl Hasher for WordHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes.chunks(8) {
+            let mut w = [0u8; 8];
+            w[..b.len()].copy_from_slice(b);
+            self.write_u64(u64::from_le_bytes(w));
+        }
+    }
+    fn write_u32(&mut self, i: u32) {
+        self.write_u64(i as u64);
+    }
+    fn write_u64(&mut self, i: u64) {
+        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_usize(&mut self, i: usize) {
+        self.write_u64(i as u64);
+    }
+}
+
 /// The faces seen an odd number of times so far: a face seen a second
 /// time (by a neighbour) is dropped, as an inner face. Each open face keeps
 /// its loop as the first cell gave it (outward for that cell).
 #[derive(Default)]
 pub(super) struct OpenFaces {
     /// Open face → its loop's start and length in `loops`.
-    open: HashMap<FaceKey, (u32, u32)>,
+    open: HashMap<FaceKey, (u32, u32), BuildHasherDefault<WordHasher>>,
     loops: Vec<u32>,
     sorted: Vec<u32>,
     clean: Vec<u32>,
@@ -63,10 +92,15 @@ impl OpenFaces {
             return;
         }
         let key = FaceKey::of(&self.sorted);
-        if self.open.remove(&key).is_none() {
-            let start = self.loops.len() as u32;
-            self.loops.extend_from_slice(&self.clean);
-            self.open.insert(key, (start, self.clean.len() as u32));
+        match self.open.entry(key) {
+            Entry::Occupied(e) => {
+                e.remove();
+            }
+            Entry::Vacant(e) => {
+                let start = self.loops.len() as u32;
+                self.loops.extend_from_slice(&self.clean);
+                e.insert((start, self.clean.len() as u32));
+            }
         }
     }
 

@@ -25,8 +25,13 @@ mod faces;
 #[cfg(test)]
 mod tests;
 
+use rayon::prelude::*;
+
 use crate::grid::{Grid, Topology, hex_corner_offsets};
 use faces::OpenFaces;
+
+/// Cells per run matched on one thread.
+const RUN: usize = 1 << 16;
 
 /// A triangulated surface: world positions (f64) and triangles of indices
 /// into them, oriented outward from the cell each face came from.
@@ -67,9 +72,23 @@ pub fn outer_surface_in(grid: &Grid, clip: Option<IjkBox>) -> Surface {
             }
         }
         Topology::Unstructured(cells) => {
-            for c in 0..cells.len() {
-                if !hidden.as_ref().is_some_and(|h| h.get(c) == Some(&true)) {
-                    faces::toggle_cell_faces(cells, c, &mut open);
+            // Runs of cells matched in parallel; their open faces then in
+            // run order (the same surface, in the same order, as one pass).
+            let runs: Vec<OpenFaces> = (0..cells.len().div_ceil(RUN))
+                .into_par_iter()
+                .map(|r| {
+                    let mut run = OpenFaces::default();
+                    for c in r * RUN..((r + 1) * RUN).min(cells.len()) {
+                        if hidden.as_ref().is_none_or(|h| h.get(c) != Some(&true)) {
+                            faces::toggle_cell_faces(cells, c, &mut run);
+                        }
+                    }
+                    run
+                })
+                .collect();
+            for run in &runs {
+                for f in run.loops() {
+                    open.toggle(f);
                 }
             }
         }
