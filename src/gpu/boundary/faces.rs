@@ -116,13 +116,18 @@ impl OpenFaces {
     }
 }
 
-/// Adds every face of cell `c` of `cells` (outward loops of global ids) to
-/// `open`. Lower-dimensional cells, unknown types and typed cells with the
+/// Adds every face of cell `c` of `cells` (outward loops of global ids
+/// into `points`) to `open`. Lower-dimensional cells, unknown types and typed cells with the
 /// wrong id count add nothing.
-pub(super) fn toggle_cell_faces(cells: &Cells, c: usize, open: &mut OpenFaces) {
+pub(super) fn toggle_cell_faces(
+    cells: &Cells,
+    points: &[[f64; 3]],
+    c: usize,
+    open: &mut OpenFaces,
+) {
     let ids = cells.cell(c);
     match (cells.types[c], ids.len()) {
-        (vtk_type::POLYHEDRON, _) => toggle_face_stream(cells.faces_of(c), open),
+        (vtk_type::POLYHEDRON, _) => toggle_face_stream(cells.faces_of(c), points, open),
         (vtk_type::TETRA, 4) => toggle_local(&TETRA_FACES, ids, open),
         (vtk_type::PYRAMID, 5) => toggle_local(&PYRAMID_FACES, ids, open),
         (vtk_type::WEDGE, 6) => toggle_local(&WEDGE_FACES, ids, open),
@@ -150,22 +155,118 @@ pub(super) fn toggle_local<F: AsRef<[u8]>>(faces: &[F], ids: &[u32], open: &mut 
     }
 }
 
-/// Adds the faces of one polyhedron's VTK face stream (`nf, n0, ids.., ...`).
-/// A truncated stream adds the faces it holds whole.
-fn toggle_face_stream(stream: &[u32], open: &mut OpenFaces) {
+/// Adds the faces of one polyhedron's VTK face stream (`nf, n0, ids.., ...`),
+/// turned outward first ([`orient_outward`]). A truncated stream adds the
+/// faces it holds whole.
+fn toggle_face_stream(stream: &[u32], points: &[[f64; 3]], open: &mut OpenFaces) {
     let Some((&nf, mut rest)) = stream.split_first() else {
         return;
     };
+    let mut faces: Vec<Vec<u32>> = Vec::with_capacity(nf as usize);
     for _ in 0..nf {
         let Some((&n, tail)) = rest.split_first() else {
-            return;
+            break;
         };
         let Some(ids) = tail.get(..n as usize) else {
-            return;
+            break;
         };
-        open.toggle(ids);
+        faces.push(ids.to_vec());
         rest = &tail[n as usize..];
     }
+    orient_outward(&mut faces, points);
+    for f in &faces {
+        open.toggle(f);
+    }
+}
+
+/// Turns a polyhedron's face loops outward: files may list them either way
+/// round (the GEOS PEBI grid does). From the first face, each face sharing
+/// an edge with an oriented one is turned to run that edge the other way;
+/// then, if the enclosed volume (cones from the vertex mean over fans
+/// around the face means) is negative, every face is turned. Faces not
+/// reached over edges keep their order.
+fn orient_outward(faces: &mut [Vec<u32>], points: &[[f64; 3]]) {
+    // (undirected edge, runs low → high, face), sorted by edge.
+    let mut edges: Vec<(u64, bool, u32)> = Vec::with_capacity(faces.iter().map(Vec::len).sum());
+    for (i, f) in faces.iter().enumerate() {
+        for (k, &a) in f.iter().enumerate() {
+            let b = f[(k + 1) % f.len()];
+            edges.push(((a.min(b) as u64) << 32 | a.max(b) as u64, a < b, i as u32));
+        }
+    }
+    edges.sort_unstable();
+    // Already consistent (each edge run once each way): only the sign is left.
+    let consistent = edges.len().is_multiple_of(2)
+        && edges
+            .chunks(2)
+            .all(|p| p[0].0 == p[1].0 && p[0].1 != p[1].1)
+        && edges.windows(3).all(|w| w[0].0 != w[2].0);
+    if !consistent {
+        let mut done = vec![false; faces.len()];
+        for seed in 0..faces.len() {
+            if done[seed] {
+                continue;
+            }
+            done[seed] = true;
+            let mut stack = vec![seed];
+            while let Some(i) = stack.pop() {
+                for k in 0..faces[i].len() {
+                    let (a, b) = (faces[i][k], faces[i][(k + 1) % faces[i].len()]);
+                    let key = (a.min(b) as u64) << 32 | a.max(b) as u64;
+                    let from = edges.partition_point(|e| e.0 < key);
+                    for e in edges[from..].iter().take_while(|e| e.0 == key) {
+                        let j = e.2 as usize;
+                        if done[j] {
+                            continue;
+                        }
+                        // j must run b → a: reverse it if it runs a → b.
+                        let g = &faces[j];
+                        if (0..g.len()).any(|m| g[m] == a && g[(m + 1) % g.len()] == b) {
+                            faces[j].reverse();
+                        }
+                        done[j] = true;
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+    }
+    if signed_volume6(faces, points) < 0.0 {
+        faces.iter_mut().for_each(|f| f.reverse());
+    }
+}
+
+/// Six times the volume enclosed by `faces`: cones from the vertex mean
+/// over each face fanned around its own vertex mean.
+fn signed_volume6(faces: &[Vec<u32>], points: &[[f64; 3]]) -> f64 {
+    let mean = |ids: &mut dyn Iterator<Item = &u32>| {
+        let (mut m, mut n) = ([0.0; 3], 0.0);
+        for &v in ids {
+            let p = points[v as usize];
+            (0..3).for_each(|a| m[a] += p[a]);
+            n += 1.0;
+        }
+        m.map(|x| x / n)
+    };
+    let c = mean(&mut faces.iter().flatten());
+    let rel = |v: u32| {
+        let p = points[v as usize];
+        [p[0] - c[0], p[1] - c[1], p[2] - c[2]]
+    };
+    let mut six = 0.0;
+    for f in faces {
+        let m = mean(&mut f.iter());
+        let m = [m[0] - c[0], m[1] - c[1], m[2] - c[2]];
+        let mut prev = rel(*f.last().expect("faces have ids"));
+        for &v in f {
+            let p = rel(v);
+            six += m[0] * (prev[1] * p[2] - prev[2] * p[1])
+                - m[1] * (prev[0] * p[2] - prev[2] * p[0])
+                + m[2] * (prev[0] * p[1] - prev[1] * p[0]);
+            prev = p;
+        }
+    }
+    six
 }
 
 /// Triangulates face loops over `points`: a triangle as itself, a longer

@@ -8,7 +8,9 @@
 //!   cells): every face of every shown cell is matched by its sorted vertex
 //!   ids in one hash pass (O(cells)); the faces left unmatched are
 //!   triangulated, a quad or polygon as a fan around its vertex mean (the
-//!   split the crate measures cell volumes with).
+//!   split the crate measures cell volumes with). Typed cells use VTK's
+//!   outward face tables; a polyhedron's faces are first turned outward
+//!   (files list them either way round).
 //!
 //! Corner-point faults: cells across a fault share no vertex, so a fault
 //! face is never matched and is kept **whole**, also where the other side
@@ -80,7 +82,7 @@ pub fn outer_surface_in(grid: &Grid, clip: Option<IjkBox>) -> Surface {
                     let mut run = OpenFaces::default();
                     for c in r * RUN..((r + 1) * RUN).min(cells.len()) {
                         if hidden.as_ref().is_none_or(|h| h.get(c) != Some(&true)) {
-                            faces::toggle_cell_faces(cells, c, &mut run);
+                            faces::toggle_cell_faces(cells, &grid.points, c, &mut run);
                         }
                     }
                     run

@@ -106,7 +106,7 @@ fn all_cell_faces(grid: &Grid) -> Vec<[[f64; 3]; 3]> {
     for c in 0..cells.len() {
         // Each cell alone: its faces are all open.
         let mut open = OpenFaces::default();
-        faces::toggle_cell_faces(cells, c, &mut open);
+        faces::toggle_cell_faces(cells, &grid.points, c, &mut open);
         let mut pts = grid.points.clone();
         let tris = faces::triangulate(&open.loops(), &mut pts);
         out.extend(tris.iter().map(|t| t.map(|v| pts[v as usize])));
@@ -357,4 +357,36 @@ fn a_faulted_corner_point_grid_is_bounded_with_its_fault_faces() {
         assert!(rel(v, cell_volumes(&g)) < 1e-9);
         assert!(assert_rays_enter_and_leave_through(&g, &s, 60) > 20);
     }
+}
+
+#[test]
+fn polyhedron_faces_listed_either_way_round_are_turned_outward() {
+    let n = 4;
+    let hexes = cube_as_hexahedra(n);
+    let Topology::Unstructured(h) = &hexes.topology else {
+        unreachable!()
+    };
+    let mut cells = Cells::default();
+    for c in 0..h.len() {
+        let ids = h.cell(c);
+        let mut faces: Vec<Vec<u32>> = crate::metacell::HEXAHEDRON_FACES
+            .iter()
+            .map(|f| f.iter().map(|&v| ids[v as usize]).collect())
+            .collect();
+        // Some faces inward, and every third cell inside out.
+        faces[c % 6].reverse();
+        faces[(c + 3) % 6].reverse();
+        if c % 3 == 0 {
+            faces.iter_mut().for_each(|f| f.reverse());
+        }
+        cells.push_polyhedron(&faces);
+    }
+    let g = Grid {
+        topology: Topology::Unstructured(cells),
+        ..hexes.clone()
+    };
+    let s = outer_surface(&g);
+    assert_eq!(assert_closed(&s), 2);
+    assert!(rel(volume(&s, [0.0; 3]), 27.0) < 1e-12);
+    assert_eq!(s, outer_surface(&hexes));
 }
