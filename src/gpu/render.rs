@@ -695,9 +695,11 @@ pub fn emit_slices<'c>(
         };
         p.grid.attr_per_cell = true;
     }
+    // Pre-integrated slabs need the attribute's gradient (not for cell values).
+    let pre = k.attr_gradient && cell_values.is_none() && !p.grid.attr.is_empty();
     if k.iso {
         p.grid.grad = vertex_gradients(&p.grid);
-    } else if k.attr_gradient && cell_values.is_none() && !p.grid.attr.is_empty() {
+    } else if pre {
         // The attribute's gradient: φ's slot holds the attribute meanwhile.
         let phi: Vec<f32> = p.grid.grid.iter().map(|v| v[3]).collect();
         for (v, a) in p.grid.grid.iter_mut().zip(&p.grid.attr) {
@@ -745,8 +747,7 @@ pub fn emit_slices<'c>(
         levels,
         // Only pre-integrated frames draw the outer surface (O(cells) to find
         // on unstructured grids): built for their slices alone.
-        boundary: k
-            .attr_gradient
+        boundary: pre
             .then(|| BoundaryMesh::new(&ctx.device, grid, k.clip))
             .flatten(),
     })
