@@ -253,7 +253,9 @@ pub fn build_host_slices<'c>(
         range,
         cut_cells,
         levels: levels as u32,
-        boundary: super::pre_pass::BoundaryMesh::new(&ctx.device, grid),
+        // Host slices carry no gradient: their frames are drawn plain,
+        // so no outer surface.
+        boundary: None,
         field: None,
         field_fallback: k
             .attr_gradient

@@ -229,10 +229,14 @@ pub struct BoundaryMesh {
 }
 
 impl BoundaryMesh {
-    /// Uploads the outer surface of `grid`; `None` when it has none
-    /// extracted (unstructured grids) or it is empty.
-    pub fn new(device: &wgpu::Device, grid: &crate::grid::Grid) -> Option<Self> {
-        Self::from_triangles(device, &super::boundary::boundary_triangles(grid)?)
+    /// Uploads the outer surface of `grid`'s cells (those in the IJK box
+    /// `clip` if given); `None` when there is no cell.
+    pub fn new(
+        device: &wgpu::Device,
+        grid: &crate::grid::Grid,
+        clip: Option<super::boundary::IjkBox>,
+    ) -> Option<Self> {
+        Self::from_triangles(device, &super::boundary::boundary_triangles_in(grid, clip)?)
     }
 
     /// Uploads triangles of (position, `(i, j, k)`) corners; `None` when empty.

@@ -718,11 +718,15 @@ pub fn emit_slices<'c>(
         },
         false => (None, None),
     };
+    // Pre-integrated slabs without the index-space field need the
+    // attribute's gradient (not for cell values).
+    let gradient_pre =
+        field.is_none() && k.attr_gradient && cell_values.is_none() && !p.grid.attr.is_empty();
     if field.is_some() {
         // The slices carry (i, j, k) in place of the gradient.
     } else if k.iso {
         p.grid.grad = vertex_gradients(&p.grid);
-    } else if k.attr_gradient && cell_values.is_none() && !p.grid.attr.is_empty() {
+    } else if gradient_pre {
         // The attribute's gradient: φ's slot holds the attribute meanwhile.
         let phi: Vec<f32> = p.grid.grid.iter().map(|v| v[3]).collect();
         for (v, a) in p.grid.grid.iter_mut().zip(&p.grid.attr) {
@@ -768,7 +772,13 @@ pub fn emit_slices<'c>(
         range,
         cut_cells,
         levels,
-        boundary: cp_boundary.or_else(|| BoundaryMesh::new(&ctx.device, grid)),
+        // Only pre-integrated frames draw the outer surface (O(cells) to find
+        // on unstructured grids): built for their slices alone.
+        boundary: cp_boundary.or_else(|| {
+            (field.is_some() || gradient_pre)
+                .then(|| BoundaryMesh::new(&ctx.device, grid, k.clip))
+                .flatten()
+        }),
         field,
         field_fallback,
     })
