@@ -22,11 +22,20 @@ use crate::structures::{BitSet, CellClass, StructureError, is_sweepable};
 struct StencilHasher(u64);
 
 impl Hasher for StencilHasher {
+    /// The high half folded in: the table's buckets read the low bits,
+    /// which a product takes from the low bits of its operand only.
     fn finish(&self) -> u64 {
-        self.0
+        self.0 ^ (self.0 >> 32)
     }
+    /// A `[u32; 8]` key arrives as one 32-byte slice: one round per
+    /// 8 bytes (the stencil ids follow insertion order, not the hash).
     fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
+        let mut chunks = bytes.chunks_exact(8);
+        for c in &mut chunks {
+            let x = u64::from_le_bytes(c.try_into().expect("8 bytes"));
+            self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x517c_c1b7_2722_0a95);
+        }
+        for &b in chunks.remainder() {
             self.write_u32(b as u32);
         }
     }
@@ -394,60 +403,20 @@ impl CpGraph {
     }
 
     /// Links IJK neighbours that share a vertex and counts the faces.
+    /// Each face is checked once, from its lower slot (the +i, +j, +k
+    /// bits); the −i, −j, −k bits are then copied from the neighbour's,
+    /// since two cells share a vertex or not whichever side asks.
     fn link(&mut self) {
         let lattice = self.lattice_slots as usize;
-        let mut links = vec![0u8; self.slots];
+        let mut up = vec![0u8; lattice];
         let g = &*self;
-        let sums = links[..lattice]
+        let sums = up
             .par_chunks_mut(1 << 14)
             .enumerate()
             .map(|(ch, out)| {
                 let mut sums = [0usize; 4];
-                let (mut a, mut b) = ([0u32; MAX_META_VERTICES], [0u32; MAX_META_VERTICES]);
                 for (x, o) in out.iter_mut().enumerate() {
-                    let slot = ((ch << 14) + x) as u32;
-                    if !g.kept.get(slot as usize) {
-                        continue;
-                    }
-                    let live = g.live.get(slot as usize);
-                    let na = if live { g.cell(slot, &mut a).1 } else { 0 };
-                    for d in 0..6 {
-                        let delta = g.deltas[d / 2];
-                        let nb = if d & 1 == 1 {
-                            slot + delta
-                        } else {
-                            slot.wrapping_sub(delta)
-                        };
-                        if nb as usize >= lattice || !g.kept.get(nb as usize) {
-                            continue;
-                        }
-                        let both = live && g.live.get(nb as usize);
-                        let common = if both {
-                            let nn = g.cell(nb, &mut b).1;
-                            let mut k = 0;
-                            for &v in &a[..na] {
-                                k += b[..nn].contains(&v) as usize;
-                            }
-                            k
-                        } else {
-                            0
-                        };
-                        if common > 0 {
-                            *o |= 1 << d;
-                        }
-                        if d & 1 == 1 {
-                            // Each face once, from its lower slot.
-                            sums[0] += 1;
-                            let conforming =
-                                common == 4 && g.is_stencil_hex(slot) && g.is_stencil_hex(nb);
-                            if conforming {
-                                sums[1] += 1;
-                            } else {
-                                sums[2] += 1;
-                                sums[3] += (common > 0) as usize;
-                            }
-                        }
-                    }
+                    *o = g.link_up(((ch << 14) + x) as u32, &mut sums);
                 }
                 sums
             })
@@ -455,10 +424,78 @@ impl CpGraph {
                 || [0; 4],
                 |x, y| [x[0] + y[0], x[1] + y[1], x[2] + y[2], x[3] + y[3]],
             );
+        let mut links = vec![0u8; self.slots];
+        let deltas = self.deltas;
+        links[..lattice]
+            .par_chunks_mut(1 << 14)
+            .enumerate()
+            .for_each(|(ch, out)| {
+                for (x, o) in out.iter_mut().enumerate() {
+                    let slot = (ch << 14) + x;
+                    let mut bits = up[slot];
+                    for (k, &delta) in deltas.iter().enumerate() {
+                        if let Some(nb) = slot.checked_sub(delta as usize) {
+                            bits |= ((up[nb] >> (2 * k + 1)) & 1) << (2 * k);
+                        }
+                    }
+                    *o = bits;
+                }
+            });
         self.counts.faces = sums[0];
         self.counts.conforming_faces = sums[1];
         self.counts.exception_faces = sums[2];
         self.counts.linked_exceptions = sums[3];
         self.links = links;
     }
+
+    /// The +i, +j, +k link bits of lattice `slot` (a neighbour that shares
+    /// a vertex), adding its faces to `sums` (faces, conforming, exception,
+    /// linked exception).
+    fn link_up(&self, slot: u32, sums: &mut [usize; 4]) -> u8 {
+        let lattice = self.lattice_slots as usize;
+        if !self.kept.get(slot as usize) {
+            return 0;
+        }
+        let (mut a, mut b) = ([0u32; MAX_META_VERTICES], [0u32; MAX_META_VERTICES]);
+        let live = self.live.get(slot as usize);
+        let na = if live { self.cell(slot, &mut a).1 } else { 0 };
+        let mut bits = 0u8;
+        for k in 0..3 {
+            let nb = slot + self.deltas[k];
+            if nb as usize >= lattice || !self.kept.get(nb as usize) {
+                continue;
+            }
+            let common = if live && self.live.get(nb as usize) {
+                let nn = self.cell(nb, &mut b).1;
+                shared_vertices(&a[..na], &b[..nn])
+            } else {
+                0
+            };
+            bits |= ((common > 0) as u8) << (2 * k + 1);
+            sums[0] += 1;
+            if common == 4 && self.is_stencil_hex(slot) && self.is_stencil_hex(nb) {
+                sums[1] += 1;
+            } else {
+                sums[2] += 1;
+                sums[3] += (common > 0) as usize;
+            }
+        }
+        bits
+    }
+}
+
+/// How many ids of `a` occur in `b` (a live cell's ids are distinct, so
+/// two hexahedra take the unrolled 8 × 8 count).
+#[inline(always)]
+fn shared_vertices(a: &[u32], b: &[u32]) -> usize {
+    if let (Ok(a), Ok(b)) = (<&[u32; 8]>::try_from(a), <&[u32; 8]>::try_from(b)) {
+        let mut k = 0;
+        for &v in a {
+            for &w in b {
+                k += (v == w) as usize;
+            }
+        }
+        return k;
+    }
+    a.iter().filter(|v| b.contains(v)).count()
 }
