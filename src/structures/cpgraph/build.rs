@@ -125,11 +125,26 @@ impl Shape {
         })
     }
 
-    /// The lattice slot of IJK index `ijk`.
-    fn home(&self, ijk: usize) -> usize {
+    /// Per input cell (IJK indices `source_cell`, increasing): its lattice
+    /// slot and its column (pillar `i + npi·j`). Consecutive indices in
+    /// one row are stepped to without a division.
+    fn homes(&self, source_cell: &[u32]) -> Vec<[u32; 2]> {
         let [nx, ny, _] = self.dims;
-        let (i, j, k) = (ijk % nx, ijk / nx % ny, ijk / (nx * ny));
-        i + self.npi * (j + (ny + 1) * (k + 1))
+        let (mut at, mut i, mut j, mut k) = (0usize, 0usize, 0usize, 0usize);
+        source_cell
+            .iter()
+            .map(|&ijk| {
+                let ijk = ijk as usize;
+                if ijk >= at && ijk - at < nx - i {
+                    i += ijk - at;
+                } else {
+                    (i, j, k) = (ijk % nx, ijk / nx % ny, ijk / (nx * ny));
+                }
+                at = ijk;
+                let col = i + self.npi * j;
+                [(col + self.slab * (k + 1)) as u32, col as u32]
+            })
+            .collect()
     }
 }
 
@@ -141,7 +156,8 @@ struct Resolved<'a> {
     verts: Cow<'a, [u32]>,
     class: Vec<CellClass>,
     map: Option<&'a SplitMap>,
-    layout: &'a IjkLayout,
+    /// Per input cell: [`Shape::homes`].
+    homes: Vec<[u32; 2]>,
 }
 
 impl Resolved<'_> {
@@ -166,8 +182,12 @@ impl Resolved<'_> {
         ok.then_some(ids)
     }
     /// The lattice slot of cell `c`'s input cell.
-    fn home(&self, shape: &Shape, c: usize) -> usize {
-        shape.home(self.layout.source_cell[self.source(c)] as usize)
+    fn home(&self, c: usize) -> usize {
+        self.homes[self.source(c)][0] as usize
+    }
+    /// The column (pillar `i + npi·j`) of cell `c`'s input cell.
+    fn column(&self, c: usize) -> usize {
+        self.homes[self.source(c)][1] as usize
     }
 }
 
@@ -198,7 +218,7 @@ impl Coder {
         let mut base = vec![u32::MAX; shape.slab];
         for c in 0..n {
             if let Some(ids) = r.hex_ids(c) {
-                let p = r.home(shape, c) % shape.slab;
+                let p = r.column(c);
                 for l in 0..8 {
                     let b = &mut base[p + corner_pillar[l] as usize];
                     *b = (*b).min(ids[l]);
@@ -282,7 +302,7 @@ impl Slots {
         let mut last_live_src = usize::MAX;
         for c in 0..n {
             let src = r.source(c);
-            let home = r.home(shape, c);
+            let home = r.home(c);
             s.kept.set(home);
             let slot = if r.is_split(src) {
                 s.piece_cell.push(src as u32);
@@ -305,19 +325,24 @@ impl Slots {
                 s.counts.live_input_cells += 1;
                 last_live_src = src;
             }
-            s.place(r, coder, c, slot, shape.slab);
+            let col = if slot == home {
+                r.column(c)
+            } else {
+                slot % shape.slab
+            };
+            s.place(r, coder, c, slot, col);
         }
         s.counts.stencils = coder.stencils.len();
         s
     }
 
-    /// Stores live cell `c` in `slot`: by stencil when it is a hexahedron
-    /// and the table takes it, else explicitly.
-    fn place(&mut self, r: &Resolved, coder: &mut Coder, c: usize, slot: usize, slab: usize) {
+    /// Stores live cell `c` in `slot` (of column `col`): by stencil when
+    /// it is a hexahedron and the table takes it, else explicitly.
+    fn place(&mut self, r: &Resolved, coder: &mut Coder, c: usize, slot: usize, col: usize) {
         let ids = r.ids(c);
         if r.metas[c] == builtin::HEXAHEDRON
             && ids.len() == 8
-            && let Some((anchor, id)) = coder.code(slot % slab, ids)
+            && let Some((anchor, id)) = coder.code(col, ids)
         {
             self.anchor[slot] = anchor;
             self.stencil[slot] = id;
@@ -359,7 +384,7 @@ impl CpGraph {
             verts,
             class,
             map: map.as_ref(),
-            layout,
+            homes: shape.homes(&layout.source_cell),
         };
         let pieces = (0..r.metas.len())
             .filter(|&c| r.is_split(r.source(c)))
