@@ -269,6 +269,28 @@ impl Loops {
     }
 }
 
+/// Per marked vertex, the cells that use it (CSR): see
+/// [`PlanContext::incident_to_marked`].
+struct Incident {
+    /// Per point: its marked index, or `u32::MAX`.
+    at: Vec<u32>,
+    /// Per marked index: its first entry in `cells` (marked + 1).
+    start: Vec<u32>,
+    cells: Vec<u32>,
+}
+
+impl Incident {
+    /// The cells using vertex `v` (none when `v` is not marked).
+    fn cells_of(&self, v: u32) -> &[u32] {
+        match self.at.get(v as usize) {
+            Some(&m) if m != u32::MAX => {
+                &self.cells[self.start[m as usize] as usize..self.start[m as usize + 1] as usize]
+            }
+            _ => &[],
+        }
+    }
+}
+
 /// What the face plans read of the input grid.
 struct PlanContext<'a> {
     cells: &'a Cells,
@@ -319,14 +341,10 @@ impl PlanContext<'_> {
             .collect();
         let incident = self.incident_to_marked(&loops, &bad, &table.split_uses);
         let shared_with_unsplit = |l: &[u32]| {
-            let lo = incident.partition_point(|e| e.0 < l[0]);
-            incident[lo..]
-                .iter()
-                .take_while(|e| e.0 == l[0])
-                .any(|&(_, c)| {
-                    let ids = self.cells.cell(c as usize);
-                    l.iter().all(|v| ids.contains(v))
-                })
+            incident.cells_of(l[0]).iter().any(|&c| {
+                let ids = self.cells.cell(c as usize);
+                l.iter().all(|v| ids.contains(v))
+            })
         };
         let np0 = self.points.len();
         for ((c, faces), ids) in found.iter().zip(face_ids) {
@@ -359,34 +377,51 @@ impl PlanContext<'_> {
         Ok(())
     }
 
-    /// (vertex, cell), sorted, for the live cells that are not split and
-    /// the first vertex of each bad face used by one split cell: the cells
-    /// that may share such a face.
-    fn incident_to_marked(
-        &self,
-        loops: &Loops,
-        bad: &[bool],
-        split_uses: &[u8],
-    ) -> Vec<(u32, u32)> {
-        let mut marked = vec![false; self.points.len()];
+    /// Per marked vertex (the first vertex of each bad face used by one
+    /// split cell), the live cells that are not split and use it, in cell
+    /// order: the cells that may share such a face.
+    fn incident_to_marked(&self, loops: &Loops, bad: &[bool], split_uses: &[u8]) -> Incident {
+        const NONE: u32 = u32::MAX;
+        let mut at = vec![NONE; self.points.len()];
+        let mut marked = 0u32;
         for i in 0..loops.len() {
             if bad[i] && split_uses[i] == 1 {
-                marked[loops.get(i)[0] as usize] = true;
-            }
-        }
-        let mut incident: Vec<(u32, u32)> = Vec::new();
-        for c in 0..self.cells.len() {
-            if self.split[c] || (self.is_hidden)(c) || is_lower_dimensional(self.cells.types[c]) {
-                continue;
-            }
-            for &v in self.cells.cell(c) {
-                if marked.get(v as usize).copied().unwrap_or(false) {
-                    incident.push((v, c as u32));
+                let v = loops.get(i)[0] as usize;
+                if at[v] == NONE {
+                    at[v] = marked;
+                    marked += 1;
                 }
             }
         }
-        incident.sort_unstable();
-        incident
+        let live = |c: usize| {
+            !(self.split[c] || (self.is_hidden)(c) || is_lower_dimensional(self.cells.types[c]))
+        };
+        let mark = |v: u32| at.get(v as usize).copied().unwrap_or(NONE);
+        // Counts, then starts, then the cells (two passes, no sort).
+        let mut start = vec![0u32; marked as usize + 1];
+        for c in (0..self.cells.len()).filter(|&c| live(c)) {
+            for &v in self.cells.cell(c) {
+                let m = mark(v);
+                if m != NONE {
+                    start[m as usize + 1] += 1;
+                }
+            }
+        }
+        for m in 0..marked as usize {
+            start[m + 1] += start[m];
+        }
+        let mut fill = start.clone();
+        let mut cells = vec![0u32; start[marked as usize] as usize];
+        for c in (0..self.cells.len()).filter(|&c| live(c)) {
+            for &v in self.cells.cell(c) {
+                let m = mark(v);
+                if m != NONE {
+                    cells[fill[m as usize] as usize] = c as u32;
+                    fill[m as usize] += 1;
+                }
+            }
+        }
+        Incident { at, start, cells }
     }
 }
 
