@@ -20,7 +20,29 @@ use crate::vec3::{P3, add, cross, dot, mean, norm, scale, sub};
 
 /// A non-convex polyhedron to split: its cell and its faces, oriented
 /// outward.
-type Found = (usize, Vec<Vec<u32>>);
+type Found = (usize, FaceLoops);
+
+/// A cell's face loops (global ids), concatenated: face `f` is
+/// `ids[starts[f]..starts[f + 1]]`.
+struct FaceLoops {
+    ids: Vec<u32>,
+    starts: Vec<u32>,
+}
+
+impl FaceLoops {
+    /// Faces.
+    fn len(&self) -> usize {
+        self.starts.len() - 1
+    }
+    /// Face `f`'s loop.
+    fn get(&self, f: usize) -> &[u32] {
+        &self.ids[self.starts[f] as usize..self.starts[f + 1] as usize]
+    }
+    /// The loops in face order.
+    fn iter(&self) -> impl Iterator<Item = &[u32]> {
+        (0..self.len()).map(|f| self.get(f))
+    }
+}
 
 /// A split cell's boundary elements (with the face each comes from), its
 /// vertices, and where its pieces meet.
@@ -183,11 +205,10 @@ fn find_non_convex(
             let (class, _, non_convex) =
                 polyhedron_faces_in(c, cells.faces_of(c), points, s).ok()?;
             (is_sweepable(class) && non_convex).then(|| {
-                let faces = s
-                    .starts
-                    .windows(2)
-                    .map(|w| s.ids[w[0] as usize..w[1] as usize].to_vec())
-                    .collect();
+                let faces = FaceLoops {
+                    ids: s.ids.clone(),
+                    starts: s.starts.clone(),
+                };
                 (c, faces)
             })
         })
@@ -428,7 +449,7 @@ impl PlanContext<'_> {
 /// The boundary elements of split cell `c` after its faces' plans, oriented
 /// outward, with the face each comes from.
 fn boundary_elements<'a>(
-    faces: &'a [Vec<u32>],
+    faces: &'a FaceLoops,
     ids: &[usize],
     table: &FaceTable,
 ) -> Vec<(usize, Element<'a>)> {
@@ -481,14 +502,14 @@ fn volume_centroid(elems: &[(usize, Element)], vm: P3, cpos: &dyn Fn(u32) -> P3)
 /// through it then get no piece); an error when there is none.
 fn cell_star<'a>(
     c: usize,
-    faces: &'a [Vec<u32>],
+    faces: &'a FaceLoops,
     ids: &[usize],
     table: &FaceTable,
     points: &[P3],
     cpos: &(dyn Fn(u32) -> P3 + Sync),
 ) -> Result<CellStar<'a>, SplitError> {
     let mut elems = boundary_elements(faces, ids, table);
-    let mut verts: Vec<u32> = faces.iter().flatten().copied().collect();
+    let mut verts: Vec<u32> = faces.ids.clone();
     verts.sort_unstable();
     verts.dedup();
     let vm = mean(verts.iter().map(|&v| points[v as usize]));
@@ -532,12 +553,12 @@ fn cell_star<'a>(
         // it is not on (thin slivers between warped faces).
         None => match verts.iter().copied().find(|&v| {
             planes.iter().all(|(fi, pl)| {
-                faces[*fi].contains(&v)
+                faces.get(*fi).contains(&v)
                     || matches!(pl, Some((o, nh)) if dot(sub(points[v as usize], *o), *nh) < -tol)
             })
         }) {
             Some(v) => {
-                elems.retain(|(fi, _)| !faces[*fi].contains(&v));
+                elems.retain(|(fi, _)| !faces.get(*fi).contains(&v));
                 Star::Vertex(v)
             }
             None => {
