@@ -515,6 +515,7 @@ impl MetaCell {
     /// [`MetaCell::signed_volume`] of the positions `pts[..nv]` (local vertex
     /// order), which are overwritten (recentred). Same arithmetic in the same
     /// order, so bit-identical; hexahedra take an unrolled loop.
+    #[inline]
     pub fn signed_volume_of(&self, pts: &mut [[f64; 3]; MAX_META_VERTICES]) -> f64 {
         // Positions taken relative to the vertex mean c, so that each
         // tetrahedron (c, face centre, a, b) is one determinant.

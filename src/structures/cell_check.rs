@@ -5,6 +5,7 @@
 
 use crate::grid::{Grid, Topology, hex_corner_offsets, vtk_type};
 use crate::metacell::{Catalog, VOXEL_TO_HEX};
+use crate::structures::polyhedron::{Scratch, polyhedron_faces_in};
 use crate::structures::quad_is_bow_tie;
 
 /// The first `limit` cells (input ids, ascending) with a bow-tie face,
@@ -74,17 +75,18 @@ pub fn reoriented_polyhedra(grid: &Grid, limit: usize) -> (Vec<usize>, usize, us
         return (Vec::new(), 0, 0);
     };
     let (mut ids, mut total, mut faces) = (Vec::new(), 0, 0);
+    let mut s = Scratch::default();
     for c in 0..cells.len() {
         if cells.types[c] != vtk_type::POLYHEDRON {
             continue;
         }
         let stream = cells.faces_of(c);
-        let Ok(f) = crate::structures::polyhedron::polyhedron_faces(c, stream, &grid.points) else {
+        let Ok((_, flipped, _)) = polyhedron_faces_in(c, stream, &grid.points, &mut s) else {
             continue;
         };
-        if f.flipped > 0 {
+        if flipped > 0 {
             total += 1;
-            faces += f.flipped;
+            faces += flipped;
             if ids.len() < limit {
                 ids.push(c);
             }

@@ -244,8 +244,21 @@ pub(crate) fn classify_and_orient(
     points: &[[f64; 3]],
 ) -> Result<Vec<CellClass>, StructureError> {
     let n = metas.len();
+    // Cells come in IJK order and their vertices lie on four pillars far
+    // apart in the point array: the points of a cell a few ahead are
+    // fetched while this one is checked.
+    const AHEAD: usize = 8;
     let mut class: Vec<CellClass> = (0..n)
         .into_par_iter()
+        .map(|c| {
+            if c + AHEAD < n {
+                let (a, b) = (voff[c + AHEAD] as usize, voff[c + AHEAD + 1] as usize);
+                for &v in verts.get(a..b).unwrap_or(&[]) {
+                    crate::extract::prefetch(points, v as usize);
+                }
+            }
+            c
+        })
         .map(|c| match metas[c] {
             NON_VOLUMETRIC => CellClass::NonVolumetric,
             m => classify_cell(

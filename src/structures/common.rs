@@ -69,6 +69,7 @@ pub const CELL_CLASS_NAMES: [&str; CELL_CLASS_COUNT] = [
 /// concave (but simple) quadrilateral, planar or mildly warped, has at
 /// least one diagonal whose triangles agree; a collapsed one (zero-area
 /// triangles) is not flagged here.
+#[inline(always)]
 pub fn quad_is_bow_tie(q: [[f64; 3]; 4]) -> bool {
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
     let cross = |u: [f64; 3], v: [f64; 3]| {
@@ -122,7 +123,12 @@ fn classify_fixed<const N: usize>(meta: &MetaCell, ids: &[u32], points: &[[f64; 
     }
     for f in &meta.faces {
         if let [a, b, c, d] = f[..]
-            && quad_is_bow_tie([a, b, c, d].map(|k| local[k as usize]))
+            && quad_is_bow_tie([
+                local[a as usize],
+                local[b as usize],
+                local[c as usize],
+                local[d as usize],
+            ])
         {
             return CellClass::SelfIntersecting;
         }

@@ -4,7 +4,7 @@
 //! A polyhedral cell (`VTK_POLYHEDRON`) is *non-convex* when, with its faces
 //! oriented outward, some vertex lies more than [`CONVEXITY_TOLERANCE`] ×
 //! its extent outside a face plane (the test the CIEL build counts with,
-//! read through `polyhedron::polyhedron_faces`; non-planar faces are caught too). Such a cell is replaced by
+//! read through `polyhedron::polyhedron_faces_in`; non-planar faces are caught too). Such a cell is replaced by
 //! pieces coned from one interior point `p` of the cell:
 //!
 //! - each face that is planar and convex (within tolerance) becomes the base
@@ -37,8 +37,7 @@
 
 mod split;
 
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
+use std::hash::Hasher;
 use std::ops::Deref;
 
 use thiserror::Error;
@@ -308,6 +307,7 @@ use crate::vec3::{P3, add, cross, dot, mean, norm, scale, sub};
 /// A face loop rotated to start at its smallest id, in the direction whose
 /// second vertex is the smaller neighbour; and whether `face` runs in that
 /// direction.
+#[cfg(test)]
 fn canonical(face: &[u32]) -> (Vec<u32>, bool) {
     let (i0, same) = canonical_start(face);
     let n = face.len();
@@ -442,9 +442,9 @@ fn ear_clip(ids: &[u32], pts: &[P3]) -> Option<Vec<[u32; 3]>> {
 }
 
 /// One element of a cell's boundary after triangulation, oriented outward.
-enum Element {
+enum Element<'a> {
     /// A whole face (global ids), the base of a pyramid.
-    Base(Vec<u32>),
+    Base(&'a [u32]),
     /// A triangle (global ids, possibly new vertices).
     Tri([u32; 3]),
 }
@@ -522,7 +522,7 @@ fn kernel_point(planes: &[(P3, P3)], margin: f64, slack: f64) -> Option<P3> {
 /// sorted id lists): much cheaper than SipHash, and the keys are not
 /// adversarial.
 #[derive(Default)]
-struct IdsHasher(u64);
+pub(super) struct IdsHasher(u64);
 
 impl Hasher for IdsHasher {
     fn finish(&self) -> u64 {
@@ -551,7 +551,6 @@ impl Hasher for IdsHasher {
 /// The shared face table of a split: per canonical face (sorted ids), how
 /// many split cells use it and how it is cut.
 struct FaceTable {
-    index: HashMap<Vec<u32>, usize, BuildHasherDefault<IdsHasher>>,
     split_uses: Vec<u8>,
     plan: Vec<Option<FacePlan>>,
 }

@@ -4,29 +4,80 @@
 //! grid and carry the properties over.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use rayon::prelude::*;
 
 use super::{
-    Element, FacePlan, FaceTable, SplitError, SplitGrid, SplitMap, SplitReport, Star, canonical,
+    Element, FacePlan, FaceTable, IdsHasher, SplitError, SplitGrid, SplitMap, SplitReport, Star,
     canonical_at, canonical_start, cone_volume, ear_clip, element_plane, extend_point_property,
     face_is_bad, fan_point, gather_tuples, kernel_point,
 };
 use crate::grid::{Cells, Grid, Property, Topology, is_lower_dimensional, vtk_type};
 use crate::structures::is_sweepable;
-use crate::structures::polyhedron::{CONVEXITY_TOLERANCE, polyhedron_faces};
+use crate::structures::polyhedron::{CONVEXITY_TOLERANCE, Scratch, polyhedron_faces_in};
 use crate::vec3::{P3, add, cross, dot, mean, norm, scale, sub};
 
 /// A non-convex polyhedron to split: its cell and its faces, oriented
 /// outward.
-type Found = (usize, Vec<Vec<u32>>);
+type Found = (usize, FaceLoops);
+
+/// A cell's face loops (global ids), concatenated: face `f` is
+/// `ids[starts[f]..starts[f + 1]]`.
+struct FaceLoops {
+    ids: Vec<u32>,
+    starts: Vec<u32>,
+}
+
+impl FaceLoops {
+    /// Faces.
+    fn len(&self) -> usize {
+        self.starts.len() - 1
+    }
+    /// Face `f`'s loop.
+    fn get(&self, f: usize) -> &[u32] {
+        &self.ids[self.starts[f] as usize..self.starts[f + 1] as usize]
+    }
+    /// The loops in face order.
+    fn iter(&self) -> impl Iterator<Item = &[u32]> {
+        (0..self.len()).map(|f| self.get(f))
+    }
+}
 
 /// A split cell's boundary elements (with the face each comes from), its
 /// vertices, and where its pieces meet.
-type CellStar = (Vec<(usize, Element)>, Vec<u32>, Star);
+type CellStar<'a> = (Vec<(usize, Element<'a>)>, Vec<u32>, Star);
 
-/// The pieces of one split cell: (VTK type, ids) each.
-type Pieces = (usize, Vec<(u8, Vec<u32>)>);
+/// The pieces of the split cells, flat: per split cell (cell order) its
+/// cell and its pieces `first[i]..first[i + 1]`; per piece its VTK type
+/// and ids `ids[starts[p]..starts[p + 1]]`.
+struct Pieces {
+    cells: Vec<usize>,
+    first: Vec<u32>,
+    types: Vec<u8>,
+    starts: Vec<u32>,
+    ids: Vec<u32>,
+}
+
+impl Pieces {
+    /// Appends a piece of the current cell.
+    fn push(&mut self, t: u8, ids: &[u32]) {
+        self.types.push(t);
+        self.ids.extend_from_slice(ids);
+        self.starts.push(self.ids.len() as u32);
+    }
+    /// Split cell `i`'s cell and its pieces as (type, ids).
+    fn of(&self, i: usize) -> (usize, impl Iterator<Item = (u8, &[u32])>) {
+        let r = self.first[i] as usize..self.first[i + 1] as usize;
+        (
+            self.cells[i],
+            r.map(|p| {
+                let ids = &self.ids[self.starts[p] as usize..self.starts[p + 1] as usize];
+                (self.types[p], ids)
+            }),
+        )
+    }
+}
 
 /// The new vertices of a split: positions, and per vertex the input
 /// vertices whose mean gives its point-property values.
@@ -150,30 +201,36 @@ fn find_non_convex(
     (0..cells.len())
         .into_par_iter()
         .filter(|&c| cells.types[c] == vtk_type::POLYHEDRON && !is_hidden(c))
-        .filter_map(|c| {
-            let cf = polyhedron_faces(c, cells.faces_of(c), points).ok()?;
-            (is_sweepable(cf.class) && cf.non_convex).then(|| {
-                let faces = cf
-                    .starts
-                    .windows(2)
-                    .map(|w| cf.ids[w[0] as usize..w[1] as usize].to_vec())
-                    .collect();
+        .map_init(Scratch::default, |s, c| {
+            let (class, _, non_convex) =
+                polyhedron_faces_in(c, cells.faces_of(c), points, s).ok()?;
+            (is_sweepable(class) && non_convex).then(|| {
+                let faces = FaceLoops {
+                    ids: s.ids.clone(),
+                    starts: s.starts.clone(),
+                };
                 (c, faces)
             })
         })
+        .flatten()
         .collect()
 }
 
 impl FaceTable {
     /// The canonical faces of the split cells, and per split cell its
-    /// faces' entries in the table (one lookup per face; a key is allocated
-    /// only for a face not seen before).
+    /// faces' entries in the table (one lookup per face). The entries'
+    /// sorted ids are kept in one array and found by their hash, chained
+    /// through the entries with the same hash: no key is allocated.
     fn build(found: &[Found]) -> (Self, Vec<Vec<usize>>) {
+        const NONE: u32 = u32::MAX;
         let mut table = FaceTable {
-            index: HashMap::default(),
             split_uses: Vec::new(),
             plan: Vec::new(),
         };
+        let mut keys: Vec<u32> = Vec::new();
+        let mut key_start: Vec<u32> = vec![0];
+        let mut by_hash: HashMap<u64, u32, BuildHasherDefault<IdsHasher>> = HashMap::default();
+        let mut same_hash: Vec<u32> = Vec::new();
         let mut k: Vec<u32> = Vec::new();
         let face_ids: Vec<Vec<usize>> = found
             .iter()
@@ -184,16 +241,28 @@ impl FaceTable {
                         k.clear();
                         k.extend_from_slice(f);
                         k.sort_unstable();
-                        let i = match table.index.get(&k[..]) {
-                            Some(&i) => i,
-                            None => {
-                                let i = table.split_uses.len();
-                                table.index.insert(k.clone(), i);
-                                table.split_uses.push(0);
-                                table.plan.push(None);
-                                i
-                            }
+                        let mut hs = IdsHasher::default();
+                        hs.write_usize(k.len());
+                        k.iter().for_each(|&v| hs.write_u32(v));
+                        let h = hs.finish();
+                        let h = h ^ (h >> 32);
+                        let key = |e: u32| {
+                            &keys
+                                [key_start[e as usize] as usize..key_start[e as usize + 1] as usize]
                         };
+                        let mut e = by_hash.get(&h).copied().unwrap_or(NONE);
+                        while e != NONE && key(e) != &k[..] {
+                            e = same_hash[e as usize];
+                        }
+                        if e == NONE {
+                            e = table.split_uses.len() as u32;
+                            same_hash.push(by_hash.insert(h, e).unwrap_or(NONE));
+                            keys.extend_from_slice(&k);
+                            key_start.push(keys.len() as u32);
+                            table.split_uses.push(0);
+                            table.plan.push(None);
+                        }
+                        let i = e as usize;
                         table.split_uses[i] = table.split_uses[i].saturating_add(1);
                         i
                     })
@@ -201,6 +270,45 @@ impl FaceTable {
             })
             .collect();
         (table, face_ids)
+    }
+}
+
+/// The canonical loops of the face table's entries, concatenated.
+struct Loops {
+    ids: Vec<u32>,
+    start: Vec<u32>,
+}
+
+impl Loops {
+    /// Entries with a loop so far.
+    fn len(&self) -> usize {
+        self.start.len() - 1
+    }
+    /// Entry `i`'s loop.
+    fn get(&self, i: usize) -> &[u32] {
+        &self.ids[self.start[i] as usize..self.start[i + 1] as usize]
+    }
+}
+
+/// Per marked vertex, the cells that use it (CSR): see
+/// [`PlanContext::incident_to_marked`].
+struct Incident {
+    /// Per point: its marked index, or `u32::MAX`.
+    at: Vec<u32>,
+    /// Per marked index: its first entry in `cells` (marked + 1).
+    start: Vec<u32>,
+    cells: Vec<u32>,
+}
+
+impl Incident {
+    /// The cells using vertex `v` (none when `v` is not marked).
+    fn cells_of(&self, v: u32) -> &[u32] {
+        match self.at.get(v as usize) {
+            Some(&m) if m != u32::MAX => {
+                &self.cells[self.start[m as usize] as usize..self.start[m as usize + 1] as usize]
+            }
+            _ => &[],
+        }
     }
 }
 
@@ -226,33 +334,38 @@ impl PlanContext<'_> {
         report: &mut SplitReport,
     ) -> Result<(), SplitError> {
         let pos = |v: u32| self.points[v as usize];
-        // Loops per face entry (first occurrence, canonical).
-        let mut loops: Vec<Vec<u32>> = vec![Vec::new(); table.split_uses.len()];
+        // Loops per face entry (first occurrence, canonical): entries are
+        // numbered in first-use order, so entry i's loop is the i-th new one.
+        let mut loops = Loops {
+            ids: Vec::new(),
+            start: vec![0],
+        };
         for ((_, faces), ids) in found.iter().zip(face_ids) {
             for (f, &i) in faces.iter().zip(ids) {
-                if loops[i].is_empty() {
-                    loops[i] = canonical(f).0;
+                if i == loops.len() {
+                    let (i0, same) = canonical_start(f);
+                    loops
+                        .ids
+                        .extend((0..f.len()).map(|k| canonical_at(f, i0, same, k)));
+                    loops.start.push(loops.ids.len() as u32);
                 }
             }
         }
         // Bad faces (non-planar or non-convex).
-        let bad: Vec<bool> = loops
-            .iter()
-            .map(|l| {
-                let pts: Vec<P3> = l.iter().map(|&v| pos(v)).collect();
+        let mut pts: Vec<P3> = Vec::new();
+        let bad: Vec<bool> = (0..loops.len())
+            .map(|i| {
+                pts.clear();
+                pts.extend(loops.get(i).iter().map(|&v| pos(v)));
                 face_is_bad(&pts)
             })
             .collect();
         let incident = self.incident_to_marked(&loops, &bad, &table.split_uses);
         let shared_with_unsplit = |l: &[u32]| {
-            let lo = incident.partition_point(|e| e.0 < l[0]);
-            incident[lo..]
-                .iter()
-                .take_while(|e| e.0 == l[0])
-                .any(|&(_, c)| {
-                    let ids = self.cells.cell(c as usize);
-                    l.iter().all(|v| ids.contains(v))
-                })
+            incident.cells_of(l[0]).iter().any(|&c| {
+                let ids = self.cells.cell(c as usize);
+                l.iter().all(|v| ids.contains(v))
+            })
         };
         let np0 = self.points.len();
         for ((c, faces), ids) in found.iter().zip(face_ids) {
@@ -260,7 +373,7 @@ impl PlanContext<'_> {
                 if table.plan[i].is_some() {
                     continue;
                 }
-                let l = &loops[i];
+                let l = loops.get(i);
                 let plan = if !bad[i] {
                     FacePlan::Whole
                 } else if table.split_uses[i] == 1 && shared_with_unsplit(l) {
@@ -285,50 +398,67 @@ impl PlanContext<'_> {
         Ok(())
     }
 
-    /// (vertex, cell), sorted, for the live cells that are not split and
-    /// the first vertex of each bad face used by one split cell: the cells
-    /// that may share such a face.
-    fn incident_to_marked(
-        &self,
-        loops: &[Vec<u32>],
-        bad: &[bool],
-        split_uses: &[u8],
-    ) -> Vec<(u32, u32)> {
-        let mut marked = vec![false; self.points.len()];
-        for (i, l) in loops.iter().enumerate() {
+    /// Per marked vertex (the first vertex of each bad face used by one
+    /// split cell), the live cells that are not split and use it, in cell
+    /// order: the cells that may share such a face.
+    fn incident_to_marked(&self, loops: &Loops, bad: &[bool], split_uses: &[u8]) -> Incident {
+        const NONE: u32 = u32::MAX;
+        let mut at = vec![NONE; self.points.len()];
+        let mut marked = 0u32;
+        for i in 0..loops.len() {
             if bad[i] && split_uses[i] == 1 {
-                marked[l[0] as usize] = true;
-            }
-        }
-        let mut incident: Vec<(u32, u32)> = Vec::new();
-        for c in 0..self.cells.len() {
-            if self.split[c] || (self.is_hidden)(c) || is_lower_dimensional(self.cells.types[c]) {
-                continue;
-            }
-            for &v in self.cells.cell(c) {
-                if marked.get(v as usize).copied().unwrap_or(false) {
-                    incident.push((v, c as u32));
+                let v = loops.get(i)[0] as usize;
+                if at[v] == NONE {
+                    at[v] = marked;
+                    marked += 1;
                 }
             }
         }
-        incident.sort_unstable();
-        incident
+        let live = |c: usize| {
+            !(self.split[c] || (self.is_hidden)(c) || is_lower_dimensional(self.cells.types[c]))
+        };
+        let mark = |v: u32| at.get(v as usize).copied().unwrap_or(NONE);
+        // Counts, then starts, then the cells (two passes, no sort).
+        let mut start = vec![0u32; marked as usize + 1];
+        for c in (0..self.cells.len()).filter(|&c| live(c)) {
+            for &v in self.cells.cell(c) {
+                let m = mark(v);
+                if m != NONE {
+                    start[m as usize + 1] += 1;
+                }
+            }
+        }
+        for m in 0..marked as usize {
+            start[m + 1] += start[m];
+        }
+        let mut fill = start.clone();
+        let mut cells = vec![0u32; start[marked as usize] as usize];
+        for c in (0..self.cells.len()).filter(|&c| live(c)) {
+            for &v in self.cells.cell(c) {
+                let m = mark(v);
+                if m != NONE {
+                    cells[fill[m as usize] as usize] = c as u32;
+                    fill[m as usize] += 1;
+                }
+            }
+        }
+        Incident { at, start, cells }
     }
 }
 
 /// The boundary elements of split cell `c` after its faces' plans, oriented
 /// outward, with the face each comes from.
-fn boundary_elements(
-    faces: &[Vec<u32>],
+fn boundary_elements<'a>(
+    faces: &'a FaceLoops,
     ids: &[usize],
     table: &FaceTable,
-) -> Vec<(usize, Element)> {
-    let mut elems: Vec<(usize, Element)> = Vec::new();
+) -> Vec<(usize, Element<'a>)> {
+    let mut elems: Vec<(usize, Element<'a>)> = Vec::new();
     for (fi, (f, &i)) in faces.iter().zip(ids).enumerate() {
         let (i0, same) = canonical_start(f);
         let orient = |t: [u32; 3]| if same { t } else { [t[0], t[2], t[1]] };
         match table.plan[i].as_ref().expect("planned") {
-            FacePlan::Whole => elems.push((fi, Element::Base(f.clone()))),
+            FacePlan::Whole => elems.push((fi, Element::Base(f))),
             FacePlan::Fan(q) => {
                 let k = f.len();
                 let can = |j: usize| canonical_at(f, i0, same, j % k);
@@ -370,16 +500,16 @@ fn volume_centroid(elems: &[(usize, Element)], vm: P3, cpos: &dyn Fn(u32) -> P3)
 /// of its volume centroid, vertex mean and kernel point that sees every
 /// element, else a vertex that sees every face it is not on (its faces
 /// through it then get no piece); an error when there is none.
-fn cell_star(
+fn cell_star<'a>(
     c: usize,
-    faces: &[Vec<u32>],
+    faces: &'a FaceLoops,
     ids: &[usize],
     table: &FaceTable,
     points: &[P3],
     cpos: &(dyn Fn(u32) -> P3 + Sync),
-) -> Result<CellStar, SplitError> {
+) -> Result<CellStar<'a>, SplitError> {
     let mut elems = boundary_elements(faces, ids, table);
-    let mut verts: Vec<u32> = faces.iter().flatten().copied().collect();
+    let mut verts: Vec<u32> = faces.ids.clone();
     verts.sort_unstable();
     verts.dedup();
     let vm = mean(verts.iter().map(|&v| points[v as usize]));
@@ -423,12 +553,12 @@ fn cell_star(
         // it is not on (thin slivers between warped faces).
         None => match verts.iter().copied().find(|&v| {
             planes.iter().all(|(fi, pl)| {
-                faces[*fi].contains(&v)
+                faces.get(*fi).contains(&v)
                     || matches!(pl, Some((o, nh)) if dot(sub(points[v as usize], *o), *nh) < -tol)
             })
         }) {
             Some(v) => {
-                elems.retain(|(fi, _)| !faces[*fi].contains(&v));
+                elems.retain(|(fi, _)| !faces.get(*fi).contains(&v));
                 Star::Vertex(v)
             }
             None => {
@@ -447,12 +577,18 @@ fn cell_star(
 /// error, as a sequential loop would give.
 fn cut_cells(
     found: &[Found],
-    stars: Vec<Result<CellStar, SplitError>>,
+    stars: Vec<Result<CellStar<'_>, SplitError>>,
     np0: usize,
     new: &mut NewPoints,
     report: &mut SplitReport,
-) -> Result<Vec<Pieces>, SplitError> {
-    let mut pieces_of: Vec<Pieces> = Vec::with_capacity(found.len());
+) -> Result<Pieces, SplitError> {
+    let mut out = Pieces {
+        cells: Vec::with_capacity(found.len()),
+        first: vec![0],
+        types: Vec::new(),
+        starts: vec![0],
+        ids: Vec::new(),
+    };
     for ((c, _), star) in found.iter().zip(stars) {
         let (elems, verts, star) = star?;
         let p = match star {
@@ -465,27 +601,27 @@ fn cut_cells(
                 v
             }
         };
-        let mut out = Vec::with_capacity(elems.len());
-        for (_, e) in elems {
-            out.push(match e {
-                Element::Tri([a, b, c]) => (vtk_type::TETRA, vec![a, c, b, p]),
+        for (_, e) in &elems {
+            match e {
+                Element::Tri([a, b, c]) => out.push(vtk_type::TETRA, &[*a, *c, *b, p]),
                 Element::Base(ids) if ids.len() == 3 => {
-                    (vtk_type::TETRA, vec![ids[0], ids[2], ids[1], p])
+                    out.push(vtk_type::TETRA, &[ids[0], ids[2], ids[1], p])
                 }
                 Element::Base(ids) if ids.len() == 4 => {
-                    (vtk_type::PYRAMID, vec![ids[0], ids[3], ids[2], ids[1], p])
+                    out.push(vtk_type::PYRAMID, &[ids[0], ids[3], ids[2], ids[1], p])
                 }
-                Element::Base(mut ids) => {
+                Element::Base(ids) => {
                     // A polyhedron: the base loop, then the apex.
-                    ids.push(p);
-                    (vtk_type::POLYHEDRON, ids)
+                    out.ids.extend_from_slice(ids);
+                    out.push(vtk_type::POLYHEDRON, &[p]);
                 }
-            });
+            }
         }
-        report.pieces += out.len();
-        pieces_of.push((*c, out));
+        report.pieces += elems.len();
+        out.cells.push(*c);
+        out.first.push(out.types.len() as u32);
     }
-    Ok(pieces_of)
+    Ok(out)
 }
 
 /// Copies the input cells `a..b` (a run of unsplit cells) in bulk.
@@ -515,19 +651,21 @@ fn copy_run(cells: &Cells, out: &mut Cells, source: &mut Vec<u32>, a: usize, b: 
 
 /// The output cells: runs of unsplit cells copied in bulk, the pieces in
 /// place of their cell; and the source cell of each output cell.
-fn assemble(cells: &Cells, pieces_of: &[Pieces]) -> Result<(Cells, Vec<u32>), SplitError> {
+fn assemble(cells: &Cells, pieces_of: &Pieces) -> Result<(Cells, Vec<u32>), SplitError> {
     let n = cells.len();
     let piece_stream = |ids: &[u32]| 2 + 4 * (ids.len() - 1) + ids.len() - 1;
     let (mut out_cells, mut out_conn, mut out_stream) = (n, cells.connectivity.len(), 0usize);
     let stream_of = |c: usize| cells.faces_of(c).len();
     out_stream += cells.face_stream.len();
-    for (c, pieces) in pieces_of {
-        out_cells += pieces.len() - 1;
-        out_conn -= cells.cell(*c).len();
-        out_stream -= stream_of(*c);
+    for i in 0..pieces_of.cells.len() {
+        let (c, pieces) = pieces_of.of(i);
+        out_cells -= 1;
+        out_conn -= cells.cell(c).len();
+        out_stream -= stream_of(c);
         for (t, ids) in pieces {
+            out_cells += 1;
             out_conn += ids.len();
-            if *t == vtk_type::POLYHEDRON {
+            if t == vtk_type::POLYHEDRON {
                 out_stream += piece_stream(ids);
             }
         }
@@ -546,10 +684,11 @@ fn assemble(cells: &Cells, pieces_of: &[Pieces]) -> Result<(Cells, Vec<u32>), Sp
     out.face_offsets.push(0);
     let mut source = Vec::with_capacity(out_cells);
     let mut done = 0;
-    for (c, pieces) in pieces_of {
-        copy_run(cells, &mut out, &mut source, done, *c);
+    for i in 0..pieces_of.cells.len() {
+        let (c, pieces) = pieces_of.of(i);
+        copy_run(cells, &mut out, &mut source, done, c);
         for (t, ids) in pieces {
-            if *t == vtk_type::POLYHEDRON {
+            if t == vtk_type::POLYHEDRON {
                 let (apex, base) = ids.split_last().expect("base and apex");
                 let k = base.len();
                 let mut faces = vec![base.to_vec()];
@@ -558,9 +697,9 @@ fn assemble(cells: &Cells, pieces_of: &[Pieces]) -> Result<(Cells, Vec<u32>), Sp
                 }
                 out.push_polyhedron(&faces);
             } else {
-                out.push(*t, ids);
+                out.push(t, ids);
             }
-            source.push(*c as u32);
+            source.push(c as u32);
         }
         done = c + 1;
     }

@@ -22,11 +22,20 @@ use crate::structures::{BitSet, CellClass, StructureError, is_sweepable};
 struct StencilHasher(u64);
 
 impl Hasher for StencilHasher {
+    /// The high half folded in: the table's buckets read the low bits,
+    /// which a product takes from the low bits of its operand only.
     fn finish(&self) -> u64 {
-        self.0
+        self.0 ^ (self.0 >> 32)
     }
+    /// A `[u32; 8]` key arrives as one 32-byte slice: one round per
+    /// 8 bytes (the stencil ids follow insertion order, not the hash).
     fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
+        let mut chunks = bytes.chunks_exact(8);
+        for c in &mut chunks {
+            let x = u64::from_le_bytes(c.try_into().expect("8 bytes"));
+            self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x517c_c1b7_2722_0a95);
+        }
+        for &b in chunks.remainder() {
             self.write_u32(b as u32);
         }
     }
@@ -116,11 +125,26 @@ impl Shape {
         })
     }
 
-    /// The lattice slot of IJK index `ijk`.
-    fn home(&self, ijk: usize) -> usize {
+    /// Per input cell (IJK indices `source_cell`, increasing): its lattice
+    /// slot and its column (pillar `i + npi·j`). Consecutive indices in
+    /// one row are stepped to without a division.
+    fn homes(&self, source_cell: &[u32]) -> Vec<[u32; 2]> {
         let [nx, ny, _] = self.dims;
-        let (i, j, k) = (ijk % nx, ijk / nx % ny, ijk / (nx * ny));
-        i + self.npi * (j + (ny + 1) * (k + 1))
+        let (mut at, mut i, mut j, mut k) = (0usize, 0usize, 0usize, 0usize);
+        source_cell
+            .iter()
+            .map(|&ijk| {
+                let ijk = ijk as usize;
+                if ijk >= at && ijk - at < nx - i {
+                    i += ijk - at;
+                } else {
+                    (i, j, k) = (ijk % nx, ijk / nx % ny, ijk / (nx * ny));
+                }
+                at = ijk;
+                let col = i + self.npi * j;
+                [(col + self.slab * (k + 1)) as u32, col as u32]
+            })
+            .collect()
     }
 }
 
@@ -132,7 +156,8 @@ struct Resolved<'a> {
     verts: Cow<'a, [u32]>,
     class: Vec<CellClass>,
     map: Option<&'a SplitMap>,
-    layout: &'a IjkLayout,
+    /// Per input cell: [`Shape::homes`].
+    homes: Vec<[u32; 2]>,
 }
 
 impl Resolved<'_> {
@@ -157,8 +182,12 @@ impl Resolved<'_> {
         ok.then_some(ids)
     }
     /// The lattice slot of cell `c`'s input cell.
-    fn home(&self, shape: &Shape, c: usize) -> usize {
-        shape.home(self.layout.source_cell[self.source(c)] as usize)
+    fn home(&self, c: usize) -> usize {
+        self.homes[self.source(c)][0] as usize
+    }
+    /// The column (pillar `i + npi·j`) of cell `c`'s input cell.
+    fn column(&self, c: usize) -> usize {
+        self.homes[self.source(c)][1] as usize
     }
 }
 
@@ -189,7 +218,7 @@ impl Coder {
         let mut base = vec![u32::MAX; shape.slab];
         for c in 0..n {
             if let Some(ids) = r.hex_ids(c) {
-                let p = r.home(shape, c) % shape.slab;
+                let p = r.column(c);
                 for l in 0..8 {
                     let b = &mut base[p + corner_pillar[l] as usize];
                     *b = (*b).min(ids[l]);
@@ -273,7 +302,7 @@ impl Slots {
         let mut last_live_src = usize::MAX;
         for c in 0..n {
             let src = r.source(c);
-            let home = r.home(shape, c);
+            let home = r.home(c);
             s.kept.set(home);
             let slot = if r.is_split(src) {
                 s.piece_cell.push(src as u32);
@@ -296,19 +325,24 @@ impl Slots {
                 s.counts.live_input_cells += 1;
                 last_live_src = src;
             }
-            s.place(r, coder, c, slot, shape.slab);
+            let col = if slot == home {
+                r.column(c)
+            } else {
+                slot % shape.slab
+            };
+            s.place(r, coder, c, slot, col);
         }
         s.counts.stencils = coder.stencils.len();
         s
     }
 
-    /// Stores live cell `c` in `slot`: by stencil when it is a hexahedron
-    /// and the table takes it, else explicitly.
-    fn place(&mut self, r: &Resolved, coder: &mut Coder, c: usize, slot: usize, slab: usize) {
+    /// Stores live cell `c` in `slot` (of column `col`): by stencil when
+    /// it is a hexahedron and the table takes it, else explicitly.
+    fn place(&mut self, r: &Resolved, coder: &mut Coder, c: usize, slot: usize, col: usize) {
         let ids = r.ids(c);
         if r.metas[c] == builtin::HEXAHEDRON
             && ids.len() == 8
-            && let Some((anchor, id)) = coder.code(slot % slab, ids)
+            && let Some((anchor, id)) = coder.code(col, ids)
         {
             self.anchor[slot] = anchor;
             self.stencil[slot] = id;
@@ -350,7 +384,7 @@ impl CpGraph {
             verts,
             class,
             map: map.as_ref(),
-            layout,
+            homes: shape.homes(&layout.source_cell),
         };
         let pieces = (0..r.metas.len())
             .filter(|&c| r.is_split(r.source(c)))
@@ -394,60 +428,20 @@ impl CpGraph {
     }
 
     /// Links IJK neighbours that share a vertex and counts the faces.
+    /// Each face is checked once, from its lower slot (the +i, +j, +k
+    /// bits); the −i, −j, −k bits are then copied from the neighbour's,
+    /// since two cells share a vertex or not whichever side asks.
     fn link(&mut self) {
         let lattice = self.lattice_slots as usize;
-        let mut links = vec![0u8; self.slots];
+        let mut up = vec![0u8; lattice];
         let g = &*self;
-        let sums = links[..lattice]
+        let sums = up
             .par_chunks_mut(1 << 14)
             .enumerate()
             .map(|(ch, out)| {
                 let mut sums = [0usize; 4];
-                let (mut a, mut b) = ([0u32; MAX_META_VERTICES], [0u32; MAX_META_VERTICES]);
                 for (x, o) in out.iter_mut().enumerate() {
-                    let slot = ((ch << 14) + x) as u32;
-                    if !g.kept.get(slot as usize) {
-                        continue;
-                    }
-                    let live = g.live.get(slot as usize);
-                    let na = if live { g.cell(slot, &mut a).1 } else { 0 };
-                    for d in 0..6 {
-                        let delta = g.deltas[d / 2];
-                        let nb = if d & 1 == 1 {
-                            slot + delta
-                        } else {
-                            slot.wrapping_sub(delta)
-                        };
-                        if nb as usize >= lattice || !g.kept.get(nb as usize) {
-                            continue;
-                        }
-                        let both = live && g.live.get(nb as usize);
-                        let common = if both {
-                            let nn = g.cell(nb, &mut b).1;
-                            let mut k = 0;
-                            for &v in &a[..na] {
-                                k += b[..nn].contains(&v) as usize;
-                            }
-                            k
-                        } else {
-                            0
-                        };
-                        if common > 0 {
-                            *o |= 1 << d;
-                        }
-                        if d & 1 == 1 {
-                            // Each face once, from its lower slot.
-                            sums[0] += 1;
-                            let conforming =
-                                common == 4 && g.is_stencil_hex(slot) && g.is_stencil_hex(nb);
-                            if conforming {
-                                sums[1] += 1;
-                            } else {
-                                sums[2] += 1;
-                                sums[3] += (common > 0) as usize;
-                            }
-                        }
-                    }
+                    *o = g.link_up(((ch << 14) + x) as u32, &mut sums);
                 }
                 sums
             })
@@ -455,10 +449,78 @@ impl CpGraph {
                 || [0; 4],
                 |x, y| [x[0] + y[0], x[1] + y[1], x[2] + y[2], x[3] + y[3]],
             );
+        let mut links = vec![0u8; self.slots];
+        let deltas = self.deltas;
+        links[..lattice]
+            .par_chunks_mut(1 << 14)
+            .enumerate()
+            .for_each(|(ch, out)| {
+                for (x, o) in out.iter_mut().enumerate() {
+                    let slot = (ch << 14) + x;
+                    let mut bits = up[slot];
+                    for (k, &delta) in deltas.iter().enumerate() {
+                        if let Some(nb) = slot.checked_sub(delta as usize) {
+                            bits |= ((up[nb] >> (2 * k + 1)) & 1) << (2 * k);
+                        }
+                    }
+                    *o = bits;
+                }
+            });
         self.counts.faces = sums[0];
         self.counts.conforming_faces = sums[1];
         self.counts.exception_faces = sums[2];
         self.counts.linked_exceptions = sums[3];
         self.links = links;
     }
+
+    /// The +i, +j, +k link bits of lattice `slot` (a neighbour that shares
+    /// a vertex), adding its faces to `sums` (faces, conforming, exception,
+    /// linked exception).
+    fn link_up(&self, slot: u32, sums: &mut [usize; 4]) -> u8 {
+        let lattice = self.lattice_slots as usize;
+        if !self.kept.get(slot as usize) {
+            return 0;
+        }
+        let (mut a, mut b) = ([0u32; MAX_META_VERTICES], [0u32; MAX_META_VERTICES]);
+        let live = self.live.get(slot as usize);
+        let na = if live { self.cell(slot, &mut a).1 } else { 0 };
+        let mut bits = 0u8;
+        for k in 0..3 {
+            let nb = slot + self.deltas[k];
+            if nb as usize >= lattice || !self.kept.get(nb as usize) {
+                continue;
+            }
+            let common = if live && self.live.get(nb as usize) {
+                let nn = self.cell(nb, &mut b).1;
+                shared_vertices(&a[..na], &b[..nn])
+            } else {
+                0
+            };
+            bits |= ((common > 0) as u8) << (2 * k + 1);
+            sums[0] += 1;
+            if common == 4 && self.is_stencil_hex(slot) && self.is_stencil_hex(nb) {
+                sums[1] += 1;
+            } else {
+                sums[2] += 1;
+                sums[3] += (common > 0) as usize;
+            }
+        }
+        bits
+    }
+}
+
+/// How many ids of `a` occur in `b` (a live cell's ids are distinct, so
+/// two hexahedra take the unrolled 8 × 8 count).
+#[inline(always)]
+fn shared_vertices(a: &[u32], b: &[u32]) -> usize {
+    if let (Ok(a), Ok(b)) = (<&[u32; 8]>::try_from(a), <&[u32; 8]>::try_from(b)) {
+        let mut k = 0;
+        for &v in a {
+            for &w in b {
+                k += (v == w) as usize;
+            }
+        }
+        return k;
+    }
+    a.iter().filter(|v| b.contains(v)).count()
 }

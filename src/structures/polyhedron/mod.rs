@@ -503,39 +503,20 @@ pub(crate) fn orient(cell: usize, s: &mut Scratch) -> Result<usize, PolyhedronEr
     Ok(flipped)
 }
 
-/// One polyhedron's checked, outward face loops (global vertex ids) and
-/// its class, exactly as the build sees them (shared with
-/// [`crate::structures::convex_split`]).
-pub(crate) struct CellFaces {
-    /// Face loops, concatenated.
-    pub(crate) ids: Vec<u32>,
-    /// Face starts into `ids` (faces + 1).
-    pub(crate) starts: Vec<u32>,
-    /// Some vertex lies outside a face plane (by `CONVEXITY_TOLERANCE`).
-    pub(crate) non_convex: bool,
-    /// Quality class.
-    pub(crate) class: CellClass,
-    /// Faces whose loop was reversed to point outward.
-    pub(crate) flipped: usize,
-}
-
 /// Checks and orients polyhedron `cell`, given by its VTK face stream, as
-/// the build does.
-pub(crate) fn polyhedron_faces(
+/// the build does (shared with [`crate::structures::convex_split`]), in
+/// reused buffers: the outward loops are left in `s.ids` / `s.starts`
+/// (global ids, concatenated; faces + 1 starts). Returns (class, faces
+/// reversed to point outward, whether some vertex lies outside a face
+/// plane by `CONVEXITY_TOLERANCE`).
+pub(crate) fn polyhedron_faces_in(
     cell: usize,
     stream: &[u32],
     points: &[[f64; 3]],
-) -> Result<CellFaces, PolyhedronError> {
-    let mut s = Scratch::default();
+    s: &mut Scratch,
+) -> Result<(CellClass, usize, bool), PolyhedronError> {
     parse_faces_into(cell, stream, &mut s.ids, &mut s.starts)?;
-    let (class, flipped, non_convex) = check_cell(cell, points, &mut s)?;
-    Ok(CellFaces {
-        ids: s.ids,
-        starts: s.starts,
-        non_convex,
-        class,
-        flipped,
-    })
+    check_cell(cell, points, s)
 }
 
 /// Whether two faces of the loops in `s` have the same [`face_key`]
