@@ -746,18 +746,7 @@ pub fn emit_slices<'c>(
     };
     let range = shown_range(grid, s, property, cell_values.as_deref(), &p.level_values)?;
     if let Some(c) = k.clip {
-        let Structure::SCGraph(g) = s else {
-            return Err(RenderError::Options(
-                "IJK clipping needs an IJK (structured) grid".into(),
-            ));
-        };
-        // Slot of cell (i, j, k): i + j·npi + (k + 1)·npi·npj (see `scgraph`).
-        let [npi, npj, _] = g.dims;
-        p.frame.entries.retain(|e| {
-            let v = e.slot as usize - npi * npj;
-            let ijk = [v % npi, (v / npi) % npj, v / (npi * npj)];
-            (0..3).all(|a| c[a][0] <= ijk[a] && ijk[a] < c[a][1])
-        });
+        clip_entries(s, c, &mut p.frame.entries)?;
     }
     let cut_cells = p.frame.entries.len() as u64;
     let levels = p.level_values.len() as u32;
@@ -782,6 +771,27 @@ pub fn emit_slices<'c>(
         field,
         field_fallback,
     })
+}
+
+/// Keeps the cut cells inside the IJK box `c` (S-CGraph grids only).
+fn clip_entries(
+    s: &Structure,
+    c: super::boundary::IjkBox,
+    entries: &mut Vec<super::shared::Entry>,
+) -> Result<(), RenderError> {
+    let Structure::SCGraph(g) = s else {
+        return Err(RenderError::Options(
+            "IJK clipping needs an IJK (structured) grid".into(),
+        ));
+    };
+    // Slot of cell (i, j, k): i + j·npi + (k + 1)·npi·npj (see `scgraph`).
+    let [npi, npj, _] = g.dims;
+    entries.retain(|e| {
+        let v = e.slot as usize - npi * npj;
+        let ijk = [v % npi, (v / npi) % npj, v / (npi * npj)];
+        (0..3).all(|a| c[a][0] <= ijk[a] && ijk[a] < c[a][1])
+    });
+    Ok(())
 }
 
 /// Mean cell size: the cube root of the bounding-box volume per cell
