@@ -259,6 +259,6 @@ pub fn build_host_slices<'c>(
         field: None,
         field_fallback: k
             .attr_gradient
-            .then(|| "the slices are cut on the host (CIEL)".into()),
+            .then(|| "the slices are cut on the host (CIEL), which carries no gradient: drawn as plain slices".into()),
     })
 }
