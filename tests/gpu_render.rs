@@ -441,3 +441,46 @@ fn rotated_grid_fills_the_frame() {
         );
     }
 }
+
+/// `render` and `view` give corner-point input the CP-Graph (its IJK
+/// layout kept): a faulted deck with a cell property must render the same
+/// image on it as on the CGraph, in volume, slices and iso modes.
+#[test]
+fn a_faulted_grid_renders_alike_on_the_cp_graph_and_the_cgraph() {
+    let Some(ctx) = gpu_common::gpu("a_faulted_grid_renders_alike_on_the_cp_graph_and_the_cgraph")
+    else {
+        return;
+    };
+    let cp = stratasweep::generate::faulted([14, 11, 7], 3, 4);
+    let dims = cp.dims;
+    let (grid, rep) = cp.into_grid().unwrap();
+    let layout = stratasweep::structures::cpgraph::IjkLayout {
+        dims,
+        source_cell: rep.source_cell,
+    };
+    let on_cp = Structure::build_with(&grid, StructureChoice::Auto, Some(&layout)).unwrap();
+    assert!(matches!(on_cp, Structure::CpGraph(_)));
+    let on_cg = Structure::build(&grid, StructureChoice::CGraph).unwrap();
+    let mut r = Renderer::new(ctx).unwrap();
+    for (mode, iso) in [
+        (Mode::Volume, vec![]),
+        (Mode::Slices, vec![]),
+        (Mode::Iso, vec![0.2]),
+    ] {
+        let o = RenderOptions {
+            property: Some("PORO".into()),
+            slices: 40,
+            view_dir: [0.5, 0.4, -0.77],
+            size: (96, 72),
+            mode,
+            iso,
+            ..Default::default()
+        };
+        let a = r.render(&grid, &on_cp, &o).unwrap().rgba8();
+        let b = r.render(&grid, &on_cg, &o).unwrap().rgba8();
+        let drawn = a.chunks(4).filter(|p| p[3] > 0).count();
+        assert!(drawn > 500, "{mode:?}: {drawn} pixels drawn");
+        let diff = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+        assert_eq!(diff, 0, "{mode:?}: {diff} bytes differ");
+    }
+}

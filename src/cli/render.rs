@@ -52,11 +52,11 @@ pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
     }
     let (grid, name, _, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
     let z_scale = a.scene.z_scale(&grid, quiet);
-    // Pre-integrated slabs march corner-point cells in index space: the
-    // corner-point graph keeps the IJK lattice (plain frames keep Auto's
-    // choice without it).
-    let layout = ijk.as_ref().filter(|_| a.scene.preintegrated);
-    let s = Structure::build_with(&grid, StructureChoice::Auto, layout)
+    // Corner-point input keeps its IJK lattice: Auto then picks the
+    // corner-point graph, as `slice` does (faster to build and sweep than
+    // the CGraph, the same slices), and pre-integrated slabs march its
+    // cells in index space.
+    let s = Structure::build_with(&grid, StructureChoice::Auto, ijk.as_ref())
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let iso = if o.mode == Mode::Iso { &o.iso[..] } else { &[] };
     for v in super::render_checks::check_before(&grid, o.property.as_deref(), iso)? {

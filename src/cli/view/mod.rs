@@ -91,10 +91,9 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
     let clip = a.ijk_clip.as_deref().map(parse_clip).transpose()?;
     let (grid, name, _, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
     let z_scale = a.scene.z_scale(&grid, quiet);
-    // As `render`: the corner-point graph (IJK lattice) when started
-    // pre-integrated.
-    let layout = ijk.as_ref().filter(|_| a.scene.preintegrated);
-    let s = Structure::build_with(&grid, StructureChoice::Auto, layout)
+    // As `render`: the corner-point graph (IJK lattice) for corner-point
+    // input, so the panel's pre-integration switch gets the index-space path.
+    let s = Structure::build_with(&grid, StructureChoice::Auto, ijk.as_ref())
         .with_context(|| format!("cannot build a structure for {name}"))?;
     let event_loop = EventLoop::new().context("cannot start the window event loop")?;
     let ctx = GpuContext::with_display(
