@@ -161,30 +161,10 @@ fn tetrahedral_box() -> Grid {
     with_ramp(points, cells)
 }
 
-fn ramp_transfer() -> Transfer {
-    Transfer::from_json(
-        r#"{"points":[{"value":0,"color":[1,0.2,0],"opacity":0.05},{"value":1,"color":[0,0.3,1],"opacity":0.95}]}"#,
-    )
-    .unwrap()
-}
-
 /// Front-to-back integration along a straight ray of length `len` (unit
 /// distance 1) on which the value goes linearly from `v0` to `v1`.
 fn integrate(t: &Transfer, v0: f64, v1: f64, len: f64) -> [f64; 4] {
-    let n = 20_000;
-    let ds = len / n as f64;
-    let mut acc = [0f64; 4];
-    for i in 0..n {
-        let s = (i as f64 + 0.5) / n as f64;
-        let c = t.eval(v0 + (v1 - v0) * s);
-        let a = 1.0 - (1.0 - c[3] as f64).powf(ds);
-        let k = (1.0 - acc[3]) * a;
-        for ch in 0..3 {
-            acc[ch] += k * c[ch] as f64;
-        }
-        acc[3] += k;
-    }
-    acc
+    gpu_common::ray::integrate_ray(t, 20_000, len, |s| v0 + (v1 - v0) * s)
 }
 
 /// The centre pixel's largest channel error against `want`, pre-integrated
@@ -197,7 +177,7 @@ fn centre_errors(g: &Grid, dir: [f64; 3], want: [f64; 4]) -> (f64, f64) {
         slices: 5,
         view_dir: dir,
         up: Some([0.0, 1.0, 0.0]),
-        transfer: Some(ramp_transfer()),
+        transfer: Some(gpu_common::ray::ramp_transfer()),
         unit_distance: Some(1.0),
         background: None,
         size: (33, 33),
@@ -266,7 +246,7 @@ fn rays_leave_a_faulted_block_through_its_uncovered_fault_face() {
         b.push(&mut points, &mut cells);
     }
     let g = with_ramp(points, cells);
-    let t = ramp_transfer();
+    let t = gpu_common::ray::ramp_transfer();
     for deg in [0.0, 35.0] {
         let d = down_at(deg);
         let centre = centre_ray_point(&g, d);
@@ -298,7 +278,7 @@ fn a_box_of_tetrahedra_gives_the_integral_along_the_ray() {
         return;
     }
     let g = tetrahedral_box();
-    let t = ramp_transfer();
+    let t = gpu_common::ray::ramp_transfer();
     for deg in [0.0f64, 35.0] {
         let d = down_at(deg);
         let c = centre_ray_point(&g, d);

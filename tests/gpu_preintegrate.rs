@@ -37,30 +37,10 @@ fn ramp_box() -> Grid {
     }
 }
 
-fn ramp_transfer() -> Transfer {
-    Transfer::from_json(
-        r#"{"points":[{"value":0,"color":[1,0.2,0],"opacity":0.05},{"value":1,"color":[0,0.3,1],"opacity":0.95}]}"#,
-    )
-    .unwrap()
-}
-
 /// Front-to-back integration along a straight ray of length `len` (unit
 /// distance 1) on which the value goes linearly from `v0` to `v1`.
 fn integrate(t: &Transfer, v0: f64, v1: f64, len: f64) -> [f64; 4] {
-    let n = 20_000;
-    let ds = len / n as f64;
-    let mut acc = [0f64; 4];
-    for i in 0..n {
-        let s = (i as f64 + 0.5) / n as f64;
-        let c = t.eval(v0 + (v1 - v0) * s);
-        let a = 1.0 - (1.0 - c[3] as f64).powf(ds);
-        let k = (1.0 - acc[3]) * a;
-        for ch in 0..3 {
-            acc[ch] += k * c[ch] as f64;
-        }
-        acc[3] += k;
-    }
-    acc
+    gpu_common::ray::integrate_ray(t, 20_000, len, |s| v0 + (v1 - v0) * s)
 }
 
 #[test]
@@ -71,7 +51,7 @@ fn few_preintegrated_slices_give_the_integral_along_the_ray() {
     };
     let g = ramp_box();
     let s = Structure::build(&g, StructureChoice::Auto).unwrap();
-    let t = ramp_transfer();
+    let t = gpu_common::ray::ramp_transfer();
     for deg in [0.0f64, 35.0] {
         let th = deg.to_radians();
         let o = RenderOptions {

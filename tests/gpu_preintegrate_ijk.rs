@@ -87,31 +87,11 @@ fn layer_field(z: f64) -> f64 {
     layer_value(k.min(LAYERS - 1))
 }
 
-fn ramp_transfer() -> Transfer {
-    Transfer::from_json(
-        r#"{"points":[{"value":0,"color":[1,0.2,0],"opacity":0.05},{"value":1,"color":[0,0.3,1],"opacity":0.95}]}"#,
-    )
-    .unwrap()
-}
-
 /// Front-to-back integration down a ray through the whole box at `th`
 /// radians from the vertical (unit distance 1): `field(z)` from z = H to −H.
 fn integrate(t: &Transfer, field: impl Fn(f64) -> f64, th: f64) -> [f64; 4] {
-    let n = 40_000;
     let len = 2.0 * H / th.cos();
-    let ds = len / n as f64;
-    let mut acc = [0f64; 4];
-    for i in 0..n {
-        let s = (i as f64 + 0.5) / n as f64;
-        let c = t.eval(field(H - 2.0 * H * s));
-        let a = 1.0 - (1.0 - c[3] as f64).powf(ds);
-        let k = (1.0 - acc[3]) * a;
-        for ch in 0..3 {
-            acc[ch] += k * c[ch] as f64;
-        }
-        acc[3] += k;
-    }
-    acc
+    gpu_common::ray::integrate_ray(t, 40_000, len, |s| field(H - 2.0 * H * s))
 }
 
 /// Max channel error of the centre pixel, pre-integrated, with the box
@@ -141,7 +121,7 @@ fn options(property: &str, deg: f64, slices: usize) -> RenderOptions {
         slices,
         view_dir: [th.sin(), 0.0, -th.cos()],
         up: Some([0.0, 1.0, 0.0]),
-        transfer: Some(ramp_transfer()),
+        transfer: Some(gpu_common::ray::ramp_transfer()),
         unit_distance: Some(1.0),
         background: None,
         size: (33, 33),
@@ -156,7 +136,7 @@ fn a_wave_inside_each_slab_is_integrated_in_index_space() {
         return;
     };
     let g = wave_box();
-    let t = ramp_transfer();
+    let t = gpu_common::ray::ramp_transfer();
     for deg in [0.0f64, 35.0] {
         // 5 slices: a slab is 8 cells thick, most of a period of the wave.
         let o = options("v", deg, 5);
@@ -179,7 +159,7 @@ fn cell_layers_are_integrated_exactly_in_index_space() {
         return;
     };
     let g = layer_box();
-    let t = ramp_transfer();
+    let t = gpu_common::ray::ramp_transfer();
     for deg in [0.0f64, 35.0] {
         // 3 slices through 8 layers of alternating values.
         let o = options("c", deg, 3);
@@ -214,7 +194,7 @@ fn a_lattice_over_the_3d_texture_limit_keeps_the_gradient_path() {
         })
         .unwrap();
     let g = wave_box();
-    let t = ramp_transfer();
+    let t = gpu_common::ray::ramp_transfer();
     let o = options("v", 0.0, 5);
     let want = integrate(&t, wave_field, 0.0);
     let s = Structure::build(&g, StructureChoice::SCGraph).unwrap();
@@ -284,7 +264,7 @@ fn corner_point_layers_are_integrated_in_index_space() {
         return;
     };
     let (g, layout) = layer_corner_point();
-    let t = ramp_transfer();
+    let t = gpu_common::ray::ramp_transfer();
     let cp = Structure::build_with(&g, StructureChoice::CpGraph, Some(&layout)).unwrap();
     assert!(matches!(cp, Structure::CpGraph(_)));
     // Height z (the box centred on 0) to depth, depth to layer.

@@ -3,6 +3,8 @@
 //! missing adapter fails the test.
 #![allow(dead_code)]
 
+pub mod ray;
+
 use std::sync::OnceLock;
 use stratasweep::gpu::context::{ContextOptions, GpuContext};
 
