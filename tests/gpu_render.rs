@@ -443,8 +443,11 @@ fn rotated_grid_fills_the_frame() {
 }
 
 /// `render` and `view` give corner-point input the CP-Graph (its IJK
-/// layout kept): a faulted deck with a cell property must render the same
-/// image on it as on the CGraph, in volume, slices and iso modes.
+/// layout kept): a faulted deck with a cell property must render the
+/// CGraph's image on it, in volume, slices and iso modes, up to pixels on
+/// polygon edges (the two structures cut an edge from either end, so
+/// vertices may differ in their last bits): at most 2 % of the pixels, and
+/// a mean difference under 0.05 levels.
 #[test]
 fn a_faulted_grid_renders_alike_on_the_cp_graph_and_the_cgraph() {
     let Some(ctx) = gpu_common::gpu("a_faulted_grid_renders_alike_on_the_cp_graph_and_the_cgraph")
@@ -480,7 +483,60 @@ fn a_faulted_grid_renders_alike_on_the_cp_graph_and_the_cgraph() {
         let b = r.render(&grid, &on_cg, &o).unwrap().rgba8();
         let drawn = a.chunks(4).filter(|p| p[3] > 0).count();
         assert!(drawn > 500, "{mode:?}: {drawn} pixels drawn");
-        let diff = a.iter().zip(&b).filter(|(x, y)| x != y).count();
-        assert_eq!(diff, 0, "{mode:?}: {diff} bytes differ");
+        let px = a.len() / 4;
+        let differ = (0..px)
+            .filter(|&i| a[4 * i..][..4] != b[4 * i..][..4])
+            .count();
+        let sum: u64 = a.iter().zip(&b).map(|(x, y)| x.abs_diff(*y) as u64).sum();
+        let mean = sum as f64 / a.len() as f64;
+        eprintln!("{mode:?}: {differ} of {px} pixels differ, mean {mean:.4}");
+        assert!(
+            differ * 50 <= px,
+            "{mode:?}: {differ} of {px} pixels differ"
+        );
+        assert!(mean < 0.05, "{mode:?}: mean difference {mean}");
+    }
+}
+
+/// The slice cache is keyed by view and property: one renderer used for a
+/// second grid (or the same grid with other values) must draw that grid,
+/// as a fresh renderer does, not the first grid's cached slices.
+#[test]
+fn a_renderer_reused_for_another_grid_draws_that_grid() {
+    let Some(ctx) = gpu_common::gpu("a_renderer_reused_for_another_grid_draws_that_grid") else {
+        return;
+    };
+    let a = warped([12, 10, 8], 3);
+    let mut b = warped([12, 10, 8], 3);
+    for p in &mut b.points {
+        p[0] *= 1.5;
+    }
+    let mut c = warped([12, 10, 8], 3);
+    for p in &mut c.point_data[0].values {
+        *p = -*p;
+    }
+    let name = a.point_data[0].name.clone();
+    let o = RenderOptions {
+        property: Some(name),
+        slices: 30,
+        size: (64, 48),
+        view_dir: [0.3, 0.2, -0.93],
+        ..Default::default()
+    };
+    let mut shared = Renderer::new(ctx).unwrap();
+    let first = {
+        let s = Structure::build(&a, StructureChoice::Auto).unwrap();
+        shared.render(&a, &s, &o).unwrap().rgba8()
+    };
+    for (what, g) in [("moved points", &b), ("other values", &c)] {
+        let s = Structure::build(g, StructureChoice::Auto).unwrap();
+        let reused = shared.render(g, &s, &o).unwrap().rgba8();
+        let fresh = Renderer::new(ctx)
+            .unwrap()
+            .render(g, &s, &o)
+            .unwrap()
+            .rgba8();
+        assert_ne!(reused, first, "{what}: the first grid's image");
+        assert_eq!(reused, fresh, "{what}: differs from a fresh renderer's");
     }
 }

@@ -13,8 +13,8 @@ use crate::structures::Structure;
 use super::draw::FrameSetup;
 use super::host_slices::build_slices;
 use super::render::{
-    Image, Mode, RenderError, RenderOptions, Renderer, slice_key, slicing_axis, transfer_for,
-    unit_distance,
+    GridStamp, Image, Mode, RenderError, RenderOptions, Renderer, slice_key, slicing_axis,
+    transfer_for, unit_distance,
 };
 use super::scene::fit_camera;
 
@@ -61,6 +61,12 @@ impl Renderer<'_> {
                 "image size {w}x{h}: each side must be 1..={}",
                 self.ctx.limits.max_texture_dimension_2d
             )));
+        }
+        let stamp = GridStamp::of(grid, s);
+        if self.stamp != Some(stamp) {
+            // Another grid or structure: its slices are not these.
+            self.clear_cache();
+            self.stamp = Some(stamp);
         }
         let axis = slicing_axis(d);
         let mut k = slice_key(grid, o, axis)?;

@@ -425,8 +425,55 @@ pub struct Renderer<'c> {
     pub(super) pre: PrePipeline,
     pub(super) preintegrated: bool,
     pub(super) cache: HashMap<String, SliceSet<'c>>,
+    /// What the cached slices were built from (see [`GridStamp`]).
+    pub(super) stamp: Option<GridStamp>,
     /// Compute dispatches of evicted cache entries.
     evicted_dispatches: u64,
+}
+
+/// A cheap identity of a (grid, structure) pair: their addresses, sizes
+/// and a hash of up to 64 evenly spaced points and property values. The
+/// slice cache is keyed by view and property only, so a render of another
+/// grid, or of the same one changed, must not reuse it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GridStamp {
+    addresses: [usize; 3],
+    sizes: [usize; 2],
+    sample: u64,
+}
+
+impl GridStamp {
+    /// The stamp of `grid` with its structure `s`.
+    pub fn of(grid: &Grid, s: &Structure) -> Self {
+        fn mix(h: u64, x: u64) -> u64 {
+            (h ^ x).wrapping_mul(0x0100_0000_01b3).rotate_left(17)
+        }
+        fn spaced(n: usize) -> impl Iterator<Item = usize> {
+            let step = n.div_ceil(64).max(1);
+            (0..n).step_by(step)
+        }
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        for i in spaced(grid.points.len()) {
+            for c in grid.points[i] {
+                h = mix(h, c.to_bits());
+            }
+        }
+        for p in grid.point_data.iter().chain(&grid.cell_data) {
+            h = mix(h, p.name.len() as u64);
+            for i in spaced(p.len()) {
+                h = mix(h, p.scalar_at(i).to_bits());
+            }
+        }
+        GridStamp {
+            addresses: [
+                grid as *const Grid as usize,
+                grid.points.as_ptr() as usize,
+                s as *const Structure as usize,
+            ],
+            sizes: [grid.points.len(), grid.cell_count()],
+            sample: h,
+        }
+    }
 }
 
 pub(super) const DEPTH: wgpu::TextureFormat = super::pre_pass::DEPTH_FORMAT;
@@ -525,6 +572,7 @@ impl<'c> Renderer<'c> {
             iso,
             preintegrated: false,
             cache: HashMap::new(),
+            stamp: None,
             evicted_dispatches: 0,
         })
     }
@@ -571,8 +619,14 @@ impl<'c> Renderer<'c> {
     /// Caches `set` under `key`, replacing (evicting) every other entry:
     /// one axis cone or property at a time.
     pub fn insert(&mut self, key: &str, set: SliceSet<'c>) {
-        self.evicted_dispatches += self.cache.drain().map(|(_, c)| c.dispatches()).sum::<u64>();
+        self.clear_cache();
         self.cache.insert(key.to_string(), set);
+    }
+
+    /// Drops every cached slice set (after a grid changed in place in a
+    /// way [`GridStamp`] does not sample).
+    pub fn clear_cache(&mut self) {
+        self.evicted_dispatches += self.cache.drain().map(|(_, c)| c.dispatches()).sum::<u64>();
     }
 }
 
