@@ -204,12 +204,24 @@ fn split_cgraph(g: &GridBuffers, budget: u64) -> Result<Vec<GridPart>, CellTooLa
 /// The CGraph part of slots `[lo, hi)`: its referenced vertices in global
 /// id order, its cell table over local slots and local vertex ids.
 fn cgraph_part(g: &GridBuffers, lo: u32, hi: u32, live: &[bool]) -> GridPart {
-    let mut used: Vec<u32> = (lo..hi)
-        .flat_map(|s| cell_ids(g, s, live).iter().copied())
-        .collect();
-    used.sort_unstable();
-    used.dedup();
-    let local = |v: u32| used.binary_search(&v).expect("referenced vertex") as u32;
+    // Global id -> local id, numbered in global id order (a dense map: a
+    // sort and a binary search per corner were this function's cost).
+    const UNUSED: u32 = u32::MAX;
+    const USED: u32 = u32::MAX - 1;
+    let mut map = vec![UNUSED; g.grid.len()];
+    for s in lo..hi {
+        for &v in cell_ids(g, s, live) {
+            map[v as usize] = USED;
+        }
+    }
+    let mut used: Vec<u32> = Vec::new();
+    for (v, m) in map.iter_mut().enumerate() {
+        if *m == USED {
+            *m = used.len() as u32;
+            used.push(v as u32);
+        }
+    }
+    let local = |v: u32| map[v as usize];
     let n = (hi - lo) as usize;
     let mut cells = vec![0u32; 2 * n];
     let mut ids = [0u32; MAX_META_VERTICES];
