@@ -101,6 +101,24 @@ pub enum FieldSpec {
 }
 
 impl FieldSpec {
+    /// An axis field from `x`, `y` or `z` (either case), optionally signed
+    /// (`-z` sweeps downward); `None` for anything else.
+    pub fn parse_axis(s: &str) -> Option<FieldSpec> {
+        let (negative, a) = match s.strip_prefix('-') {
+            Some(r) => (true, r),
+            None => (false, s.strip_prefix('+').unwrap_or(s)),
+        };
+        let axis = match a {
+            "x" | "X" => 0,
+            "y" | "Y" => 1,
+            "z" | "Z" => 2,
+            _ => return None,
+        };
+        Some(FieldSpec::Axis { axis, negative })
+    }
+}
+
+impl FieldSpec {
     /// The unit normal of a planar field, or `None` for a property.
     pub fn normal(&self) -> Option<[f64; 3]> {
         match self {

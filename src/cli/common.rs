@@ -181,20 +181,8 @@ pub(crate) fn parse_triplet(s: &str, what: &str) -> Result<[f64; 3]> {
 }
 
 pub(crate) fn parse_axis(s: &str) -> Result<FieldSpec> {
-    let (neg, a) = match s.strip_prefix('-') {
-        Some(r) => (true, r),
-        None => (false, s.strip_prefix('+').unwrap_or(s)),
-    };
-    let axis = match a {
-        "x" | "X" => 0,
-        "y" | "Y" => 1,
-        "z" | "Z" => 2,
-        _ => bail!("--axis '{s}': expected x, y, z, -x, -y or -z"),
-    };
-    Ok(FieldSpec::Axis {
-        axis,
-        negative: neg,
-    })
+    FieldSpec::parse_axis(s)
+        .ok_or_else(|| anyhow::anyhow!("--axis '{s}': expected x, y, z, -x, -y or -z"))
 }
 
 pub(crate) fn field_spec(f: &FieldArgs) -> Result<FieldSpec> {

@@ -139,21 +139,8 @@ pub fn structure_choice(s: &str) -> PyResult<StructureChoice> {
 }
 
 fn parse_axis(s: &str) -> PyResult<FieldSpec> {
-    let (negative, a) = match s.strip_prefix('-') {
-        Some(r) => (true, r),
-        None => (false, s.strip_prefix('+').unwrap_or(s)),
-    };
-    let axis = match a {
-        "x" | "X" => 0,
-        "y" | "Y" => 1,
-        "z" | "Z" => 2,
-        _ => {
-            return Err(invalid(format!(
-                "axis '{s}': expected x, y, z, -x, -y or -z"
-            )));
-        }
-    };
-    Ok(FieldSpec::Axis { axis, negative })
+    FieldSpec::parse_axis(s)
+        .ok_or_else(|| invalid(format!("axis '{s}': expected x, y, z, -x, -y or -z")))
 }
 
 /// The field of `slice()`: exactly one of axis, normal or property.

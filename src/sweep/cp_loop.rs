@@ -27,7 +27,7 @@
 //! a vertex.)
 
 use super::cp_weld::{CpWeld, CutCell};
-use super::lattice::{LatticeQueues, pack_active, set_bit};
+use super::lattice::{LatticeQueues, last_cut_level, pack_active, queue_at_entry, set_bit};
 use super::{Block, LevelStats, Minimum, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots};
 use crate::cellgraph::CellGraph;
 use crate::extract::{EmitContext, LevelMesh, code_of, prefetch};
@@ -173,7 +173,7 @@ impl<F: ScalarField> CpSweep<'_, F> {
     /// `fresh`; each unseen linked neighbour is queued at its entry level.
     fn enter(&self, k: usize, work: &mut Vec<u32>, q: &mut LatticeQueues, fresh: &mut Vec<Cut>) {
         let (g, f, levels) = (self.g, self.f, self.levels);
-        let (n, t) = (levels.len(), levels[k]);
+        let t = levels[k];
         let LatticeQueues { entering, seen, .. } = q;
         let mut ids = [0u32; MAX_META_VERTICES];
         let mut nb_ids = [0u32; MAX_META_VERTICES];
@@ -200,11 +200,7 @@ impl<F: ScalarField> CpSweep<'_, F> {
                 }
             }
             if t <= hi {
-                let mut last = k;
-                while last + 1 < n && levels[last + 1] <= hi {
-                    last += 1;
-                }
-                cut.key = pack_active(c, last);
+                cut.key = pack_active(c, last_cut_level(levels, k, hi));
                 fresh.push(cut);
             }
             g.for_each_neighbour(c, |nb| {
@@ -215,17 +211,7 @@ impl<F: ScalarField> CpSweep<'_, F> {
                     for &v in &nb_ids[..nn] {
                         lo = lo.min(f.phi(v));
                     }
-                    if lo < t {
-                        work.push(nb);
-                    } else {
-                        let mut l = k + 1;
-                        while l < n && levels[l] <= lo {
-                            l += 1;
-                        }
-                        if l < n {
-                            entering[l].push(nb);
-                        }
-                    }
+                    queue_at_entry(nb, lo, levels, k, work, entering);
                 }
             });
         }

@@ -430,7 +430,6 @@ impl CellStep<'_, '_> {
             seen,
         } = q;
         let [di, dj, dk] = lat.deltas;
-        let n = levels.len();
         // SAFETY (for `at` and `load8`): the cell is live and its
         // neighbours' far vertices are read only for a live neighbour (not
         // in `seen`, so not a never-sweep slot): all < lat.vertices <=
@@ -456,11 +455,7 @@ impl CellStep<'_, '_> {
         if t <= hi {
             // Cut from this level through every level up to hi: the
             // cell stays in A until then without being read again.
-            let mut last = k;
-            while last + 1 < n && levels[last + 1] <= hi {
-                last += 1;
-            }
-            fresh.push(pack_active(c, last));
+            fresh.push(pack_active(c, last_cut_level(levels, k, hi)));
         }
         // The six neighbours, unrolled. A new one is queued at its
         // entry level: this step when the shared face dips below t,
@@ -486,17 +481,7 @@ impl CellStep<'_, '_> {
                             ),
                         )
                     };
-                    if lo < t {
-                        work.push(nb);
-                    } else {
-                        let mut l = k + 1;
-                        while l < n && levels[l] <= lo {
-                            l += 1;
-                        }
-                        if l < n {
-                            entering[l].push(nb);
-                        }
-                    }
+                    queue_at_entry(nb, lo, levels, k, work, entering);
                 }
             }};
         }
@@ -567,6 +552,42 @@ pub(super) fn code8(f: &[f32; 8], t: f32) -> usize {
     }
     #[cfg(not(target_arch = "x86_64"))]
     code_of(f, t)
+}
+
+/// The last level from `k` on that cuts a cell whose largest φ is `hi`
+/// (the cell stays active through it without being read again).
+#[inline(always)]
+pub(in crate::sweep) fn last_cut_level(levels: &[f32], k: usize, hi: f32) -> usize {
+    let mut last = k;
+    while last + 1 < levels.len() && levels[last + 1] <= hi {
+        last += 1;
+    }
+    last
+}
+
+/// Queues a newly found neighbour `nb` whose smallest φ is `lo` at its
+/// entry level: this step (`work`) when `lo` is below level `k`'s value,
+/// else the first later level at or above `lo` (none past the last).
+#[inline(always)]
+pub(in crate::sweep) fn queue_at_entry(
+    nb: u32,
+    lo: f32,
+    levels: &[f32],
+    k: usize,
+    work: &mut Vec<u32>,
+    entering: &mut [Vec<u32>],
+) {
+    if lo < levels[k] {
+        work.push(nb);
+        return;
+    }
+    let mut l = k + 1;
+    while l < levels.len() && levels[l] <= lo {
+        l += 1;
+    }
+    if l < levels.len() {
+        entering[l].push(nb);
+    }
 }
 
 /// φ of the lattice cell with first vertex `v0` in geometric order
