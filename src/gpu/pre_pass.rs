@@ -84,18 +84,8 @@ impl PrePipeline {
             bind_group_layouts: &[Some(params), Some(&far_layout), Some(&field_layout)],
             immediate_size: 0,
         });
-        let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32];
-        let normal_attrs = wgpu::vertex_attr_array![2 => Float32x3];
-        let vertices = wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<super::shared::OutVertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &attrs,
-        };
-        let normals = wgpu::VertexBufferLayout {
-            array_stride: 16,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &normal_attrs,
-        };
+        let vertices = super::shared::out_vertex_layout();
+        let normals = super::shared::normal_layout();
         let over = Some(wgpu::ColorTargetState {
             format,
             blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),

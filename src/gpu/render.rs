@@ -31,7 +31,6 @@ use super::gradient::vertex_gradients;
 use super::ijk_field::IjkField;
 use super::pre_pass::{BoundaryMesh, PrePipeline};
 use super::shaders;
-use super::shared::OutVertex;
 use super::slice::prepare;
 use super::tables::slot_values;
 
@@ -504,19 +503,8 @@ impl<'c> Renderer<'c> {
                 bind_group_layouts: &[Some(&layout)],
                 immediate_size: 0,
             });
-        let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32];
-        let normal_attrs = wgpu::vertex_attr_array![2 => Float32x3];
-        let vertices = wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<OutVertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &attrs,
-        };
-        // The emit pass's normals: one vec4<f32> per corner.
-        let normals = wgpu::VertexBufferLayout {
-            array_stride: 16,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &normal_attrs,
-        };
+        let vertices = super::shared::out_vertex_layout();
+        let normals = super::shared::normal_layout();
         let slice_buffers = [Some(vertices.clone())];
         let iso_buffers = [Some(vertices), Some(normals)];
         let make = |blend: Option<wgpu::BlendState>, depth: bool, normals: bool, fs: &str| {

@@ -123,6 +123,28 @@ pub struct OutVertex {
     pub value: f32,
 }
 
+/// [`OutVertex`] as a vertex buffer: location 0 the position, 1 the value.
+pub fn out_vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+    const ATTRS: [wgpu::VertexAttribute; 2] =
+        wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32];
+    wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<OutVertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &ATTRS,
+    }
+}
+
+/// The emit pass's normals (one `vec4<f32>` per corner) as a vertex
+/// buffer at location 2.
+pub fn normal_layout() -> wgpu::VertexBufferLayout<'static> {
+    const ATTRS: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![2 => Float32x3];
+    wgpu::VertexBufferLayout {
+        array_stride: 16,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &ATTRS,
+    }
+}
+
 /// `wgpu::util::DrawIndirectArgs`, as written by the scan pass.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
