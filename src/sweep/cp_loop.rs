@@ -39,6 +39,10 @@ use crate::structures::cpgraph::CpGraph;
 /// pieces) are decoded again when emitted.
 const CUT_VERTICES: usize = 8;
 
+/// How many work-queue entries ahead [`CpSweep::enter`] fetches what
+/// decoding a slot reads; its own entries are fetched twice as far ahead.
+const ENTER_AHEAD: usize = 8;
+
 /// A cell of the active list `A`: `pack_active(slot, last)` (sorting by it
 /// sorts by slot), its meta-cell, vertex count, and (up to
 /// [`CUT_VERTICES`]) vertex ids and φ, read once when the cell entered.
@@ -177,11 +181,20 @@ impl<F: ScalarField> CpSweep<'_, F> {
         let LatticeQueues { entering, seen, .. } = q;
         let mut ids = [0u32; MAX_META_VERTICES];
         let mut nb_ids = [0u32; MAX_META_VERTICES];
+        let phi_values = f.values();
         let mut i = 0;
         while i < work.len() {
             let c = work[i];
-            if let Some(&ahead) = work.get(i + PREFETCH_AHEAD) {
-                g.prefetch_cell(ahead, self.ctx);
+            // Two-stage look-ahead: the slot's own entries far ahead, then
+            // (once they are in cache) what decoding it reads next.
+            if let Some(&far) = work.get(i + 2 * ENTER_AHEAD) {
+                g.prefetch_slot(far);
+            }
+            if let (Some(&near), Some(phi)) = (work.get(i + ENTER_AHEAD), phi_values) {
+                g.prefetch_decode(near, phi, |nb| {
+                    let j = nb.wrapping_sub(self.start);
+                    j < self.len && seen[j as usize / 64] & (1 << (j % 64)) == 0
+                });
             }
             i += 1;
             let (m, nv) = g.cell(c, &mut ids);

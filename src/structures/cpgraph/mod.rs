@@ -176,6 +176,40 @@ impl CpGraph {
         self.links[slot as usize]
     }
 
+    /// Hints the CPU to fetch the slot's stencil id, anchor and links.
+    #[inline(always)]
+    pub(crate) fn prefetch_slot(&self, slot: u32) {
+        crate::extract::prefetch(&self.stencil, slot as usize);
+        crate::extract::prefetch(&self.anchor, slot as usize);
+        crate::extract::prefetch(&self.links, slot as usize);
+    }
+
+    /// Hints the CPU to fetch what decoding `slot` reads after its own
+    /// entries (prefetched first by [`CpGraph::prefetch_slot`]): φ of a
+    /// stencil hexahedron's vertices (through `phi`), an explicit cell's
+    /// row, and the entries of the unseen linked neighbours (`unseen`).
+    #[inline(always)]
+    pub(crate) fn prefetch_decode(&self, slot: u32, phi: &[f32], unseen: impl Fn(u32) -> bool) {
+        let s = self.stencil[slot as usize];
+        let a = self.anchor[slot as usize];
+        if s != EXPLICIT {
+            let st = &self.stencils[s as usize];
+            let p = slot - self.slab_div.quotient(slot) * self.deltas[2];
+            for l in 0..8 {
+                let b = self.base[(p + self.corner_pillar[l]) as usize];
+                crate::extract::prefetch(phi, b.wrapping_add(a).wrapping_add(st[l]) as usize);
+            }
+        } else {
+            crate::extract::prefetch(&self.explicit, a as usize);
+        }
+        self.for_each_neighbour(slot, |nb| {
+            if unseen(nb) {
+                crate::extract::prefetch(&self.stencil, nb as usize);
+                crate::extract::prefetch(&self.anchor, nb as usize);
+            }
+        });
+    }
+
     /// Whether the slot holds a hexahedron stored through a stencil.
     #[inline(always)]
     pub(crate) fn is_stencil_hex(&self, slot: u32) -> bool {
