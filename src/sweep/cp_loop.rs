@@ -26,13 +26,15 @@
 //! sharing a vertex guarantees; hence links only between cells that share
 //! a vertex.)
 
-use super::cp_weld::{CpWeld, CutCell};
-use super::lattice::{LatticeQueues, last_cut_level, pack_active, queue_at_entry, set_bit};
+use super::cp_table::CodeTable;
+use super::cp_weld::{CpWeld, CutCell, RowCell};
+use super::lattice::writer::HexWriter;
+use super::lattice::{LatticeQueues, code8, last_cut_level, pack_active, queue_at_entry, set_bit};
 use super::{Block, LevelStats, Minimum, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots};
 use crate::cellgraph::CellGraph;
 use crate::extract::{EmitContext, LevelMesh, code_of, prefetch};
 use crate::field::ScalarField;
-use crate::metacell::MAX_META_VERTICES;
+use crate::metacell::{MAX_META_VERTICES, builtin};
 use crate::structures::cpgraph::CpGraph;
 
 /// Vertices a [`Cut`] record holds; cells with more (explicit polyhedron
@@ -42,6 +44,9 @@ const CUT_VERTICES: usize = 8;
 /// How many work-queue entries ahead [`CpSweep::enter`] fetches what
 /// decoding a slot reads; its own entries are fetched twice as far ahead.
 const ENTER_AHEAD: usize = 8;
+
+/// Cut cells per batch of the emitter's writer.
+const EMIT_BATCH: usize = 1024;
 
 /// A cell of the active list `A`: `pack_active(slot, last)` (sorting by it
 /// sorts by slot), its meta-cell, vertex count, and (up to
@@ -75,6 +80,8 @@ struct CpSweep<'a, F> {
     ctx: &'a EmitContext<'a>,
     start: u32,
     len: u32,
+    /// Rows of the meta-cells the emitter tables.
+    table: CodeTable,
 }
 
 /// The active list and its per-level buffers.
@@ -132,6 +139,9 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
         ctx,
         start: b.start,
         len: b.stamps.len() as u32,
+        table: CodeTable::new(g.catalog(), |id| {
+            g.meta_counts.get(id).is_some_and(|&n| n > 0)
+        }),
     };
     let Block {
         stamps,
@@ -230,43 +240,97 @@ impl<F: ScalarField> CpSweep<'_, F> {
         }
     }
 
-    /// Emits the polygons of the level `t`'s cut cells, in slot order.
+    /// Emits the polygons of the level `t`'s cut cells, in slot order:
+    /// cells with a [`CodeTable`] row in batches written without capacity
+    /// checks, the others one by one through the catalog.
     fn emit(&self, t: f32, cuts: &[Cut], weld: &mut CpWeld, mesh: &mut LevelMesh) {
-        let (g, ctx) = (self.g, self.ctx);
-        let catalog = g.catalog();
+        let ctx = self.ctx;
+        if ctx.cells_only {
+            mesh.cut_cells += cuts.len() as u32;
+            mesh.cells.extend(cuts.iter().map(Cut::slot));
+            return;
+        }
+        let mut x = 0;
+        while x < cuts.len() {
+            let end = cuts.len().min(x + EMIT_BATCH);
+            let mut out = HexWriter::new(mesh, end - x);
+            let mut slow = None;
+            while x < end {
+                if let Some(ahead) = cuts.get(x + 2 * PREFETCH_AHEAD) {
+                    prefetch_rows(ahead, ctx, weld);
+                }
+                let cut = &cuts[x];
+                x += 1;
+                let nv = cut.n as usize;
+                if nv <= CUT_VERTICES {
+                    // Unused φ entries are masked off the code.
+                    let code = code8(&cut.phi, t) & ((1 << nv) - 1);
+                    if let Some(row) = self.table.row(cut.meta, code) {
+                        let cell = RowCell {
+                            ids: &cut.ids,
+                            phi: &cut.phi,
+                            t,
+                            slot: cut.slot(),
+                        };
+                        if weld.emit_row(row, cell, ctx, &mut out) {
+                            continue;
+                        }
+                    }
+                }
+                slow = Some(cut);
+                break;
+            }
+            drop(out);
+            if let Some(cut) = slow {
+                self.emit_one(t, cut, weld, mesh);
+            }
+        }
+    }
+
+    /// Emits one cut cell through the catalog (and the hash map where the
+    /// weld table cannot place an edge).
+    #[inline(never)]
+    fn emit_one(&self, t: f32, cut: &Cut, weld: &mut CpWeld, mesh: &mut LevelMesh) {
         let mut ids = [0u32; MAX_META_VERTICES];
         let mut phi = [0f32; MAX_META_VERTICES];
-        for (x, cut) in cuts.iter().enumerate() {
-            if let Some(ahead) = cuts.get(x + 2 * PREFETCH_AHEAD) {
-                // The rows the cell ahead reads: positions, attribute and
-                // its vertices' weld entries.
-                for &v in &ahead.ids[..(ahead.n as usize).min(CUT_VERTICES)] {
-                    prefetch(ctx.positions, v as usize);
-                    if let Some(a) = ctx.attribute {
-                        prefetch(a, v as usize);
-                    }
-                    weld.prefetch(v);
-                }
+        let nv = cut.n as usize;
+        let (gids, phi) = if nv <= CUT_VERTICES {
+            (&cut.ids[..nv], &cut.phi[..nv])
+        } else {
+            self.g.cell(cut.slot(), &mut ids);
+            for l in 0..nv {
+                phi[l] = self.f.phi(ids[l]);
             }
-            let nv = cut.n as usize;
-            let (gids, phi) = if nv <= CUT_VERTICES {
-                (&cut.ids[..nv], &cut.phi[..nv])
-            } else {
-                g.cell(cut.slot(), &mut ids);
-                for l in 0..nv {
-                    phi[l] = self.f.phi(ids[l]);
-                }
-                (&ids[..nv], &phi[..nv])
-            };
-            let cell = CutCell {
-                meta: catalog.get(cut.meta),
-                gids,
-                phi,
-                t,
-                code: code_of(phi, t),
-                slot: cut.slot(),
-            };
-            weld.emit_cell(&cell, ctx, mesh);
+            (&ids[..nv], &phi[..nv])
+        };
+        let cell = CutCell {
+            meta: self.g.catalog().get(cut.meta),
+            gids,
+            phi,
+            t,
+            code: code_of(phi, t),
+            slot: cut.slot(),
+        };
+        weld.emit_cell(&cell, self.ctx, mesh);
+    }
+}
+
+/// Hints the CPU to fetch the rows the cut cell `ahead` will read: its
+/// vertices' positions, attribute and weld entries. A hexahedron's vertex
+/// `l + 4` follows vertex `l` on the same pillar (its rows mostly in the
+/// same cache lines), so only its first four are fetched.
+#[inline(always)]
+fn prefetch_rows(ahead: &Cut, ctx: &EmitContext, weld: &CpWeld) {
+    let n = if ahead.meta == builtin::HEXAHEDRON {
+        4
+    } else {
+        (ahead.n as usize).min(CUT_VERTICES)
+    };
+    for &v in &ahead.ids[..n] {
+        prefetch(ctx.positions, v as usize);
+        if let Some(a) = ctx.attribute {
+            prefetch(a, v as usize);
         }
+        weld.prefetch(v);
     }
 }

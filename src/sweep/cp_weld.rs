@@ -15,6 +15,8 @@
 //! output is exactly the hash map's: same vertices, created in the same
 //! order.
 
+use super::cp_table::{CodeRow, ROW_EDGES};
+use super::lattice::writer::HexWriter;
 use crate::extract::{EmitContext, LevelMesh, decide_faces, prefetch};
 use crate::metacell::MetaCell;
 
@@ -148,6 +150,96 @@ impl CpWeld {
     }
 }
 
+/// A cut cell of at most eight vertices as [`CpWeld::emit_row`] takes it.
+#[derive(Clone, Copy)]
+pub(crate) struct RowCell<'a> {
+    /// Vertex ids in the meta-cell's local order.
+    pub ids: &'a [u32; 8],
+    /// φ at those vertices.
+    pub phi: &'a [f32; 8],
+    /// The level.
+    pub t: f32,
+    /// The cell's slot (recorded with its polygons).
+    pub slot: u32,
+}
+
+impl CpWeld {
+    /// Emits the polygons of a tabled cut cell (`row`, see
+    /// [`super::cp_table`]) through `out`: the same polygons, corners and
+    /// vertices as [`CpWeld::emit_cell`], each cut edge's vertex its
+    /// entry's, or new when the entry is empty. Returns false, having
+    /// written nothing, when an edge must be welded by the hash map (its
+    /// entry holds another edge, or two new edges of the cell share one):
+    /// then call [`CpWeld::emit_cell`].
+    #[inline(always)]
+    pub(crate) fn emit_row(
+        &mut self,
+        row: &CodeRow,
+        cell: RowCell,
+        ctx: &EmitContext,
+        out: &mut HexWriter,
+    ) -> bool {
+        let RowCell { ids, phi, t, slot } = cell;
+        // Local ids are below 8 (`& 7` lets the compiler drop the checks).
+        let end = |j: usize| {
+            let [la, lb] = row.ends[j];
+            let (la, lb) = (la as usize & 7, lb as usize & 7);
+            if ids[la] < ids[lb] {
+                (ids[la], ids[lb], phi[la], phi[lb])
+            } else {
+                (ids[lb], ids[la], phi[lb], phi[la])
+            }
+        };
+        let n = (row.edges as usize).min(ROW_EDGES);
+        let mut vert = [0u32; ROW_EDGES];
+        let mut at = [0u32; ROW_EDGES];
+        let mut fresh = 0u32;
+        for j in 0..n {
+            let (ga, gb, _, _) = end(j);
+            let i = self.entry(ga, gb);
+            let e = self.entries[i];
+            if e >> VAL_BITS == self.gen_ {
+                let v = e & VAL_MASK;
+                if out.key(v) != (ga as u64) << 32 | gb as u64 {
+                    return false;
+                }
+                vert[j] = v;
+            } else {
+                let mut f = fresh;
+                while f != 0 {
+                    if at[f.trailing_zeros() as usize % ROW_EDGES] == i as u32 {
+                        return false;
+                    }
+                    f &= f - 1;
+                }
+                fresh |= 1 << j;
+                at[j] = i as u32;
+            }
+        }
+        if out.vertices() + ROW_EDGES > VAL_MASK as usize {
+            return false;
+        }
+        out.begin_cell();
+        while fresh != 0 {
+            let j = fresh.trailing_zeros() as usize % ROW_EDGES;
+            fresh &= fresh - 1;
+            let (ga, gb, fa, fb) = end(j);
+            let (p, value) = edge_point(ctx, (ga, gb), (fa, fb), t);
+            let v = out.vertex((ga as u64) << 32 | gb as u64, p, value);
+            self.entries[at[j] as usize] = self.gen_ << VAL_BITS | v;
+            vert[j] = v;
+        }
+        let mut first = 0;
+        for &m in &row.sizes[..row.polys as usize] {
+            let m = m as usize;
+            let corners = &row.corners[first..first + m];
+            out.polygon(m, |i| vert[corners[i] as usize % ROW_EDGES], slot);
+            first += m;
+        }
+        true
+    }
+}
+
 /// One cut cell as the weld emits it.
 #[derive(Clone, Copy)]
 pub(crate) struct CutCell<'a> {
@@ -176,17 +268,33 @@ fn push_vertex(
     t: f32,
     ctx: &EmitContext,
 ) {
+    let (p, value) = edge_point(ctx, (ga, gb), (fa, fb), t);
+    mesh.positions.push(p);
+    mesh.values.push(value);
+    mesh.edge_keys.push(key);
+}
+
+/// The point where level `t` crosses grid edge `ga`–`gb` (φ `fa`, `fb`)
+/// and the attribute there (`t` without one), with the arithmetic of the
+/// mesh's own corners (so the same bits).
+#[inline(always)]
+fn edge_point(
+    ctx: &EmitContext,
+    (ga, gb): (u32, u32),
+    (fa, fb): (f32, f32),
+    t: f32,
+) -> ([f32; 3], f32) {
     let s = (t - fa) / (fb - fa);
     let pa = ctx.positions[ga as usize];
     let pb = ctx.positions[gb as usize];
-    mesh.positions.push([
+    let p = [
         pa[0] + s * (pb[0] - pa[0]),
         pa[1] + s * (pb[1] - pa[1]),
         pa[2] + s * (pb[2] - pa[2]),
-    ]);
-    mesh.values.push(match ctx.attribute {
+    ];
+    let value = match ctx.attribute {
         Some(a) => a[ga as usize] + s * (a[gb as usize] - a[ga as usize]),
         None => t,
-    });
-    mesh.edge_keys.push(key);
+    };
+    (p, value)
 }

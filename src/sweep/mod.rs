@@ -9,6 +9,7 @@ use crate::field::ScalarField;
 use crate::metacell::MAX_META_VERTICES;
 
 mod cp_loop;
+mod cp_table;
 mod cp_weld;
 pub mod lattice;
 

@@ -195,7 +195,9 @@ impl CpGraph {
         if s != EXPLICIT {
             let st = &self.stencils[s as usize];
             let p = slot - self.slab_div.quotient(slot) * self.deltas[2];
-            for l in 0..8 {
+            // Vertex l + 4 follows vertex l on its pillar: the first four
+            // name the cache lines.
+            for l in 0..4 {
                 let b = self.base[(p + self.corner_pillar[l]) as usize];
                 crate::extract::prefetch(phi, b.wrapping_add(a).wrapping_add(st[l]) as usize);
             }

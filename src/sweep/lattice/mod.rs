@@ -8,7 +8,7 @@ pub(super) mod chunks;
 mod emit;
 mod index;
 pub mod weld;
-mod writer;
+pub(in crate::sweep) mod writer;
 
 use super::{
     Block, LevelStats, Minimum, NEVER, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots,
@@ -535,7 +535,7 @@ pub(super) fn max8(f: &[f32; 8]) -> f32 {
 
 /// [`code_of`] for eight values: bit q set iff `f[q] >= t`.
 #[inline(always)]
-pub(super) fn code8(f: &[f32; 8], t: f32) -> usize {
+pub(in crate::sweep) fn code8(f: &[f32; 8], t: f32) -> usize {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::*;

@@ -82,6 +82,21 @@ impl<'m> HexWriter<'m> {
         vi as u32
     }
 
+    /// Vertices in the mesh so far.
+    #[inline(always)]
+    pub(crate) fn vertices(&self) -> usize {
+        self.nv
+    }
+
+    /// The grid edge of vertex `v`, one of the mesh's vertices so far.
+    #[inline(always)]
+    pub(crate) fn key(&self, v: u32) -> u64 {
+        assert!((v as usize) < self.nv, "vertex {v} not written yet");
+        // SAFETY: every vertex below `nv` was written (the mesh's own, then
+        // this writer's).
+        unsafe { self.keys.add(v as usize).read() }
+    }
+
     /// Appends the polygon of source cell `slot` with the `m` corners
     /// `corner(0..m)` (vertices already written), adding its area as
     /// [`LevelMesh::end_polygon`] does. At most [`HexWriter::PER_CELL`]
