@@ -95,6 +95,9 @@ pub fn quad_is_bow_tie(q: [[f64; 3]; 4]) -> bool {
 pub fn classify_cell(meta: &MetaCell, ids: &[u32], points: &[[f64; 3]]) -> CellClass {
     match ids.len() {
         8 => classify_fixed::<8>(meta, ids, points),
+        4 => classify_fixed::<4>(meta, ids, points),
+        5 => classify_fixed::<5>(meta, ids, points),
+        6 => classify_fixed::<6>(meta, ids, points),
         n if n == 0 || n > MAX_META_VERTICES => CellClass::NonVolumetric,
         _ => classify_fixed::<MAX_META_VERTICES>(meta, ids, points),
     }
