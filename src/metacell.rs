@@ -21,6 +21,7 @@ use std::collections::HashMap;
 use thiserror::Error;
 
 use crate::grid::vtk_type;
+use crate::vec3::{add, cross, dot, sub};
 
 /// Largest vertex count of a meta-cell (codes are `u16`-sized tables of 2^nv entries).
 pub const MAX_META_VERTICES: usize = 12;
@@ -544,6 +545,46 @@ impl MetaCell {
             }
         }
         six_vol / 6.0
+    }
+
+    /// Six times the signed volume of [`MetaCell::signed_volume_of`]'s
+    /// polyhedron (each face split into triangles around its vertex mean),
+    /// by a shorter formula: per face its vertex sum dotted with its vector
+    /// area (for a quad, the cross product of its diagonals), over the
+    /// face's length. Equal in exact arithmetic (the closed surface's volume
+    /// does not depend on the origin), not bit for bit: a filter for the
+    /// sign, not the value.
+    #[inline]
+    pub fn six_volume_filter(&self, pts: &[[f64; 3]; MAX_META_VERTICES]) -> f64 {
+        let mut six_vol = 0.0;
+        if let Some(faces) = &self.hex_faces {
+            for f in faces {
+                let p = |k: usize| pts[f[k] as usize];
+                let (a, b, c, d) = (p(0), p(1), p(2), p(3));
+                let s = cross(sub(c, a), sub(d, b));
+                let sum = add(add(a, b), add(c, d));
+                six_vol += 0.25 * dot(sum, s);
+            }
+            return six_vol;
+        }
+        for f in &self.faces {
+            let p0 = pts[f[0] as usize];
+            let (mut s, mut sum) = ([0.0; 3], p0);
+            for w in f[1..].windows(2) {
+                let (p, q) = (pts[w[0] as usize], pts[w[1] as usize]);
+                let x = cross(sub(p, p0), sub(q, p0));
+                for a in 0..3 {
+                    s[a] += x[a];
+                    sum[a] += p[a];
+                }
+            }
+            let last = pts[f[f.len() - 1] as usize];
+            for a in 0..3 {
+                sum[a] += last[a];
+            }
+            six_vol += dot(sum, s) / f.len() as f64;
+        }
+        six_vol
     }
 }
 

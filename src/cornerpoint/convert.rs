@@ -220,7 +220,9 @@ impl PillarDepths {
         let npil = npx * (ny + 1);
         let rows: Vec<(Vec<f64>, Vec<u32>)> = (0..=ny)
             .into_par_iter()
-            .map(|pj| Self::row(g, codes, zcorn, pj))
+            .map_init(Vec::new, |scratch, pj| {
+                Self::row(g, codes, zcorn, pj, scratch)
+            })
             .collect();
         let mut start = Vec::with_capacity(npil + 1);
         let mut nv = 0usize;
@@ -244,12 +246,21 @@ impl PillarDepths {
 
     /// The depths of the pillars of row `pj`, one after the other, and
     /// their counts. One scratch block of 8·nz depths per pillar (4 cells ×
-    /// top and bottom per layer), sorted and deduplicated in place.
-    fn row(g: &CornerPointGrid, codes: &[u8], zcorn: &[f64], pj: usize) -> (Vec<f64>, Vec<u32>) {
+    /// top and bottom per layer), sorted and deduplicated in place. The
+    /// scratch is reused from row to row: only the depths written for this
+    /// row are read, so it is zeroed once, not per row (101 rows of 646 KB
+    /// on a 100³ grid).
+    fn row(
+        g: &CornerPointGrid,
+        codes: &[u8],
+        zcorn: &[f64],
+        pj: usize,
+        scratch: &mut Vec<f64>,
+    ) -> (Vec<f64>, Vec<u32>) {
         let [nx, ny, nz] = g.dims;
         let npx = nx + 1;
         let per = 8 * nz;
-        let mut scratch = vec![0.0f64; per * npx];
+        scratch.resize(per * npx, 0.0);
         let mut len = vec![0usize; npx];
         for k in 0..nz {
             for kk in 0..2 {

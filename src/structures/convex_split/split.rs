@@ -192,27 +192,34 @@ pub(super) fn split_with(
 }
 
 /// Non-convex polyhedra, with their faces oriented outward (CIEL's
-/// build_cell), in cell order.
+/// build_cell), in cell order. The polyhedra are listed first, then
+/// checked in parallel chunks with one scratch each: a per-item rayon
+/// folder would move the scratch (some 600 bytes) twice for every cell
+/// of the grid, polyhedron or not.
 fn find_non_convex(
     cells: &Cells,
     points: &[P3],
     is_hidden: &(dyn Fn(usize) -> bool + Sync),
 ) -> Vec<Found> {
-    (0..cells.len())
-        .into_par_iter()
+    let polyhedra: Vec<usize> = (0..cells.len())
         .filter(|&c| cells.types[c] == vtk_type::POLYHEDRON && !is_hidden(c))
-        .map_init(Scratch::default, |s, c| {
-            let (class, _, non_convex) =
-                polyhedron_faces_in(c, cells.faces_of(c), points, s).ok()?;
-            (is_sweepable(class) && non_convex).then(|| {
-                let faces = FaceLoops {
-                    ids: s.ids.clone(),
-                    starts: s.starts.clone(),
-                };
-                (c, faces)
+        .collect();
+    polyhedra
+        .par_chunks(256)
+        .flat_map_iter(|chunk| {
+            let mut s = Scratch::default();
+            chunk.iter().filter_map(move |&c| {
+                let (class, _, non_convex) =
+                    polyhedron_faces_in(c, cells.faces_of(c), points, &mut s).ok()?;
+                (is_sweepable(class) && non_convex).then(|| {
+                    let faces = FaceLoops {
+                        ids: s.ids.clone(),
+                        starts: s.starts.clone(),
+                    };
+                    (c, faces)
+                })
             })
         })
-        .flatten()
         .collect()
 }
 
@@ -400,16 +407,21 @@ impl PlanContext<'_> {
 
     /// Per marked vertex (the first vertex of each bad face used by one
     /// split cell), the live cells that are not split and use it, in cell
-    /// order: the cells that may share such a face.
+    /// order: the cells that may share such a face. One pass over the
+    /// cells: a bit per point (small enough to stay in cache) picks the
+    /// few cells with a marked vertex, whose (marked vertex, cell) pairs
+    /// are then grouped by a counting sort that keeps the cell order.
     fn incident_to_marked(&self, loops: &Loops, bad: &[bool], split_uses: &[u8]) -> Incident {
         const NONE: u32 = u32::MAX;
         let mut at = vec![NONE; self.points.len()];
+        let mut bits = vec![0u64; self.points.len().div_ceil(64)];
         let mut marked = 0u32;
         for i in 0..loops.len() {
             if bad[i] && split_uses[i] == 1 {
                 let v = loops.get(i)[0] as usize;
                 if at[v] == NONE {
                     at[v] = marked;
+                    bits[v / 64] |= 1 << (v % 64);
                     marked += 1;
                 }
             }
@@ -417,30 +429,31 @@ impl PlanContext<'_> {
         let live = |c: usize| {
             !(self.split[c] || (self.is_hidden)(c) || is_lower_dimensional(self.cells.types[c]))
         };
-        let mark = |v: u32| at.get(v as usize).copied().unwrap_or(NONE);
-        // Counts, then starts, then the cells (two passes, no sort).
-        let mut start = vec![0u32; marked as usize + 1];
-        for c in (0..self.cells.len()).filter(|&c| live(c)) {
-            for &v in self.cells.cell(c) {
-                let m = mark(v);
-                if m != NONE {
-                    start[m as usize + 1] += 1;
+        let is_marked = |v: u32| {
+            bits.get(v as usize / 64)
+                .is_some_and(|w| w >> (v % 64) & 1 == 1)
+        };
+        let mut pairs: Vec<(u32, u32)> = Vec::new();
+        for c in 0..self.cells.len() {
+            let ids = self.cells.cell(c);
+            if ids.iter().any(|&v| is_marked(v)) && live(c) {
+                for &v in ids.iter().filter(|&&v| is_marked(v)) {
+                    pairs.push((at[v as usize], c as u32));
                 }
             }
+        }
+        let mut start = vec![0u32; marked as usize + 1];
+        for &(m, _) in &pairs {
+            start[m as usize + 1] += 1;
         }
         for m in 0..marked as usize {
             start[m + 1] += start[m];
         }
         let mut fill = start.clone();
-        let mut cells = vec![0u32; start[marked as usize] as usize];
-        for c in (0..self.cells.len()).filter(|&c| live(c)) {
-            for &v in self.cells.cell(c) {
-                let m = mark(v);
-                if m != NONE {
-                    cells[fill[m as usize] as usize] = c as u32;
-                    fill[m as usize] += 1;
-                }
-            }
+        let mut cells = vec![0u32; pairs.len()];
+        for &(m, c) in &pairs {
+            cells[fill[m as usize] as usize] = c;
+            fill[m as usize] += 1;
         }
         Incident { at, start, cells }
     }

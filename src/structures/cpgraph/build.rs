@@ -10,9 +10,8 @@ use std::hash::{BuildHasherDefault, Hasher};
 use rayon::prelude::*;
 
 use super::{CpCounts, CpGraph, EXPLICIT, IjkLayout};
-use crate::cellgraph::CellGraph;
 use crate::grid::{Grid, Topology};
-use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
+use crate::metacell::{Catalog, builtin};
 use crate::structures::cgraph::{NON_VOLUMETRIC, classify_and_orient, resolve_cells};
 use crate::structures::convex_split::SplitMap;
 use crate::structures::{BitSet, CellClass, StructureError, is_sweepable};
@@ -395,7 +394,15 @@ impl CpGraph {
         }
         let mut coder = Coder::new(&r, &shape);
         let s = Slots::fill(&r, &shape, &mut coder, hidden, catalog.metas.len());
+        let (links, sums) = link(&r, &shape, &s, total);
         drop(r);
+        let counts = CpCounts {
+            faces: sums[0],
+            conforming_faces: sums[1],
+            exception_faces: sums[2],
+            linked_exceptions: sums[3],
+            ..s.counts
+        };
         let mut g = CpGraph {
             origin: grid.origin(),
             positions: Vec::new(),
@@ -415,98 +422,114 @@ impl CpGraph {
             corner_pillar: coder.corner_pillar,
             slab_div: super::Divisor::new(shape.slab as u32),
             explicit: s.explicit,
-            links: Vec::new(),
+            links,
             class_counts: s.class_counts,
             meta_counts: s.meta_counts,
             hidden_count: s.hidden_count,
-            counts: s.counts,
+            counts,
             map,
         };
-        g.link();
         g.positions = grid.rebased_positions();
         Ok(g)
     }
+}
 
-    /// Links IJK neighbours that share a vertex and counts the faces.
-    /// Each face is checked once, from its lower slot (the +i, +j, +k
-    /// bits); the −i, −j, −k bits are then copied from the neighbour's,
-    /// since two cells share a vertex or not whichever side asks.
-    fn link(&mut self) {
-        let lattice = self.lattice_slots as usize;
-        let mut up = vec![0u8; lattice];
-        let g = &*self;
-        let sums = up
-            .par_chunks_mut(1 << 14)
-            .enumerate()
-            .map(|(ch, out)| {
-                let mut sums = [0usize; 4];
-                for (x, o) in out.iter_mut().enumerate() {
-                    *o = g.link_up(((ch << 14) + x) as u32, &mut sums);
-                }
-                sums
-            })
-            .reduce(
-                || [0; 4],
-                |x, y| [x[0] + y[0], x[1] + y[1], x[2] + y[2], x[3] + y[3]],
-            );
-        let mut links = vec![0u8; self.slots];
-        let deltas = self.deltas;
-        links[..lattice]
-            .par_chunks_mut(1 << 14)
-            .enumerate()
-            .for_each(|(ch, out)| {
-                for (x, o) in out.iter_mut().enumerate() {
-                    let slot = (ch << 14) + x;
-                    let mut bits = up[slot];
-                    for (k, &delta) in deltas.iter().enumerate() {
-                        if let Some(nb) = slot.checked_sub(delta as usize) {
-                            bits |= ((up[nb] >> (2 * k + 1)) & 1) << (2 * k);
-                        }
+/// Per lattice slot, the (split) cell placed there: only read at live
+/// slots, which always hold one.
+fn cells_at(r: &Resolved, lattice: usize) -> Vec<u32> {
+    let mut at = vec![u32::MAX; lattice];
+    for c in 0..r.metas.len() {
+        if !r.is_split(r.source(c)) {
+            at[r.home(c)] = c as u32;
+        }
+    }
+    at
+}
+
+/// Links IJK neighbours that share a vertex and counts the faces (faces,
+/// conforming, exception, linked exception). Each face is checked once,
+/// from its lower slot (the +i, +j, +k bits); the −i, −j, −k bits are then
+/// copied from the neighbour's, since two cells share a vertex or not
+/// whichever side asks. The cells' ids are read from the (split) grid's
+/// connectivity, slot by slot in order, rather than decoded through the
+/// stencil table, which is read at random.
+fn link(r: &Resolved, shape: &Shape, s: &Slots, slots: usize) -> (Vec<u8>, [usize; 4]) {
+    let lattice = shape.lattice;
+    let at = cells_at(r, lattice);
+    let mut up = vec![0u8; lattice];
+    let deltas = [1, shape.npi, shape.slab];
+    let sums = up
+        .par_chunks_mut(1 << 14)
+        .enumerate()
+        .map(|(ch, out)| {
+            let mut sums = [0usize; 4];
+            for (x, o) in out.iter_mut().enumerate() {
+                *o = link_up(r, &at, s, &deltas, (ch << 14) + x, &mut sums);
+            }
+            sums
+        })
+        .reduce(
+            || [0; 4],
+            |x, y| [x[0] + y[0], x[1] + y[1], x[2] + y[2], x[3] + y[3]],
+        );
+    let mut links = vec![0u8; slots];
+    links[..lattice]
+        .par_chunks_mut(1 << 14)
+        .enumerate()
+        .for_each(|(ch, out)| {
+            for (x, o) in out.iter_mut().enumerate() {
+                let slot = (ch << 14) + x;
+                let mut bits = up[slot];
+                for (k, &delta) in deltas.iter().enumerate() {
+                    if let Some(nb) = slot.checked_sub(delta) {
+                        bits |= ((up[nb] >> (2 * k + 1)) & 1) << (2 * k);
                     }
-                    *o = bits;
                 }
-            });
-        self.counts.faces = sums[0];
-        self.counts.conforming_faces = sums[1];
-        self.counts.exception_faces = sums[2];
-        self.counts.linked_exceptions = sums[3];
-        self.links = links;
-    }
+                *o = bits;
+            }
+        });
+    (links, sums)
+}
 
-    /// The +i, +j, +k link bits of lattice `slot` (a neighbour that shares
-    /// a vertex), adding its faces to `sums` (faces, conforming, exception,
-    /// linked exception).
-    fn link_up(&self, slot: u32, sums: &mut [usize; 4]) -> u8 {
-        let lattice = self.lattice_slots as usize;
-        if !self.kept.get(slot as usize) {
-            return 0;
-        }
-        let (mut a, mut b) = ([0u32; MAX_META_VERTICES], [0u32; MAX_META_VERTICES]);
-        let live = self.live.get(slot as usize);
-        let na = if live { self.cell(slot, &mut a).1 } else { 0 };
-        let mut bits = 0u8;
-        for k in 0..3 {
-            let nb = slot + self.deltas[k];
-            if nb as usize >= lattice || !self.kept.get(nb as usize) {
-                continue;
-            }
-            let common = if live && self.live.get(nb as usize) {
-                let nn = self.cell(nb, &mut b).1;
-                shared_vertices(&a[..na], &b[..nn])
-            } else {
-                0
-            };
-            bits |= ((common > 0) as u8) << (2 * k + 1);
-            sums[0] += 1;
-            if common == 4 && self.is_stencil_hex(slot) && self.is_stencil_hex(nb) {
-                sums[1] += 1;
-            } else {
-                sums[2] += 1;
-                sums[3] += (common > 0) as usize;
-            }
-        }
-        bits
+/// The +i, +j, +k link bits of lattice `slot` (a neighbour that shares a
+/// vertex), adding its faces to `sums` (see [`link`]); `at` from
+/// [`cells_at`].
+#[inline]
+fn link_up(
+    r: &Resolved,
+    at: &[u32],
+    s: &Slots,
+    deltas: &[usize; 3],
+    slot: usize,
+    sums: &mut [usize; 4],
+) -> u8 {
+    if !s.kept.get(slot) {
+        return 0;
     }
+    let live = s.live.get(slot);
+    let a = if live { r.ids(at[slot] as usize) } else { &[] };
+    let stencil_hex = |x: usize| s.stencil[x] != EXPLICIT;
+    let mut bits = 0u8;
+    for (k, &delta) in deltas.iter().enumerate() {
+        let nb = slot + delta;
+        if nb >= at.len() || !s.kept.get(nb) {
+            continue;
+        }
+        let common = if live && s.live.get(nb) {
+            shared_vertices(a, r.ids(at[nb] as usize))
+        } else {
+            0
+        };
+        bits |= ((common > 0) as u8) << (2 * k + 1);
+        sums[0] += 1;
+        if common == 4 && stencil_hex(slot) && stencil_hex(nb) {
+            sums[1] += 1;
+        } else {
+            sums[2] += 1;
+            sums[3] += (common > 0) as usize;
+        }
+    }
+    bits
 }
 
 /// How many ids of `a` occur in `b` (a live cell's ids are distinct, so
