@@ -201,10 +201,7 @@ impl<F: ScalarField> CpSweep<'_, F> {
                 g.prefetch_slot(far);
             }
             if let (Some(&near), Some(phi)) = (work.get(i + ENTER_AHEAD), phi_values) {
-                g.prefetch_decode(near, phi, |nb| {
-                    let j = nb.wrapping_sub(self.start);
-                    j < self.len && seen[j as usize / 64] & (1 << (j % 64)) == 0
-                });
+                g.prefetch_decode(near, phi);
             }
             i += 1;
             let (m, nv) = g.cell(c, &mut ids);

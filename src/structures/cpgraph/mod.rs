@@ -186,10 +186,10 @@ impl CpGraph {
 
     /// Hints the CPU to fetch what decoding `slot` reads after its own
     /// entries (prefetched first by [`CpGraph::prefetch_slot`]): φ of a
-    /// stencil hexahedron's vertices (through `phi`), an explicit cell's
-    /// row, and the entries of the unseen linked neighbours (`unseen`).
+    /// stencil hexahedron's vertices (through `phi`), or an explicit
+    /// cell's row.
     #[inline(always)]
-    pub(crate) fn prefetch_decode(&self, slot: u32, phi: &[f32], unseen: impl Fn(u32) -> bool) {
+    pub(crate) fn prefetch_decode(&self, slot: u32, phi: &[f32]) {
         let s = self.stencil[slot as usize];
         let a = self.anchor[slot as usize];
         if s != EXPLICIT {
@@ -204,12 +204,6 @@ impl CpGraph {
         } else {
             crate::extract::prefetch(&self.explicit, a as usize);
         }
-        self.for_each_neighbour(slot, |nb| {
-            if unseen(nb) {
-                crate::extract::prefetch(&self.stencil, nb as usize);
-                crate::extract::prefetch(&self.anchor, nb as usize);
-            }
-        });
     }
 
     /// Whether the slot holds a hexahedron stored through a stencil.
