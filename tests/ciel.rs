@@ -180,85 +180,10 @@ fn check_links(c: &Ciel, label: &str) {
     use std::collections::{BTreeMap, BTreeSet};
     use stratasweep::structures::ciel::NONE;
     let n = c.half_edge_count() as u32;
-    let mut nbrs: BTreeMap<u32, BTreeSet<u32>> = BTreeMap::new();
-    for h in 0..n {
-        let (a, b) = (c.org(h), c.dest(h));
-        nbrs.entry(a).or_default().insert(b);
-        nbrs.entry(b).or_default().insert(a);
-        let m = c.mate_face(h);
-        assert!(m != h && m < n, "{label}: mate_face({h}) = {m}");
-        assert_eq!(
-            c.mate_face(m),
-            h,
-            "{label}: mate_face not an involution at {h}"
-        );
-        assert_eq!(
-            (c.org(m), c.dest(m)),
-            (b, a),
-            "{label}: mate_face({h}) not opposite"
-        );
-        assert_eq!(
-            c.cell_of(m),
-            c.cell_of(h),
-            "{label}: mate_face({h}) in another cell"
-        );
-        let x = c.mate_cell(h);
-        if x != NONE {
-            assert_eq!(
-                c.mate_cell(x),
-                h,
-                "{label}: mate_cell not an involution at {h}"
-            );
-            assert_eq!(
-                (c.org(x), c.dest(x)),
-                (b, a),
-                "{label}: mate_cell({h}) not opposite"
-            );
-            assert_ne!(
-                c.cell_of(x),
-                c.cell_of(h),
-                "{label}: mate_cell({h}) in the same cell"
-            );
-        }
-        // next_around_face stays in the face and closes the loop.
-        assert_eq!(c.prev_around_face(c.next_around_face(h)), h);
-    }
+    let nbrs = check_mates(c, label);
     // One representative per fan.
     let mut fan_reps = vec![0u32; n as usize];
-    let mut fan_of = vec![NONE; n as usize];
-    for h in 0..n {
-        if fan_of[h as usize] != NONE {
-            continue;
-        }
-        // Collect the orbit both ways.
-        let mut orbit = vec![h];
-        let mut x = h;
-        loop {
-            let y = c.mate_cell(c.mate_face(x));
-            if y == NONE || y == h {
-                break;
-            }
-            orbit.push(y);
-            x = y;
-        }
-        let mut x = h;
-        loop {
-            let m = c.mate_cell(x);
-            if m == NONE {
-                break;
-            }
-            let y = c.mate_face(m);
-            if y == h {
-                break;
-            }
-            orbit.push(y);
-            x = y;
-        }
-        for &y in &orbit {
-            assert_eq!(c.org(y), c.org(h), "{label}: fan of {h} changes origin");
-            fan_of[y as usize] = h;
-        }
-    }
+    let fan_of = fan_roots(c, label);
     // for_each_cell_around_edge visits exactly the fan, each half-edge once.
     let mut members: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
     for h in 0..n {
@@ -317,6 +242,103 @@ fn check_links(c: &Ciel, label: &str) {
             );
         }
     }
+}
+
+/// `mate_face` and `mate_cell` of every half-edge (see [`check_links`]);
+/// returns each vertex's neighbours along the cells' edges.
+fn check_mates(
+    c: &Ciel,
+    label: &str,
+) -> std::collections::BTreeMap<u32, std::collections::BTreeSet<u32>> {
+    use std::collections::{BTreeMap, BTreeSet};
+    use stratasweep::structures::ciel::NONE;
+    let n = c.half_edge_count() as u32;
+    let mut nbrs: BTreeMap<u32, BTreeSet<u32>> = BTreeMap::new();
+    for h in 0..n {
+        let (a, b) = (c.org(h), c.dest(h));
+        nbrs.entry(a).or_default().insert(b);
+        nbrs.entry(b).or_default().insert(a);
+        let m = c.mate_face(h);
+        assert!(m != h && m < n, "{label}: mate_face({h}) = {m}");
+        assert_eq!(
+            c.mate_face(m),
+            h,
+            "{label}: mate_face not an involution at {h}"
+        );
+        assert_eq!(
+            (c.org(m), c.dest(m)),
+            (b, a),
+            "{label}: mate_face({h}) not opposite"
+        );
+        assert_eq!(
+            c.cell_of(m),
+            c.cell_of(h),
+            "{label}: mate_face({h}) in another cell"
+        );
+        let x = c.mate_cell(h);
+        if x != NONE {
+            assert_eq!(
+                c.mate_cell(x),
+                h,
+                "{label}: mate_cell not an involution at {h}"
+            );
+            assert_eq!(
+                (c.org(x), c.dest(x)),
+                (b, a),
+                "{label}: mate_cell({h}) not opposite"
+            );
+            assert_ne!(
+                c.cell_of(x),
+                c.cell_of(h),
+                "{label}: mate_cell({h}) in the same cell"
+            );
+        }
+        // next_around_face stays in the face and closes the loop.
+        assert_eq!(c.prev_around_face(c.next_around_face(h)), h);
+    }
+    nbrs
+}
+
+/// Per half-edge, the first half-edge of its fan (its `mate_face`∘
+/// `mate_cell` orbit), checking that a fan keeps its origin.
+fn fan_roots(c: &Ciel, label: &str) -> Vec<u32> {
+    use stratasweep::structures::ciel::NONE;
+    let n = c.half_edge_count() as u32;
+    let mut fan_of = vec![NONE; n as usize];
+    for h in 0..n {
+        if fan_of[h as usize] != NONE {
+            continue;
+        }
+        // Collect the orbit both ways.
+        let mut orbit = vec![h];
+        let mut x = h;
+        loop {
+            let y = c.mate_cell(c.mate_face(x));
+            if y == NONE || y == h {
+                break;
+            }
+            orbit.push(y);
+            x = y;
+        }
+        let mut x = h;
+        loop {
+            let m = c.mate_cell(x);
+            if m == NONE {
+                break;
+            }
+            let y = c.mate_face(m);
+            if y == h {
+                break;
+            }
+            orbit.push(y);
+            x = y;
+        }
+        for &y in &orbit {
+            assert_eq!(c.org(y), c.org(h), "{label}: fan of {h} changes origin");
+            fan_of[y as usize] = h;
+        }
+    }
+    fan_of
 }
 
 /// CIEL sweep == grid reference (cell sets) and == CIEL brute force (polygons).

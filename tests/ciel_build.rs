@@ -180,7 +180,6 @@ fn outwardness(points: &[[f64; 3]], f: &[u32], centre: [f64; 3]) -> f64 {
 /// cell lookup and the counts. Typed cells keep the catalog's loops, which
 /// are checked to be the cell's faces, outward.
 fn check_against_reference_build(g: &Grid, c: &Ciel, label: &str) {
-    use std::collections::HashMap;
     use stratasweep::structures::ciel::{FIRST_IN_FACE, LAST_IN_FACE, NONE};
     let Topology::Unstructured(cells) = &g.topology else {
         panic!("unstructured grid expected")
@@ -197,75 +196,8 @@ fn check_against_reference_build(g: &Grid, c: &Ciel, label: &str) {
             cell_start.push(words.len() as u32);
             continue;
         }
-        let loops: Vec<Vec<u32>> = if cells.types[ci] == vtk_type::POLYHEDRON {
-            let input = parse_face_stream(ci, cells.faces_of(ci)).unwrap();
-            let mut verts: Vec<u32> = input.concat();
-            verts.sort_unstable();
-            verts.dedup();
-            let mut centre = [0.0; 3];
-            for &v in &verts {
-                for k in 0..3 {
-                    centre[k] += p[v as usize][k] / verts.len() as f64;
-                }
-            }
-            let inward: Vec<bool> = input
-                .iter()
-                .map(|f| outwardness(p, f, centre) < 0.0)
-                .collect();
-            flipped += inward.iter().filter(|&&x| x).count();
-            let mut out: Vec<Vec<u32>> = input
-                .iter()
-                .zip(&inward)
-                .map(|(f, &i)| {
-                    let mut f = f.clone();
-                    if i {
-                        f.reverse();
-                    }
-                    f
-                })
-                .collect();
-            if inward[0] {
-                out.reverse();
-            }
-            out
-        } else if cells.cell(ci).iter().all(|&v| v == cells.cell(ci)[0]) {
-            // A dead cell (one vertex eight times): no half-edges.
-            Vec::new()
-        } else {
-            assert_eq!(cells.types[ci], vtk_type::HEXAHEDRON, "{label}");
-            let ids = cells.cell(ci);
-            let built = c.faces_of(ci as u32);
-            let set = |f: &[u32]| {
-                let mut s = f.to_vec();
-                s.sort_unstable();
-                s
-            };
-            let mut want: Vec<Vec<u32>> = [
-                [0, 1, 2, 3],
-                [4, 5, 6, 7],
-                [0, 1, 5, 4],
-                [1, 2, 6, 5],
-                [2, 3, 7, 6],
-                [3, 0, 4, 7],
-            ]
-            .iter()
-            .map(|f| set(&f.map(|l| ids[l])))
-            .collect();
-            let mut got: Vec<Vec<u32>> = built.iter().map(|f| set(f)).collect();
-            want.sort();
-            got.sort();
-            assert_eq!(got, want, "{label}: cell {ci}'s faces");
-            let mut centre = [0.0; 3];
-            for &v in ids {
-                for k in 0..3 {
-                    centre[k] += p[v as usize][k] / 8.0;
-                }
-            }
-            for f in &built {
-                assert!(outwardness(p, f, centre) > 0.0, "{label}: cell {ci} inward");
-            }
-            built
-        };
+        let (loops, f) = reference_loops(g, c, ci, label);
+        flipped += f;
         for f in &loops {
             let s = words.len() as u32;
             for (i, &v) in f.iter().enumerate() {
@@ -294,9 +226,131 @@ fn check_against_reference_build(g: &Grid, c: &Ciel, label: &str) {
             cell_of[h as usize] = *cell;
         }
     }
+    let (mate_face, mate_cell) = reference_mates(&cell_start, &faces, &next, org, label);
+    let is_rep = reference_reps(&mate_face, &mate_cell);
+    let mut around: Vec<Vec<u32>> = vec![Vec::new(); p.len()];
+    for h in (0..n).filter(|&h| is_rep[h]) {
+        around[org(h) as usize].push(h as u32);
+    }
+    for h in 0..n {
+        let hh = h as u32;
+        assert_eq!(c.origin_word(hh), words[h], "{label}: origin of {h}");
+        assert_eq!(c.mate_face(hh), mate_face[h], "{label}: mate_face of {h}");
+        assert_eq!(c.mate_cell(hh), mate_cell[h], "{label}: mate_cell of {h}");
+        assert_eq!(c.cell_of(hh), cell_of[h], "{label}: cell of {h}");
+    }
+    for (v, want) in around.iter().enumerate() {
+        assert_eq!(c.around_vertex(v as u32), &want[..], "{label}: vertex {v}");
+    }
+    let reps = is_rep.iter().filter(|&&x| x).count();
+    assert_eq!(c.counts.faces, faces.len(), "{label}: faces");
+    assert_eq!(c.counts.flipped_faces, flipped, "{label}: flipped faces");
+    assert_eq!(c.counts.hidden, n_hidden, "{label}: hidden");
+    assert_eq!(c.counts.edges, reps / 2, "{label}: edges");
+    assert_eq!(
+        c.counts.border_half_edges,
+        mate_cell.iter().filter(|&&m| m == NONE).count(),
+        "{label}: border"
+    );
+}
+
+/// The reference's outward loops of cell `ci` (see
+/// [`check_against_reference_build`]) and how many of its input faces
+/// pointed inward.
+fn reference_loops(g: &Grid, c: &Ciel, ci: usize, label: &str) -> (Vec<Vec<u32>>, usize) {
+    let Topology::Unstructured(cells) = &g.topology else {
+        panic!("unstructured grid expected")
+    };
+    let p = &g.points;
+    let mut flipped = 0;
+    let loops = if cells.types[ci] == vtk_type::POLYHEDRON {
+        let input = parse_face_stream(ci, cells.faces_of(ci)).unwrap();
+        let mut verts: Vec<u32> = input.concat();
+        verts.sort_unstable();
+        verts.dedup();
+        let mut centre = [0.0; 3];
+        for &v in &verts {
+            for k in 0..3 {
+                centre[k] += p[v as usize][k] / verts.len() as f64;
+            }
+        }
+        let inward: Vec<bool> = input
+            .iter()
+            .map(|f| outwardness(p, f, centre) < 0.0)
+            .collect();
+        flipped += inward.iter().filter(|&&x| x).count();
+        let mut out: Vec<Vec<u32>> = input
+            .iter()
+            .zip(&inward)
+            .map(|(f, &i)| {
+                let mut f = f.clone();
+                if i {
+                    f.reverse();
+                }
+                f
+            })
+            .collect();
+        if inward[0] {
+            out.reverse();
+        }
+        out
+    } else if cells.cell(ci).iter().all(|&v| v == cells.cell(ci)[0]) {
+        // A dead cell (one vertex eight times): no half-edges.
+        Vec::new()
+    } else {
+        assert_eq!(cells.types[ci], vtk_type::HEXAHEDRON, "{label}");
+        let ids = cells.cell(ci);
+        let built = c.faces_of(ci as u32);
+        let set = |f: &[u32]| {
+            let mut s = f.to_vec();
+            s.sort_unstable();
+            s
+        };
+        let mut want: Vec<Vec<u32>> = [
+            [0, 1, 2, 3],
+            [4, 5, 6, 7],
+            [0, 1, 5, 4],
+            [1, 2, 6, 5],
+            [2, 3, 7, 6],
+            [3, 0, 4, 7],
+        ]
+        .iter()
+        .map(|f| set(&f.map(|l| ids[l])))
+        .collect();
+        let mut got: Vec<Vec<u32>> = built.iter().map(|f| set(f)).collect();
+        want.sort();
+        got.sort();
+        assert_eq!(got, want, "{label}: cell {ci}'s faces");
+        let mut centre = [0.0; 3];
+        for &v in ids {
+            for k in 0..3 {
+                centre[k] += p[v as usize][k] / 8.0;
+            }
+        }
+        for f in &built {
+            assert!(outwardness(p, f, centre) > 0.0, "{label}: cell {ci} inward");
+        }
+        built
+    };
+    (loops, flipped)
+}
+
+/// The reference's `mate_face` (the opposite directed edge in the same
+/// cell) and `mate_cell` (faces with the same vertex set in two cells,
+/// reversed) of half-edges `0..next.len()`.
+fn reference_mates(
+    cell_start: &[u32],
+    faces: &[(u32, std::ops::Range<u32>)],
+    next: &[usize],
+    org: impl Fn(usize) -> u32,
+    label: &str,
+) -> (Vec<u32>, Vec<u32>) {
+    use std::collections::HashMap;
+    use stratasweep::structures::ciel::NONE;
+    let n = next.len();
     // mate_face: the opposite directed edge in the same cell.
     let mut mate_face = vec![NONE; n];
-    for ci in 0..cells.len() {
+    for ci in 0..cell_start.len() - 1 {
         let r = cell_start[ci] as usize..cell_start[ci + 1] as usize;
         let by_edge: HashMap<(u32, u32), usize> =
             r.clone().map(|h| ((org(h), org(next[h])), h)).collect();
@@ -328,7 +382,14 @@ fn check_against_reference_build(g: &Grid, c: &Ciel, label: &str) {
             }
         }
     }
-    // Representatives: the smallest half-edge of each fan.
+    (mate_face, mate_cell)
+}
+
+/// The reference's fan representatives: the smallest half-edge of each
+/// fan of half-edges around a vertex.
+fn reference_reps(mate_face: &[u32], mate_cell: &[u32]) -> Vec<bool> {
+    use stratasweep::structures::ciel::NONE;
+    let n = mate_face.len();
     let mut is_rep = vec![false; n];
     let mut seen = vec![false; n];
     for h in 0..n {
@@ -357,30 +418,7 @@ fn check_against_reference_build(g: &Grid, c: &Ciel, label: &str) {
         }
         is_rep[*orbit.iter().min().unwrap()] = true;
     }
-    let mut around: Vec<Vec<u32>> = vec![Vec::new(); p.len()];
-    for h in (0..n).filter(|&h| is_rep[h]) {
-        around[org(h) as usize].push(h as u32);
-    }
-    for h in 0..n {
-        let hh = h as u32;
-        assert_eq!(c.origin_word(hh), words[h], "{label}: origin of {h}");
-        assert_eq!(c.mate_face(hh), mate_face[h], "{label}: mate_face of {h}");
-        assert_eq!(c.mate_cell(hh), mate_cell[h], "{label}: mate_cell of {h}");
-        assert_eq!(c.cell_of(hh), cell_of[h], "{label}: cell of {h}");
-    }
-    for (v, want) in around.iter().enumerate() {
-        assert_eq!(c.around_vertex(v as u32), &want[..], "{label}: vertex {v}");
-    }
-    let reps = is_rep.iter().filter(|&&x| x).count();
-    assert_eq!(c.counts.faces, faces.len(), "{label}: faces");
-    assert_eq!(c.counts.flipped_faces, flipped, "{label}: flipped faces");
-    assert_eq!(c.counts.hidden, n_hidden, "{label}: hidden");
-    assert_eq!(c.counts.edges, reps / 2, "{label}: edges");
-    assert_eq!(
-        c.counts.border_half_edges,
-        mate_cell.iter().filter(|&&m| m == NONE).count(),
-        "{label}: border"
-    );
+    is_rep
 }
 
 #[test]

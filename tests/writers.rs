@@ -858,18 +858,7 @@ fn peer_vtk_reads_every_format() {
     );
     let r: serde_json::Value = serde_json::from_slice(&out.stdout).expect("peer JSON");
     eprintln!("peer VTK {}: {}", r["version"], r);
-    let f64_of = |v: &serde_json::Value| f64::from_bits(v.as_u64().expect("f64 bits"));
-    let close = |v: &serde_json::Value, want: [f64; 3], tol: f64| {
-        let got: Vec<f64> = v.as_array().unwrap().iter().map(f64_of).collect();
-        (0..3).all(|a| (got[a] - want[a]).abs() <= tol)
-    };
-    let ids = |v: &serde_json::Value| {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_u64().unwrap() as u32)
-            .collect::<Vec<_>>()
-    };
+    let (f64_of, close, ids) = (peer_f64, peer_close, peer_ids);
 
     // VTP: exact f64 coordinates.
     let t = &r["vtp"];
@@ -902,6 +891,34 @@ fn peer_vtk_reads_every_format() {
     );
     assert_eq!(ids(&t["poly_ids"]), m.polygon(poly));
 
+    check_peer_grids(&r, [&w, &z, &pg], grid_point);
+}
+
+/// An f64 the peer script sent as its bits.
+fn peer_f64(v: &serde_json::Value) -> f64 {
+    f64::from_bits(v.as_u64().expect("f64 bits"))
+}
+
+/// Whether the peer's point (three f64 bit patterns) is within `tol` of
+/// `want` on every axis.
+fn peer_close(v: &serde_json::Value, want: [f64; 3], tol: f64) -> bool {
+    let got: Vec<f64> = v.as_array().unwrap().iter().map(peer_f64).collect();
+    (0..3).all(|a| (got[a] - want[a]).abs() <= tol)
+}
+
+/// A list of vertex ids the peer script sent.
+fn peer_ids(v: &serde_json::Value) -> Vec<u32> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap() as u32)
+        .collect()
+}
+
+/// [`peer_vtk_reads_every_format`]'s checks of the grid files as VTK read
+/// them: the warped VTS, the zoo VTU and the polyhedral VTU.
+fn check_peer_grids(r: &serde_json::Value, [w, z, pg]: [&Grid; 3], grid_point: usize) {
+    let (f64_of, close, ids) = (peer_f64, peer_close, peer_ids);
     // VTS: dims, exact coordinates, positive cell volumes.
     let t = &r["vts"];
     assert_eq!(t["dims"], serde_json::json!([11, 9, 7]));
