@@ -176,6 +176,20 @@ impl CpGraph {
         self.links[slot as usize]
     }
 
+    /// The column (pillar `i + npi·j`) of lattice slot `slot`.
+    #[inline(always)]
+    fn column(&self, slot: u32) -> u32 {
+        slot - self.slab_div.quotient(slot) * self.deltas[2]
+    }
+
+    /// Local vertex `l` of the stencil hexahedron with stencil `st` and
+    /// anchor `a` in column `p`.
+    #[inline(always)]
+    fn stencil_vertex(&self, st: &[u32; 8], a: u32, p: u32, l: usize) -> u32 {
+        let b = self.base[(p + self.corner_pillar[l]) as usize];
+        b.wrapping_add(a).wrapping_add(st[l])
+    }
+
     /// Hints the CPU to fetch the slot's stencil id, anchor and links.
     #[inline(always)]
     pub(crate) fn prefetch_slot(&self, slot: u32) {
@@ -193,13 +207,11 @@ impl CpGraph {
         let s = self.stencil[slot as usize];
         let a = self.anchor[slot as usize];
         if s != EXPLICIT {
-            let st = &self.stencils[s as usize];
-            let p = slot - self.slab_div.quotient(slot) * self.deltas[2];
+            let (st, p) = (&self.stencils[s as usize], self.column(slot));
             // Vertex l + 4 follows vertex l on its pillar: the first four
             // name the cache lines.
             for l in 0..4 {
-                let b = self.base[(p + self.corner_pillar[l]) as usize];
-                crate::extract::prefetch(phi, b.wrapping_add(a).wrapping_add(st[l]) as usize);
+                crate::extract::prefetch(phi, self.stencil_vertex(st, a, p, l) as usize);
             }
         } else {
             crate::extract::prefetch(&self.explicit, a as usize);
@@ -232,11 +244,9 @@ impl CellGraph for CpGraph {
         let s = self.stencil[slot as usize];
         let a = self.anchor[slot as usize];
         if s != EXPLICIT {
-            let st = &self.stencils[s as usize];
-            let p = slot - self.slab_div.quotient(slot) * self.deltas[2];
-            for l in 0..8 {
-                let b = self.base[(p + self.corner_pillar[l]) as usize];
-                out[l] = b.wrapping_add(a).wrapping_add(st[l]);
+            let (st, p) = (&self.stencils[s as usize], self.column(slot));
+            for (l, o) in out[..8].iter_mut().enumerate() {
+                *o = self.stencil_vertex(st, a, p, l);
             }
             return (builtin::HEXAHEDRON, 8);
         }
