@@ -375,3 +375,80 @@ fn cli_picks_and_reports_the_corner_point_graph() {
     assert!(ca.as_u64().unwrap() > 0);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// One block's sweep output: per level, the cut cells, polygons, corners,
+/// vertex bits, and the cut and visited cell counts.
+type Levels = Vec<(Vec<u32>, Vec<u32>, Vec<u32>, Vec<[u32; 3]>, [u64; 2])>;
+
+/// Sweeps `phi` over `g` with `sw` (its minima prepared for `slot`).
+fn sweep_levels(
+    sw: &mut stratasweep::sweep::Sweeper<stratasweep::structures::cpgraph::CpGraph>,
+    g: &stratasweep::structures::cpgraph::CpGraph,
+    phi: &[f32],
+    slot: Option<usize>,
+    levels: &[f32],
+) -> Levels {
+    let ctx = stratasweep::extract::EmitContext {
+        positions: &g.positions,
+        attribute: None,
+        cells_only: false,
+    };
+    let f = stratasweep::field::VertexField { values: phi };
+    let per_block = sw.sweep(
+        &f,
+        slot,
+        levels,
+        &ctx,
+        Vec::new,
+        |acc: &mut Levels, _, m, st| {
+            let bits = m.positions.iter().map(|p| p.map(f32::to_bits)).collect();
+            let counts = [st.cells, st.visited];
+            acc.push((
+                m.cells.clone(),
+                m.offsets.clone(),
+                m.indices.clone(),
+                bits,
+                counts,
+            ));
+        },
+    );
+    per_block.concat()
+}
+
+/// A neighbour's `lo` comes from the minima search when it kept the
+/// field's (the same cache slot), else from decoding the neighbour: both
+/// give the same levels. The minima of x are cached in slot 0, then those
+/// of z in slot 2, so sweeping x again reads slot 0's minima without
+/// their `lo`.
+#[test]
+fn neighbour_lo_kept_or_decoded() {
+    let (grid, layout) = convert(faulted([14, 12, 8], 5, 9));
+    let s = Structure::build_with(&grid, StructureChoice::Auto, Some(&layout)).unwrap();
+    let Structure::CpGraph(g) = &s else {
+        panic!("not a corner-point graph")
+    };
+    let g: &stratasweep::structures::cpgraph::CpGraph = g;
+    let along = |a: usize| -> Vec<f32> { g.positions.iter().map(|p| p[a]).collect() };
+    let (x, z) = (along(0), along(2));
+    let range = |v: &[f32]| {
+        let lo = v.iter().copied().fold(f32::INFINITY, f32::min);
+        let hi = v.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        (0..29)
+            .map(|l| lo + (hi - lo) * (l as f32 + 0.5) / 29.0)
+            .collect::<Vec<f32>>()
+    };
+    let (lx, lz) = (range(&x), range(&z));
+    for threads in [1, 2] {
+        let mut fresh = stratasweep::sweep::Sweeper::new(g, threads);
+        let want = sweep_levels(&mut fresh, g, &x, None, &lx);
+        let mut cached = stratasweep::sweep::Sweeper::new(g, threads);
+        cached.prepare_minima(&stratasweep::field::VertexField { values: &x }, Some(0));
+        cached.prepare_minima(&stratasweep::field::VertexField { values: &z }, Some(2));
+        let got = sweep_levels(&mut cached, g, &x, Some(0), &lx);
+        assert_eq!(want, got, "{threads} threads: x, lo decoded");
+        let zs = sweep_levels(&mut cached, g, &z, Some(2), &lz);
+        let mut again = stratasweep::sweep::Sweeper::new(g, threads);
+        assert_eq!(zs, sweep_levels(&mut again, g, &z, None, &lz), "z, lo kept");
+        assert!(want.iter().map(|l| l.0.len()).sum::<usize>() > 100);
+    }
+}

@@ -30,7 +30,7 @@ use super::cp_table::CodeTable;
 use super::cp_weld::{CpWeld, CutCell, RowCell};
 use super::lattice::writer::HexWriter;
 use super::lattice::{LatticeQueues, code8, last_cut_level, pack_active, queue_at_entry, set_bit};
-use super::{Block, LevelStats, Minimum, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots};
+use super::{Block, BlockInput, LevelStats, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots};
 use crate::cellgraph::CellGraph;
 use crate::extract::{EmitContext, LevelMesh, code_of, prefetch};
 use crate::field::ScalarField;
@@ -78,6 +78,8 @@ struct CpSweep<'a, F> {
     f: &'a F,
     levels: &'a [f32],
     ctx: &'a EmitContext<'a>,
+    /// Per cell of the block, its `lo` (from the minima search), when kept.
+    lows: Option<&'a [f32]>,
     start: u32,
     len: u32,
     /// Rows of the meta-cells the emitter tables.
@@ -127,16 +129,21 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
     g: &CpGraph,
     f: &F,
     b: &mut Block,
-    minima: &[Minimum],
-    levels: &[f32],
-    ctx: &EmitContext,
+    input: BlockInput,
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
+    let BlockInput {
+        minima,
+        lows,
+        levels,
+        ctx,
+    } = input;
     let sw = CpSweep {
         g,
         f,
         levels,
         ctx,
+        lows,
         start: b.start,
         len: b.stamps.len() as u32,
         table: CodeTable::new(g.catalog(), |id| {
@@ -184,7 +191,8 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
 impl<F: ScalarField> CpSweep<'_, F> {
     /// Reads the cells entering at level `k` (and those its neighbours
     /// queue at `k` on the way): each cut one becomes a [`Cut`] in
-    /// `fresh`; each unseen linked neighbour is queued at its entry level.
+    /// `fresh`; each unseen linked neighbour is queued at its entry level
+    /// (its `lo` read from the minima search's when kept, else decoded).
     fn enter(&self, k: usize, work: &mut Vec<u32>, q: &mut LatticeQueues, fresh: &mut Vec<Cut>) {
         let (g, f, levels) = (self.g, self.f, self.levels);
         let t = levels[k];
@@ -226,11 +234,15 @@ impl<F: ScalarField> CpSweep<'_, F> {
             g.for_each_neighbour(c, |nb| {
                 let j = nb.wrapping_sub(self.start);
                 if j < self.len && set_bit(seen, j) {
-                    let (_, nn) = g.cell(nb, &mut nb_ids);
-                    let mut lo = f32::INFINITY;
-                    for &v in &nb_ids[..nn] {
-                        lo = lo.min(f.phi(v));
-                    }
+                    let lo = match self.lows {
+                        Some(lows) => lows[j as usize],
+                        None => {
+                            let (_, nn) = g.cell(nb, &mut nb_ids);
+                            nb_ids[..nn]
+                                .iter()
+                                .fold(f32::INFINITY, |lo, &v| lo.min(f.phi(v)))
+                        }
+                    };
                     queue_at_entry(nb, lo, levels, k, work, entering);
                 }
             });

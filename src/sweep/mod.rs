@@ -67,6 +67,11 @@ pub struct Block {
     /// Scratch for [`radix_sort_slots`].
     sort_scratch: Vec<u32>,
     minima_cache: [Option<Vec<Minimum>>; 6],
+    /// Per cell, the `lo` that the last minima search computed, and that
+    /// search's cache slot: a graph with its own loop reads a neighbour's
+    /// `lo` here instead of decoding the neighbour (see
+    /// [`block_minima`]).
+    lows: Option<(usize, Vec<f32>)>,
     /// The block's reusable output buffer.
     pub mesh: LevelMesh,
     /// State of the lattice loops (S-CGraph blocks only).
@@ -142,6 +147,7 @@ impl Block {
                 .flatten()
                 .map(|m| m.capacity() * 8)
                 .sum::<usize>()
+            + self.lows.as_ref().map_or(0, |(_, l)| l.capacity() * 4)
             + self.mesh.capacity_bytes()
             + self.lattice.as_ref().map_or(0, |l| l.bytes())
     }
@@ -183,6 +189,7 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
                 active: Vec::new(),
                 sort_scratch: Vec::new(),
                 minima_cache: Default::default(),
+                lows: None,
                 mesh: LevelMesh::default(),
                 lattice: None,
                 options: SweepOptions::default(),
@@ -209,7 +216,9 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
             .map(|b| {
                 let slot = axis_slot.unwrap_or(0);
                 if axis_slot.is_none() || b.minima_cache[slot].is_none() {
-                    b.minima_cache[slot] = Some(block_minima(g, field, b));
+                    let (minima, lows) = block_minima(g, field, b);
+                    b.minima_cache[slot] = Some(minima);
+                    b.lows = lows.map(|l| (slot, l));
                 }
                 b.minima_cache[slot].as_ref().map_or(0, Vec::len)
             })
@@ -243,13 +252,29 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
             .par_iter_mut()
             .map(|b| {
                 let mut acc = make_acc();
-                let minima = b.minima_cache[slot]
-                    .take()
-                    .unwrap_or_else(|| block_minima(g, field, b));
+                let minima = match b.minima_cache[slot].take() {
+                    Some(m) => m,
+                    None => {
+                        let (minima, lows) = block_minima(g, field, b);
+                        b.lows = lows.map(|l| (slot, l));
+                        minima
+                    }
+                };
                 b.options = options;
-                sweep_block(g, field, b, &minima, levels, ctx, |k, mesh, st| {
+                let lows = match b.lows.take() {
+                    Some((s, l)) if s == slot => Some(l),
+                    _ => None,
+                };
+                let input = BlockInput {
+                    minima: &minima,
+                    lows: lows.as_deref(),
+                    levels,
+                    ctx,
+                };
+                sweep_block(g, field, b, input, |k, mesh, st| {
                     on_level(&mut acc, k, mesh, st)
                 });
+                b.lows = lows.map(|l| (slot, l));
                 if axis_slot.is_some() {
                     b.minima_cache[slot] = Some(minima);
                 }
@@ -259,17 +284,29 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
     }
 }
 
-/// Sorted minima of one block: cells with no predecessor among the block's cells.
-fn block_minima<G: CellGraph, F: ScalarField>(g: &G, f: &F, b: &Block) -> Vec<Minimum> {
+/// Sorted minima of one block: cells with no predecessor among the block's
+/// cells; with them, for a graph with its own loop, every cell's `lo`
+/// (which the search computes anyway, and which that loop reads instead of
+/// decoding a neighbour).
+fn block_minima<G: CellGraph, F: ScalarField>(
+    g: &G,
+    f: &F,
+    b: &Block,
+) -> (Vec<Minimum>, Option<Vec<f32>>) {
     if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {
-        return block_minima_lattice(&lat, phi, b);
+        return (block_minima_lattice(&lat, phi, b), None);
     }
-    block_minima_generic(g, f, b)
+    let (minima, lo) = block_minima_generic(g, f, b);
+    (minima, g.own_loop().is_some().then_some(lo))
 }
 
 /// [`block_minima`] for any graph: each cell's `lo` from [`cell_lo`], then
 /// its in-block neighbours compared.
-fn block_minima_generic<G: CellGraph, F: ScalarField>(g: &G, f: &F, b: &Block) -> Vec<Minimum> {
+fn block_minima_generic<G: CellGraph, F: ScalarField>(
+    g: &G,
+    f: &F,
+    b: &Block,
+) -> (Vec<Minimum>, Vec<f32>) {
     let len = b.stamps.len() as u32;
     let lo: Vec<f32> = (0..len)
         .map(|i| {
@@ -304,7 +341,21 @@ fn block_minima_generic<G: CellGraph, F: ScalarField>(g: &G, f: &F, b: &Block) -
         }
     }
     out.sort_unstable_by(|a, b| a.lo.total_cmp(&b.lo).then(a.slot.cmp(&b.slot)));
-    out
+    (out, lo)
+}
+
+/// What one block's sweep reads besides the graph and the field.
+#[derive(Clone, Copy)]
+struct BlockInput<'a> {
+    /// The block's sorted minima.
+    minima: &'a [Minimum],
+    /// Per cell of the block, its `lo` for this field, when the minima
+    /// search kept it.
+    lows: Option<&'a [f32]>,
+    /// The levels.
+    levels: &'a [f32],
+    /// What emission reads.
+    ctx: &'a EmitContext<'a>,
 }
 
 #[inline(never)]
@@ -312,16 +363,20 @@ fn sweep_block<G: CellGraph, F: ScalarField>(
     g: &G,
     f: &F,
     b: &mut Block,
-    minima: &[Minimum],
-    levels: &[f32],
-    ctx: &EmitContext,
+    input: BlockInput,
     mut on_level: impl FnMut(usize, &LevelMesh, &LevelStats),
 ) {
+    let BlockInput {
+        minima,
+        levels,
+        ctx,
+        ..
+    } = input;
     if let Some(cp) = g
         .own_loop()
         .and_then(|a| a.downcast_ref::<crate::structures::cpgraph::CpGraph>())
     {
-        cp_loop::sweep_block_cp(cp, f, b, minima, levels, ctx, on_level);
+        cp_loop::sweep_block_cp(cp, f, b, input, on_level);
         return;
     }
     if let (Some(lat), Some(phi)) = (g.lattice(), f.values()) {

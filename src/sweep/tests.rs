@@ -73,7 +73,7 @@ fn lattice_minima_match_generic() {
             let sw = Sweeper::new(&g, threads);
             let mut total = 0;
             for b in &sw.blocks {
-                let want = block_minima_generic(&g, &f, b);
+                let want = block_minima_generic(&g, &f, b).0;
                 let got = block_minima_lattice(&lat, &phi, b);
                 assert_eq!(got, want, "dims {dims:?} holes {holes}% threads {threads}");
                 total += want.len();
@@ -110,7 +110,7 @@ fn lattice_hash_weld_fallback_equals_the_ownership_weld() {
             let mut sw = Sweeper::new(&g, 2);
             let mut out = vec![Vec::new(); levels.len()];
             for b in &mut sw.blocks {
-                let minima = super::block_minima(&g, &f, b);
+                let minima = super::block_minima(&g, &f, b).0;
                 let on_level = |k: usize, mesh: &super::LevelMesh, _: &super::LevelStats| {
                     let mut keys = mesh.edge_keys.clone();
                     keys.sort_unstable();
@@ -182,7 +182,7 @@ fn batched_emission_equals_the_hash_weld() {
         let mut sw = Sweeper::new(&g, 1);
         let mut out = vec![Default::default(); levels.len()];
         let b = &mut sw.blocks[0];
-        let minima = super::block_minima(&g, &f, b);
+        let minima = super::block_minima(&g, &f, b).0;
         let on_level = |k: usize, mesh: &super::LevelMesh, _: &super::LevelStats| {
             let polys = (0..mesh.polygon_count())
                 .map(|p| {
@@ -321,7 +321,7 @@ fn chunked_loop_equals_the_cell_loop() {
                 let mut sw = Sweeper::new(&g, threads);
                 let mut out = Vec::new();
                 for b in &mut sw.blocks {
-                    let minima = super::block_minima(&g, &f, b);
+                    let minima = super::block_minima(&g, &f, b).0;
                     let mut on_level =
                         |k: usize, mesh: &super::LevelMesh, st: &super::LevelStats| {
                             out.push((
