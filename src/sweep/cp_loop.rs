@@ -210,6 +210,16 @@ impl<F: ScalarField> CpSweep<'_, F> {
             }
             if let (Some(&near), Some(phi)) = (work.get(i + ENTER_AHEAD), phi_values) {
                 g.prefetch_decode(near, phi);
+                // The kept lo of its j and k neighbours (its i neighbours
+                // share its line).
+                if let Some(lows) = self.lows {
+                    let j = near.wrapping_sub(self.start) as usize;
+                    let [_, dj, dk] = g.deltas;
+                    for d in [dj as usize, dk as usize] {
+                        prefetch(lows, j.wrapping_add(d));
+                        prefetch(lows, j.wrapping_sub(d));
+                    }
+                }
             }
             i += 1;
             let (m, nv) = g.cell(c, &mut ids);
