@@ -32,9 +32,6 @@ pub fn parse_number(t: &[u8]) -> Option<f64> {
 /// the fraction.
 #[inline(always)]
 pub(super) fn parse_prefix(t: &[u8]) -> Option<(f64, usize)> {
-    if let Some(r) = parse_short(t) {
-        return Some(r);
-    }
     let n = t.len();
     let (neg, mut i) = sign(t, 0);
     let mut mant: u64 = 0;
@@ -74,77 +71,6 @@ pub(super) fn parse_prefix(t: &[u8]) -> Option<(f64, usize)> {
     }
     Some((exact_value(mant, exp, neg)?, i))
 }
-
-/// Eight bytes of `t` from `i` as a little-endian word (first byte
-/// lowest), or `None` when fewer remain.
-#[inline(always)]
-fn word_at(t: &[u8], i: usize) -> Option<u64> {
-    let b: [u8; 8] = t.get(i..i + 8)?.try_into().ok()?;
-    Some(u64::from_le_bytes(b))
-}
-
-/// How many of the word's bytes, from the lowest, are ASCII digits. A
-/// byte is one when its high nibble is 3 before and after adding 6 (no
-/// carry leaves an ASCII byte; one from a byte >= 0x80 only reaches bytes
-/// after that non-digit).
-#[inline(always)]
-fn digit_run(w: u64) -> usize {
-    const HI: u64 = 0xF0F0_F0F0_F0F0_F0F0;
-    const THREES: u64 = 0x3030_3030_3030_3030;
-    let off = ((w & HI) ^ THREES) | ((w.wrapping_add(0x0606_0606_0606_0606) & HI) ^ THREES);
-    (off.trailing_zeros() / 8) as usize
-}
-
-/// The value of the first `n` (below 8) digit bytes of `w` (first digit
-/// lowest): they are moved to the top and zeros put below, then the eight
-/// digits combined in pairs, quads and the whole word.
-#[inline(always)]
-fn digits_value(w: u64, n: usize) -> u64 {
-    const ZEROS: u64 = 0x3030_3030_3030_3030;
-    if n == 0 {
-        return 0;
-    }
-    let shift = 8 * (8 - n) as u32;
-    let w = (w << shift) | (ZEROS >> (64 - shift));
-    let w = w.wrapping_sub(ZEROS);
-    let w = (w.wrapping_mul(10) + (w >> 8)) & 0x00FF_00FF_00FF_00FF;
-    let w = (w.wrapping_mul(100) + (w >> 16)) & 0x0000_FFFF_0000_FFFF;
-    (w.wrapping_mul(10000) + (w >> 32)) & 0xFFFF_FFFF
-}
-
-/// The common shape `[-+]ddd[.ddd]` with at most 7 digits on either side
-/// of the point and no exponent, read eight bytes at a time; `None` when
-/// the token has another shape (or the buffer ends within 17 bytes), for
-/// [`parse_prefix`]'s general path. Same value and length: the mantissa
-/// is the same integer, at most 14 digits, and the exponent `-frac`.
-#[inline(always)]
-fn parse_short(t: &[u8]) -> Option<(f64, usize)> {
-    let (neg, s) = sign(t, 0);
-    let w = word_at(t, s)?;
-    let int = digit_run(w);
-    if int == 8 {
-        return None;
-    }
-    let mut mant = digits_value(w, int);
-    let mut end = s + int;
-    let mut frac = 0;
-    if t[end] == b'.' {
-        let f = word_at(t, end + 1)?;
-        frac = digit_run(f);
-        if frac == 8 {
-            return None;
-        }
-        mant = mant * POW10_U64[frac] + digits_value(f, frac);
-        end += 1 + frac;
-    }
-    if int + frac == 0 || matches!(t[end], b'e' | b'E' | b'd' | b'D') {
-        return None;
-    }
-    exact_value(mant, -(frac as i32), neg).map(|v| (v, end))
-}
-
-/// Powers of ten below eight, as integers.
-const POW10_U64: [u64; 8] = [1, 10, 100, 1000, 10_000, 100_000, 1_000_000, 10_000_000];
 
 /// `±mant · 10^exp` when Clinger's fast path makes it exact (`mant < 2^53`,
 /// `|exp| ≤ 22`: one correctly rounded multiplication or division).
@@ -314,20 +240,6 @@ mod tests {
                 t.insert(at, odd);
                 tokens.push(t);
             }
-        }
-        // The short shape read eight bytes at a time: random digits, up to
-        // nine on either side of the point, either sign.
-        for _ in 0..50_000 {
-            let r = next();
-            let mut t: Vec<u8> = [&b""[..], b"-", b"+"][(r % 3) as usize].to_vec();
-            let digit = |x: u64| b'0' + (x % 10) as u8;
-            t.extend((0..(r >> 8) % 10).map(|k| digit(r >> (16 + 3 * k))));
-            if r >> 60 & 3 != 0 {
-                t.push(b'.');
-                let f = next();
-                t.extend((0..f % 10).map(|k| digit(f >> (8 + 4 * k))));
-            }
-            tokens.push(t);
         }
         tokens.push(b"9007199254740992".to_vec());
         tokens.push(b"9007199254740991".to_vec());
