@@ -652,6 +652,7 @@ impl CornerPointGrid {
                 Some(Shape::Flat)
             )
         });
+        let identity = Self::is_identity(tr);
         let mut codes = vec![0u8; nx * ny * nz];
         let rows: Vec<RowSums> = codes
             .par_chunks_mut(nx)
@@ -659,16 +660,28 @@ impl CornerPointGrid {
             .map(|(row, out)| {
                 let (j, k) = (row % ny, row / ny);
                 let (mut signed, mut kept_abs, mut cross) = (0.0, 0.0, Vec::new());
+                // The previous active cell of the row: its corners' depth
+                // bits and positions (a corner on the shared pillar with
+                // the same depth bits has the same position).
+                let mut prev: Option<(usize, [u64; 8], [[f64; 3]; 8])> = None;
                 for (i, code) in out.iter_mut().enumerate() {
                     let c = i + nx * row;
                     if !self.is_active(c) {
                         continue;
                     }
                     let z: [f64; 8] = std::array::from_fn(|q| zcorn[self.zcorn_index(i, j, k, q)]);
-                    let corners: [[f64; 3]; 8] = std::array::from_fn(|q| {
-                        let p = self.pillar_index(i + (q & 1), j + (q >> 1 & 1));
-                        Self::apply(tr, self.on_pillar(p, z[q]))
+                    let corners: [[f64; 3]; 8] = std::array::from_fn(|q| match prev {
+                        Some((pi, pz, pc))
+                            if pi + 1 == i && q & 1 == 0 && pz[q + 1] == z[q].to_bits() =>
+                        {
+                            pc[q + 1]
+                        }
+                        _ => {
+                            let p = self.pillar_index(i + (q & 1), j + (q >> 1 & 1));
+                            Self::apply_with(identity, tr, self.on_pillar(p, z[q]))
+                        }
                     });
+                    prev = Some((i, z.map(f64::to_bits), corners));
                     let mut ext = 0.0f64;
                     for q in &corners[1..] {
                         for a in 0..3 {

@@ -351,7 +351,19 @@ impl CornerPointGrid {
 
     #[inline(always)]
     fn apply(t: &[f64; 6], p: [f64; 3]) -> [f64; 3] {
-        if t == &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0] {
+        Self::apply_with(Self::is_identity(t), t, p)
+    }
+
+    /// Whether `t` is the identity transform (no MAPAXES).
+    #[inline(always)]
+    fn is_identity(t: &[f64; 6]) -> bool {
+        t == &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]
+    }
+
+    /// [`Self::apply`] with [`Self::is_identity`] of `t` known.
+    #[inline(always)]
+    fn apply_with(identity: bool, t: &[f64; 6], p: [f64; 3]) -> [f64; 3] {
+        if identity {
             return [p[0], p[1], -p[2]];
         }
         [
