@@ -547,6 +547,12 @@ impl MetaCell {
         six_vol / 6.0
     }
 
+    /// The faces as a fixed array when the cell has 8 vertices and 6
+    /// quadrilateral faces (the hexahedron).
+    pub(crate) fn hex_faces(&self) -> Option<&[[u8; 4]; 6]> {
+        self.hex_faces.as_ref()
+    }
+
     /// Six times the signed volume of [`MetaCell::signed_volume_of`]'s
     /// polyhedron (each face split into triangles around its vertex mean),
     /// by a shorter formula: per face its vertex sum dotted with its vector

@@ -312,6 +312,28 @@ impl PillarDepths {
         &self.rows[p / self.npx].0[self.start[p] - base..self.start[p + 1] - base]
     }
 
+    /// [`Self::vid`] of a top corner (`corner` < 4) searched from just
+    /// above `below`, the vertex of the bottom corner on the same pillar
+    /// (the same id: the search's result does not depend on where it
+    /// starts).
+    #[inline]
+    fn vid_near(
+        &self,
+        g: &CornerPointGrid,
+        zcorn: &[f64],
+        [i, j, k]: [usize; 3],
+        corner: usize,
+        below: u32,
+    ) -> u32 {
+        let (pi, pj) = (i + (corner & 1), j + (corner >> 1 & 1));
+        let p = pi + self.npx * pj;
+        let base = self.start[self.npx * pj];
+        let d = &self.rows[pj].0[self.start[p] - base..self.start[p + 1] - base];
+        let z = zcorn[g.zcorn_index(i, j, k, corner)];
+        let guess = (below as usize).saturating_sub(self.start[p] + 1);
+        (self.start[p] + search_from(d, z, guess)) as u32
+    }
+
     /// The welded vertex id of corner `corner` of cell (i, j, k).
     #[inline]
     fn vid(&self, g: &CornerPointGrid, zcorn: &[f64], [i, j, k]: [usize; 3], corner: usize) -> u32 {
@@ -464,11 +486,24 @@ impl CellWriter<'_> {
             let (shape, merged) = self.shapes.at(c, code);
             let z: [f64; 8] = std::array::from_fn(|q| zc[g.zcorn_index(i, j, k, q)]);
             let (bz, bw) = &mut below[i];
-            let raw: [u32; 8] = std::array::from_fn(|q| match prev {
-                Some((pi, pz, pw)) if pi + 1 == i && q & 1 == 0 && pz[q + 1] == z[q] => pw[q + 1],
-                _ if self.reuse_below && q >= 4 && bz[q - 4] == z[q].to_bits() => bw[q - 4],
-                _ => self.depths.vid(g, zc, [i, j, k], q),
+            // Bottom corners first: a top corner is then searched from
+            // just above the bottom corner on its pillar (usually the next
+            // depth up, in the same cache line).
+            let bottom: [u32; 4] = std::array::from_fn(|b| {
+                let q = b + 4;
+                match prev {
+                    Some((pi, pz, pw)) if pi + 1 == i && q & 1 == 0 && pz[q + 1] == z[q] => {
+                        pw[q + 1]
+                    }
+                    _ if self.reuse_below && bz[b] == z[q].to_bits() => bw[b],
+                    _ => self.depths.vid(g, zc, [i, j, k], q),
+                }
             });
+            let top: [u32; 4] = std::array::from_fn(|q| match prev {
+                Some((pi, pz, pw)) if pi + 1 == i && q & 1 == 0 && pz[q + 1] == z[q] => pw[q + 1],
+                _ => self.depths.vid_near(g, zc, [i, j, k], q, bottom[q]),
+            });
+            let raw: [u32; 8] = std::array::from_fn(|q| if q < 4 { top[q] } else { bottom[q - 4] });
             prev = Some((i, z, raw));
             (*bz, *bw) = (
                 std::array::from_fn(|q| z[q].to_bits()),
@@ -652,6 +687,7 @@ impl CornerPointGrid {
                 Some(Shape::Flat)
             )
         });
+        let identity = Self::is_identity(tr);
         let mut codes = vec![0u8; nx * ny * nz];
         let rows: Vec<RowSums> = codes
             .par_chunks_mut(nx)
@@ -659,16 +695,28 @@ impl CornerPointGrid {
             .map(|(row, out)| {
                 let (j, k) = (row % ny, row / ny);
                 let (mut signed, mut kept_abs, mut cross) = (0.0, 0.0, Vec::new());
+                // The previous active cell of the row: its corners' depth
+                // bits and positions (a corner on the shared pillar with
+                // the same depth bits has the same position).
+                let mut prev: Option<(usize, [u64; 8], [[f64; 3]; 8])> = None;
                 for (i, code) in out.iter_mut().enumerate() {
                     let c = i + nx * row;
                     if !self.is_active(c) {
                         continue;
                     }
                     let z: [f64; 8] = std::array::from_fn(|q| zcorn[self.zcorn_index(i, j, k, q)]);
-                    let corners: [[f64; 3]; 8] = std::array::from_fn(|q| {
-                        let p = self.pillar_index(i + (q & 1), j + (q >> 1 & 1));
-                        Self::apply(tr, self.on_pillar(p, z[q]))
+                    let corners: [[f64; 3]; 8] = std::array::from_fn(|q| match prev {
+                        Some((pi, pz, pc))
+                            if pi + 1 == i && q & 1 == 0 && pz[q + 1] == z[q].to_bits() =>
+                        {
+                            pc[q + 1]
+                        }
+                        _ => {
+                            let p = self.pillar_index(i + (q & 1), j + (q >> 1 & 1));
+                            Self::apply_with(identity, tr, self.on_pillar(p, z[q]))
+                        }
                     });
+                    prev = Some((i, z.map(f64::to_bits), corners));
                     let mut ext = 0.0f64;
                     for q in &corners[1..] {
                         for a in 0..3 {

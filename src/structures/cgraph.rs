@@ -21,6 +21,7 @@ use rayon::prelude::*;
 use crate::cellgraph::{BitSet, CellGraph};
 use crate::grid::{Cells, Grid, Topology, hex_corner_offsets, is_lower_dimensional, vtk_type};
 use crate::metacell::{Catalog, MAX_META_VERTICES, VOXEL_TO_HEX, builtin};
+use crate::structures::hex_lanes::{LANES, classify_hexes};
 use crate::structures::{CellClass, StructureError, classify_cell, is_sweepable};
 
 /// "No neighbour" marker.
@@ -231,6 +232,57 @@ fn consistently_oriented(faces: &[Vec<u8>]) -> bool {
         .all(|&(a, b)| directed.binary_search(&(b, a)).is_ok())
 }
 
+/// Cells per parallel task of [`classify_and_orient`].
+const CLASSIFY_CHUNK: usize = 1 << 12;
+
+/// Classes of cells `first..first + out.len()`: builtin hexahedra four at
+/// a time (`hex_lanes`, the same classes), the others one by one.
+fn classify_chunk(
+    catalog: &Catalog,
+    metas: &[u16],
+    voff: &[u32],
+    verts: &[u32],
+    points: &[[f64; 3]],
+    first: usize,
+    out: &mut [CellClass],
+) {
+    // Cells come in IJK order and their vertices lie on four pillars far
+    // apart in the point array: the points of a cell a few ahead are
+    // fetched while this one is checked.
+    const AHEAD: usize = 8;
+    let n = metas.len();
+    let ids = |c: usize| &verts[voff[c] as usize..voff[c + 1] as usize];
+    let hex = catalog.get(builtin::HEXAHEDRON);
+    let mut batch = [0usize; LANES];
+    let mut queued = 0;
+    for c in first..first + out.len() {
+        if c + AHEAD < n {
+            let (a, b) = (voff[c + AHEAD] as usize, voff[c + AHEAD + 1] as usize);
+            for &v in verts.get(a..b).unwrap_or(&[]) {
+                crate::extract::prefetch(points, v as usize);
+            }
+        }
+        match metas[c] {
+            NON_VOLUMETRIC => out[c - first] = CellClass::NonVolumetric,
+            builtin::HEXAHEDRON if ids(c).len() == 8 => {
+                batch[queued] = c;
+                queued += 1;
+                if queued == LANES {
+                    let cl = classify_hexes(hex, batch.map(ids), points);
+                    for (&b, cl) in batch.iter().zip(cl) {
+                        out[b - first] = cl;
+                    }
+                    queued = 0;
+                }
+            }
+            m => out[c - first] = classify_cell(catalog.get(m), ids(c), points),
+        }
+    }
+    for &b in &batch[..queued] {
+        out[b - first] = classify_cell(hex, ids(b), points);
+    }
+}
+
 /// Classifies every cell (see [`classify_cell`]; 0D–2D cells are
 /// [`CellClass::NonVolumetric`]) and orients polyhedra outward: an inverted
 /// polyhedron gets the meta-cell with its faces reversed (and counts as
@@ -244,30 +296,14 @@ pub(crate) fn classify_and_orient(
     points: &[[f64; 3]],
 ) -> Result<Vec<CellClass>, StructureError> {
     let n = metas.len();
-    // Cells come in IJK order and their vertices lie on four pillars far
-    // apart in the point array: the points of a cell a few ahead are
-    // fetched while this one is checked.
-    const AHEAD: usize = 8;
-    let mut class: Vec<CellClass> = (0..n)
-        .into_par_iter()
-        .map(|c| {
-            if c + AHEAD < n {
-                let (a, b) = (voff[c + AHEAD] as usize, voff[c + AHEAD + 1] as usize);
-                for &v in verts.get(a..b).unwrap_or(&[]) {
-                    crate::extract::prefetch(points, v as usize);
-                }
-            }
-            c
-        })
-        .map(|c| match metas[c] {
-            NON_VOLUMETRIC => CellClass::NonVolumetric,
-            m => classify_cell(
-                catalog.get(m),
-                &verts[voff[c] as usize..voff[c + 1] as usize],
-                points,
-            ),
-        })
-        .collect();
+    let cat: &Catalog = catalog;
+    let mut class = vec![CellClass::NonVolumetric; n];
+    class
+        .par_chunks_mut(CLASSIFY_CHUNK)
+        .enumerate()
+        .for_each(|(ch, out)| {
+            classify_chunk(cat, metas, voff, verts, points, ch * CLASSIFY_CHUNK, out)
+        });
     for c in 0..n {
         let mut cl = class[c];
         if cl == CellClass::Inverted && catalog.get(metas[c]).name.starts_with("polyhedron") {

@@ -165,7 +165,7 @@ fn classify_fixed<const N: usize>(meta: &MetaCell, ids: &[u32], points: &[[f64; 
 /// same class. `None` near zero, for NaN, or with `ext` where ext³ could
 /// leave the normal range: the exact volume decides.
 #[inline(always)]
-fn class_far_from_zero(six: f64, ext: f64) -> Option<CellClass> {
+pub(crate) fn class_far_from_zero(six: f64, ext: f64) -> Option<CellClass> {
     let far = six.abs() > 1e-6 * ext * ext * ext && (1e-90..=1e90).contains(&ext);
     match (far, six < 0.0) {
         (false, _) => None,

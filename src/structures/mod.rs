@@ -9,6 +9,7 @@ pub mod ciel;
 pub mod common;
 pub mod convex_split;
 pub mod cpgraph;
+mod hex_lanes;
 pub mod polyhedron;
 pub mod scgraph;
 
