@@ -11,15 +11,22 @@ use crate::metacell::MetaCell;
 pub(crate) const LANES: usize = 4;
 
 /// The builtin hexahedron's faces ([`crate::metacell::HEXAHEDRON_FACES`]),
-/// as constants so that the lanes' loops unroll.
-const HEX_FACES: [[u8; 4]; 6] = [
-    [0, 4, 7, 3],
-    [1, 2, 6, 5],
-    [0, 1, 5, 4],
-    [3, 7, 6, 2],
-    [0, 3, 2, 1],
-    [4, 5, 6, 7],
-];
+/// copied into fixed-size arrays at compile time so that the lanes' loops
+/// unroll.
+const HEX_FACES: [[u8; 4]; 6] = {
+    let faces = crate::metacell::HEXAHEDRON_FACES;
+    let mut out = [[0u8; 4]; 6];
+    let mut f = 0;
+    while f < 6 {
+        let mut i = 0;
+        while i < 4 {
+            out[f][i] = faces[f][i];
+            i += 1;
+        }
+        f += 1;
+    }
+    out
+};
 
 /// The vertex pairs `a < b` of a hexahedron, in `classify_fixed`'s order.
 const PAIRS: [(usize, usize); 28] = {
