@@ -489,19 +489,24 @@ impl CellWriter<'_> {
             // Bottom corners first: a top corner is then searched from
             // just above the bottom corner on its pillar (usually the next
             // depth up, in the same cache line).
+            // A corner on the pillar shared with the previous cell of the
+            // row, at the same depth, is that cell's vertex.
+            let from_prev = |q: usize| match prev {
+                Some((pi, pz, pw)) if pi + 1 == i && q & 1 == 0 && pz[q + 1] == z[q] => {
+                    Some(pw[q + 1])
+                }
+                _ => None,
+            };
             let bottom: [u32; 4] = std::array::from_fn(|b| {
                 let q = b + 4;
-                match prev {
-                    Some((pi, pz, pw)) if pi + 1 == i && q & 1 == 0 && pz[q + 1] == z[q] => {
-                        pw[q + 1]
-                    }
-                    _ if self.reuse_below && bz[b] == z[q].to_bits() => bw[b],
-                    _ => self.depths.vid(g, zc, [i, j, k], q),
+                match from_prev(q) {
+                    Some(v) => v,
+                    None if self.reuse_below && bz[b] == z[q].to_bits() => bw[b],
+                    None => self.depths.vid(g, zc, [i, j, k], q),
                 }
             });
-            let top: [u32; 4] = std::array::from_fn(|q| match prev {
-                Some((pi, pz, pw)) if pi + 1 == i && q & 1 == 0 && pz[q + 1] == z[q] => pw[q + 1],
-                _ => self.depths.vid_near(g, zc, [i, j, k], q, bottom[q]),
+            let top: [u32; 4] = std::array::from_fn(|q| {
+                from_prev(q).unwrap_or_else(|| self.depths.vid_near(g, zc, [i, j, k], q, bottom[q]))
             });
             let raw: [u32; 8] = std::array::from_fn(|q| if q < 4 { top[q] } else { bottom[q - 4] });
             prev = Some((i, z, raw));
