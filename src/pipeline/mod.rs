@@ -2,10 +2,13 @@
 //! place the levels, run the sweep (or the brute force) and gather
 //! statistics and, on request, the welded output mesh in canonical order.
 
-use std::collections::HashMap;
 use std::time::Instant;
 
 use thiserror::Error;
+
+mod canonical;
+
+use canonical::{LevelCopy, canonical_mesh};
 
 use crate::bruteforce::brute_force;
 use crate::extract::{EmitContext, LevelMesh};
@@ -316,29 +319,6 @@ pub fn place_levels(
     Ok((world, levels))
 }
 
-/// Polygons of one level mesh as (source cell, slot, corners).
-fn level_pieces(
-    mesh: &LevelMesh,
-    source: impl Fn(u32) -> u32,
-) -> Vec<(u32, u32, Vec<(u64, [f32; 3], f32)>)> {
-    (0..mesh.polygon_count())
-        .map(|p| {
-            let ids = &mesh.indices[mesh.offsets[p] as usize..mesh.offsets[p + 1] as usize];
-            let corners = ids
-                .iter()
-                .map(|&i| {
-                    (
-                        mesh.edge_keys[i as usize],
-                        mesh.positions[i as usize],
-                        mesh.values[i as usize],
-                    )
-                })
-                .collect();
-            (source(mesh.cells[p]), mesh.cells[p], corners)
-        })
-        .collect()
-}
-
 /// Appends the split pieces cut at one level as (input cell, slot):
 /// polygons of pieces of split cells, consecutive repeats dropped.
 fn cut_pieces(
@@ -366,9 +346,6 @@ fn count_input_cells(stats: &mut [LevelStats], mut cut: Vec<Vec<(u32, u32)>>) {
         st.cells = st.cells + sources.len() as u64 - c.len() as u64;
     }
 }
-
-/// Per block: per level, polygons as (source cell, slot, corners (edge key, position, value)).
-type Pieces = Vec<Vec<(u32, u32, Vec<(u64, [f32; 3], f32)>)>>;
 
 /// A built structure as the pipeline runs it: the cell graphs (S-CGraph,
 /// CGraph, CP-Graph) through the spatial-block [`Sweeper`] (which picks
@@ -406,7 +383,8 @@ struct Job<'a> {
 struct Part {
     first: usize,
     stats: Vec<LevelStats>,
-    pieces: Pieces,
+    /// Per level, its polygons (when the run collects the mesh).
+    pieces: Vec<LevelCopy>,
     cut: Vec<Vec<(u32, u32)>>,
 }
 
@@ -549,14 +527,14 @@ fn run(
     let new_part = |range: std::ops::Range<usize>| Part {
         first: range.start,
         stats: vec![LevelStats::default(); range.len()],
-        pieces: vec![Vec::new(); range.len()],
+        pieces: vec![LevelCopy::default(); range.len()],
         cut: vec![Vec::new(); range.len()],
     };
     let on_level = |p: &mut Part, lv: usize, mesh: &LevelMesh, st: &LevelStats| {
         let i = lv - p.first;
         p.stats[i] = *st;
         if collect {
-            p.pieces[i].extend(level_pieces(mesh, |s| r.source(s)));
+            p.pieces[i].append(mesh, |s| r.source(s));
         }
         if let Some(m) = split {
             cut_pieces(mesh, m, |s| r.source(s), &mut p.cut[i]);
@@ -601,7 +579,14 @@ fn run(
     if split.is_some() {
         count_input_cells(&mut stats, cut);
     }
-    let mesh = collect.then(|| canonical_mesh(&swept.parts, &world));
+    let mesh = collect.then(|| {
+        let parts = &swept.parts;
+        canonical_mesh(
+            parts.len(),
+            |p, lv| parts[p].pieces.get(lv.checked_sub(parts[p].first)?),
+            &world,
+        )
+    });
     Ok(SliceResult {
         level_values: world,
         stats,
@@ -611,41 +596,4 @@ fn run(
         timings,
         attribute_name: String::new(),
     })
-}
-
-/// Merges per-block pieces into one mesh: per level, polygons sorted by
-/// (source cell, slot) (stable), vertices welded by grid edge in first-use
-/// order. The result does not depend on the number of blocks.
-fn canonical_mesh(parts: &[Part], world: &[f64]) -> PolyMesh {
-    let mut m = PolyMesh {
-        poly_offsets: vec![0],
-        level_values: world.to_vec(),
-        ..Default::default()
-    };
-    let k = world.len();
-    let mut weld: HashMap<u64, u32> = HashMap::new();
-    for lv in 0..k {
-        let mut polys: Vec<&(u32, u32, Vec<(u64, [f32; 3], f32)>)> = parts
-            .iter()
-            .filter_map(|p| p.pieces.get(lv.checked_sub(p.first)?))
-            .flatten()
-            .collect();
-        polys.sort_by_key(|p| (p.0, p.1));
-        weld.clear();
-        for (cell, _, corners) in polys {
-            for &(key, pos, val) in corners {
-                let next = m.positions.len() as u32;
-                let vi = *weld.entry(key).or_insert_with(|| next);
-                if vi == next {
-                    m.positions.push(pos);
-                    m.values.push(val);
-                }
-                m.poly_indices.push(vi);
-            }
-            m.poly_offsets.push(m.poly_indices.len() as u32);
-            m.poly_level.push(lv as u32);
-            m.poly_cell.push(*cell);
-        }
-    }
-    m
 }
