@@ -19,6 +19,9 @@ pub(super) struct LevelCopy {
     indices: Vec<u32>,
     slots: Vec<u32>,
     sources: Vec<u32>,
+    /// Level meshes appended: with one, each edge key is one vertex (a
+    /// [`LevelMesh`] is welded by grid edge).
+    meshes: u32,
 }
 
 impl LevelCopy {
@@ -43,6 +46,7 @@ impl LevelCopy {
         self.slots.extend_from_slice(&mesh.cells[..polygons]);
         self.sources
             .extend(mesh.cells[..polygons].iter().map(|&s| source(s)));
+        self.meshes += 1;
     }
 
     /// Polygons held.
@@ -94,6 +98,9 @@ pub(super) fn canonical_mesh<'a>(
         weld.clear();
         level_keys.clear();
         let base = m.positions.len() as u32;
+        // One level mesh alone is welded already: number its vertices in
+        // first-use order, without looking their keys up.
+        let alone = copies.iter().flatten().map(|c| c.meshes).sum::<u32>() == 1;
         for &(key, p, i) in &order {
             let c = copies[p as usize].expect("ordered polygons come from present copies");
             let (a, b) = (
@@ -102,7 +109,11 @@ pub(super) fn canonical_mesh<'a>(
             );
             for &v in &c.indices[a..b] {
                 let slot = &mut canon[p as usize][v as usize];
-                if *slot == u32::MAX {
+                if *slot == u32::MAX && alone {
+                    *slot = m.positions.len() as u32;
+                    m.positions.push(c.positions[v as usize]);
+                    m.values.push(c.values[v as usize]);
+                } else if *slot == u32::MAX {
                     weld.reserve(1, &level_keys);
                     let next = level_keys.len() as u32;
                     let (local, new) = weld.get_or_insert(c.keys[v as usize], next, &level_keys);
@@ -128,9 +139,8 @@ mod tests {
     use super::*;
     use std::collections::HashMap;
 
-    /// A level mesh of random polygons over `nv` vertices whose edge keys
-    /// come from a small set (so parts share keys, and a part may repeat
-    /// one), slots in random order.
+    /// A level mesh of random polygons over `nv` (at most 40) vertices with
+    /// distinct edge keys from a small set, slots in random order.
     fn random_mesh(seed: &mut u64, nv: usize, polygons: usize) -> LevelMesh {
         let mut next = move || {
             *seed ^= *seed << 13;
@@ -139,8 +149,13 @@ mod tests {
             *seed
         };
         let mut m = LevelMesh::default();
+        // Distinct keys within the mesh (it is welded by edge), drawn from
+        // 40, so that other meshes share some.
+        let mut keys: Vec<u64> = (0..40).collect();
         for v in 0..nv {
-            m.edge_keys.push(next() % 40);
+            let pick = v + (next() % (40 - v) as u64) as usize;
+            keys.swap(v, pick);
+            m.edge_keys.push(keys[v]);
             m.positions.push([v as f32, next() as f32, 0.5]);
             m.values.push(next() as f32);
         }
