@@ -70,6 +70,22 @@ pub(super) fn canonical_mesh<'a>(
         level_values: world.to_vec(),
         ..Default::default()
     };
+    // Room for everything at once (the vertices: at most the copies'), so
+    // the big arrays are not regrown and copied.
+    let [mut polygons, mut corners, mut vertices] = [0usize; 3];
+    for lv in 0..world.len() {
+        for c in (0..parts).filter_map(|p| levels(p, lv)) {
+            polygons += c.polygons();
+            corners += c.indices.len();
+            vertices += c.positions.len();
+        }
+    }
+    m.poly_offsets.reserve_exact(polygons);
+    m.poly_level.reserve_exact(polygons);
+    m.poly_cell.reserve_exact(polygons);
+    m.poly_indices.reserve_exact(corners);
+    m.positions.reserve_exact(vertices);
+    m.values.reserve_exact(vertices);
     let mut weld = EdgeMap::default();
     // Edge keys of this level's output vertices (the weld's values index it).
     let mut level_keys: Vec<u64> = Vec::new();
