@@ -65,27 +65,106 @@ pub(crate) fn resolve_cells<'a>(
         .types
         .iter()
         .all(|&t| t != vtk_type::POLYHEDRON && t != vtk_type::VOXEL && !is_lower_dimensional(t));
+    if !borrow {
+        let mut r = Resolver::new(n, cells.connectivity.len());
+        for c in 0..n {
+            r.push(
+                catalog,
+                points,
+                c,
+                cells.types[c],
+                cells.cell(c),
+                cells.faces_of(c),
+            )?;
+        }
+        let (metas, offsets, verts) = r.finish();
+        return Ok((metas, Cow::Owned(offsets), Cow::Owned(verts)));
+    }
     let mut metas = Vec::with_capacity(n);
-    let (mut offsets, mut verts) = if borrow {
-        (Vec::new(), Vec::new())
-    } else {
-        (
-            Vec::with_capacity(n + 1),
-            Vec::with_capacity(cells.connectivity.len()),
-        )
-    };
-    offsets.push(0u32);
     let mut by_type = [u16::MAX; 256];
     for c in 0..n {
         let t = cells.types[c];
-        let ids = cells.cell(c);
+        let m = type_meta(catalog, &mut by_type, c, t)?;
+        if cells.cell(c).len() != catalog.get(m).nv {
+            return Err(count_mismatch(c));
+        }
+        metas.push(m);
+    }
+    Ok((
+        metas,
+        Cow::Borrowed(&cells.offsets[..]),
+        Cow::Borrowed(&cells.connectivity[..]),
+    ))
+}
+
+/// The meta-cell of VTK type `t` (cell `c`), looked up once per type.
+fn type_meta(
+    catalog: &mut Catalog,
+    by_type: &mut [u16; 256],
+    c: usize,
+    t: u8,
+) -> Result<u16, StructureError> {
+    if by_type[t as usize] == u16::MAX {
+        by_type[t as usize] =
+            catalog
+                .for_vtk_type(t)
+                .ok_or_else(|| StructureError::UnsupportedCell {
+                    cell: c,
+                    why: format!("unsupported VTK cell type {t}"),
+                })?;
+    }
+    Ok(by_type[t as usize])
+}
+
+/// Cell `c` has not the vertex count of its type.
+fn count_mismatch(c: usize) -> StructureError {
+    StructureError::UnsupportedCell {
+        cell: c,
+        why: "vertex count does not match its type".into(),
+    }
+}
+
+/// [`resolve_cells`] one cell at a time, into owned offsets and ids: for
+/// cells that come from more than one array (the corner-point graph's
+/// input cells with the pieces of its split cells in their place).
+pub(crate) struct Resolver {
+    by_type: [u16; 256],
+    metas: Vec<u16>,
+    offsets: Vec<u32>,
+    verts: Vec<u32>,
+}
+
+impl Resolver {
+    /// Room for `n` cells with `conn` ids.
+    pub(crate) fn new(n: usize, conn: usize) -> Self {
+        let mut offsets = Vec::with_capacity(n + 1);
+        offsets.push(0);
+        Resolver {
+            by_type: [u16::MAX; 256],
+            metas: Vec::with_capacity(n),
+            offsets,
+            verts: Vec::with_capacity(conn),
+        }
+    }
+
+    /// Resolves cell `c` (VTK type `t`, point ids `ids`, face stream
+    /// `faces` for a polyhedron).
+    pub(crate) fn push(
+        &mut self,
+        catalog: &mut Catalog,
+        points: &[[f64; 3]],
+        c: usize,
+        t: u8,
+        ids: &[u32],
+        faces: &[u32],
+    ) -> Result<(), StructureError> {
         if is_lower_dimensional(t) {
-            metas.push(NON_VOLUMETRIC);
-            offsets.push(verts.len() as u32);
-            continue;
+            self.metas.push(NON_VOLUMETRIC);
+            self.offsets.push(self.verts.len() as u32);
+            return Ok(());
         }
         let m = if t == vtk_type::POLYHEDRON {
-            let (local, faces) = polyhedron_local_faces(cells.faces_of(c), points)
+            let (local, faces) = polyhedron_local_faces(faces, points)
                 .map_err(|why| StructureError::UnsupportedCell { cell: c, why })?;
             let m = catalog.for_faces(local.len(), &faces).map_err(|e| {
                 StructureError::UnsupportedCell {
@@ -93,58 +172,29 @@ pub(crate) fn resolve_cells<'a>(
                     why: format!("polyhedron: {e}"),
                 }
             })?;
-            verts.extend_from_slice(&local);
+            self.verts.extend_from_slice(&local);
             m
         } else {
-            // The catalog's map is looked up once per VTK type.
-            let m = match by_type[t as usize] {
-                u16::MAX => {
-                    let m =
-                        catalog
-                            .for_vtk_type(t)
-                            .ok_or_else(|| StructureError::UnsupportedCell {
-                                cell: c,
-                                why: format!("unsupported VTK cell type {t}"),
-                            })?;
-                    by_type[t as usize] = m;
-                    m
-                }
-                m => m,
-            };
-            if borrow {
-                if ids.len() != catalog.get(m).nv {
-                    return Err(StructureError::UnsupportedCell {
-                        cell: c,
-                        why: "vertex count does not match its type".into(),
-                    });
-                }
-                metas.push(m);
-                continue;
-            }
+            let m = type_meta(catalog, &mut self.by_type, c, t)?;
             if t == vtk_type::VOXEL {
-                verts.extend(VOXEL_TO_HEX.iter().map(|&i| ids[i]));
+                self.verts.extend(VOXEL_TO_HEX.iter().map(|&i| ids[i]));
             } else {
-                verts.extend_from_slice(ids);
+                self.verts.extend_from_slice(ids);
             }
             m
         };
-        if verts.len() - *offsets.last().unwrap() as usize != catalog.get(m).nv {
-            return Err(StructureError::UnsupportedCell {
-                cell: c,
-                why: "vertex count does not match its type".into(),
-            });
+        if self.verts.len() - *self.offsets.last().expect("offsets") as usize != catalog.get(m).nv {
+            return Err(count_mismatch(c));
         }
-        metas.push(m);
-        offsets.push(verts.len() as u32);
+        self.metas.push(m);
+        self.offsets.push(self.verts.len() as u32);
+        Ok(())
     }
-    if borrow {
-        return Ok((
-            metas,
-            Cow::Borrowed(&cells.offsets[..]),
-            Cow::Borrowed(&cells.connectivity[..]),
-        ));
+
+    /// Meta ids, offsets and ids.
+    pub(crate) fn finish(self) -> (Vec<u16>, Vec<u32>, Vec<u32>) {
+        (self.metas, self.offsets, self.verts)
     }
-    Ok((metas, Cow::Owned(offsets), Cow::Owned(verts)))
 }
 
 /// Local vertex list (first-appearance order) and local face loops of a

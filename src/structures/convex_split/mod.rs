@@ -45,7 +45,7 @@ use thiserror::Error;
 use crate::cellgraph::{CellGraph, Lattice, Stamp};
 use crate::extract::EmitContext;
 use crate::field::ScalarField;
-use crate::grid::{Grid, Property};
+use crate::grid::{Cells, Grid, Property};
 use crate::metacell::{Catalog, MAX_META_VERTICES};
 use crate::structures::polyhedron::CONVEXITY_TOLERANCE;
 use split::split_with;
@@ -189,6 +189,20 @@ pub struct SplitGrid {
     /// The split grid.
     pub grid: Grid,
     /// Output → input.
+    pub map: SplitMap,
+}
+
+/// The pieces of a split without the split grid: what the corner-point
+/// graph reads, taking the cells that are not split from the input.
+#[derive(Clone, Debug)]
+pub struct SplitPieces {
+    /// The pieces of the split cells: split cell by split cell, in cell
+    /// order, each cell's pieces as the split grid orders them (output
+    /// cell `o` with `map.is_split[map.source[o]]` is the next piece here).
+    pub cells: Cells,
+    /// The input's points, then the new vertices (the split grid's points).
+    pub points: Vec<P3>,
+    /// Output (split grid) → input.
     pub map: SplitMap,
 }
 
@@ -574,6 +588,16 @@ pub fn split_non_convex_cells(
     hidden: Option<&[bool]>,
 ) -> Result<Option<SplitGrid>, SplitError> {
     split_with(grid, hidden, false)
+}
+
+/// [`split_non_convex_cells`] without the split grid: the pieces only,
+/// the points and the map, so that nothing is copied for the cells that are
+/// not split. `Ok(None)` when there is no non-convex polyhedron.
+pub fn split_non_convex_pieces(
+    grid: &Grid,
+    hidden: Option<&[bool]>,
+) -> Result<Option<SplitPieces>, SplitError> {
+    split::split_pieces(grid, hidden)
 }
 
 /// A point property with values for the new vertices (component-wise means).

@@ -9,9 +9,9 @@ use std::hash::{BuildHasherDefault, Hasher};
 use rayon::prelude::*;
 
 use super::{
-    Element, FacePlan, FaceTable, IdsHasher, SplitError, SplitGrid, SplitMap, SplitReport, Star,
-    canonical_at, canonical_start, cone_volume, ear_clip, element_plane, extend_point_property,
-    face_is_bad, fan_point, gather_tuples, kernel_point,
+    Element, FacePlan, FaceTable, IdsHasher, SplitError, SplitGrid, SplitMap, SplitPieces,
+    SplitReport, Star, canonical_at, canonical_start, cone_volume, ear_clip, element_plane,
+    extend_point_property, face_is_bad, fan_point, gather_tuples, kernel_point,
 };
 use crate::grid::{Cells, Grid, Property, Topology, is_lower_dimensional, vtk_type};
 use crate::structures::is_sweepable;
@@ -97,6 +97,32 @@ impl NewPoints {
     }
 }
 
+/// What a split made, before any output grid: the pieces of the split
+/// cells, the new vertices, which input cells were split and the counts.
+struct Parts<'a> {
+    cells: &'a Cells,
+    pieces: Pieces,
+    new: NewPoints,
+    split: Vec<bool>,
+    report: SplitReport,
+}
+
+impl Parts<'_> {
+    /// The map to the input, with `source` per output cell.
+    fn into_map(self, source: Vec<u32>, np0: usize) -> (SplitMap, Vec<P3>) {
+        let map = SplitMap {
+            source,
+            is_split: self.split,
+            input_points: np0,
+            input_cells: self.cells.len(),
+            mean_offsets: self.new.mean_offsets,
+            mean_ids: self.new.mean_ids,
+            report: self.report,
+        };
+        (map, self.new.points)
+    }
+}
+
 /// [`super::split_non_convex`], with the point and cell data carried over
 /// when `properties` is set.
 pub(super) fn split_with(
@@ -104,6 +130,78 @@ pub(super) fn split_with(
     hidden: Option<&[bool]>,
     properties: bool,
 ) -> Result<Option<SplitGrid>, SplitError> {
+    let Some(parts) = split_parts(grid, hidden)? else {
+        return Ok(None);
+    };
+    let points = &grid.points;
+    let np0 = points.len();
+    let (out, source) = assemble(parts.cells, &parts.pieces)?;
+    let (map, new_points) = parts.into_map(source, np0);
+    let mut all_points = Vec::with_capacity(np0 + new_points.len());
+    all_points.extend_from_slice(points);
+    all_points.extend_from_slice(&new_points);
+    let (point_data, cell_data) = if properties {
+        carry_properties(grid, &map)
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    Ok(Some(SplitGrid {
+        grid: Grid {
+            points: all_points,
+            topology: Topology::Unstructured(out),
+            point_data,
+            cell_data,
+        },
+        map,
+    }))
+}
+
+/// [`super::split_non_convex_pieces`].
+pub(super) fn split_pieces(
+    grid: &Grid,
+    hidden: Option<&[bool]>,
+) -> Result<Option<SplitPieces>, SplitError> {
+    let Some(parts) = split_parts(grid, hidden)? else {
+        return Ok(None);
+    };
+    let (n, split_cells) = (parts.cells.len(), parts.pieces.cells.len());
+    let out_cells = n - split_cells + parts.pieces.types.len();
+    if out_cells >= u32::MAX as usize {
+        return Err(SplitError::TooLarge(format!("{out_cells} cells")));
+    }
+    let mut cells = Cells {
+        types: Vec::with_capacity(parts.pieces.types.len()),
+        offsets: vec![0],
+        connectivity: Vec::with_capacity(parts.pieces.ids.len()),
+        face_offsets: vec![0],
+        face_stream: Vec::new(),
+    };
+    let mut source = Vec::with_capacity(out_cells);
+    let mut done = 0;
+    for i in 0..split_cells {
+        let (c, pieces) = parts.pieces.of(i);
+        source.extend(done as u32..c as u32);
+        for (t, ids) in pieces {
+            push_piece(&mut cells, t, ids);
+            source.push(c as u32);
+        }
+        done = c + 1;
+    }
+    source.extend(done as u32..n as u32);
+    let np0 = grid.points.len();
+    let (map, new_points) = parts.into_map(source, np0);
+    let mut points = Vec::with_capacity(np0 + new_points.len());
+    points.extend_from_slice(&grid.points);
+    points.extend_from_slice(&new_points);
+    Ok(Some(SplitPieces { cells, points, map }))
+}
+
+/// The passes of a split up to its pieces (see the module docs); `None`
+/// when there is no non-convex polyhedron.
+fn split_parts<'a>(
+    grid: &'a Grid,
+    hidden: Option<&[bool]>,
+) -> Result<Option<Parts<'a>>, SplitError> {
     let Topology::Unstructured(cells) = &grid.topology else {
         return Ok(None);
     };
@@ -154,7 +252,7 @@ pub(super) fn split_with(
         .zip(face_ids.par_iter())
         .map(|((c, faces), ids)| cell_star(*c, faces, ids, &table, points, &cpos))
         .collect();
-    let pieces_of = cut_cells(&found, stars, np0, &mut new, &mut report)?;
+    let pieces = cut_cells(&found, stars, np0, &mut new, &mut report)?;
     report.new_vertices = new.points.len();
     if np0 + new.points.len() >= u32::MAX as usize / 4 {
         return Err(SplitError::TooLarge(format!(
@@ -162,32 +260,12 @@ pub(super) fn split_with(
             np0 + new.points.len()
         )));
     }
-    let (out, source) = assemble(cells, &pieces_of)?;
-    let mut all_points = Vec::with_capacity(np0 + new.points.len());
-    all_points.extend_from_slice(points);
-    all_points.extend_from_slice(&new.points);
-    let map = SplitMap {
-        source,
-        is_split: split,
-        input_points: np0,
-        input_cells: n,
-        mean_offsets: new.mean_offsets,
-        mean_ids: new.mean_ids,
+    Ok(Some(Parts {
+        cells,
+        pieces,
+        new,
+        split,
         report,
-    };
-    let (point_data, cell_data) = if properties {
-        carry_properties(grid, &map)
-    } else {
-        (Vec::new(), Vec::new())
-    };
-    Ok(Some(SplitGrid {
-        grid: Grid {
-            points: all_points,
-            topology: Topology::Unstructured(out),
-            point_data,
-            cell_data,
-        },
-        map,
     }))
 }
 
@@ -701,17 +779,7 @@ fn assemble(cells: &Cells, pieces_of: &Pieces) -> Result<(Cells, Vec<u32>), Spli
         let (c, pieces) = pieces_of.of(i);
         copy_run(cells, &mut out, &mut source, done, c);
         for (t, ids) in pieces {
-            if t == vtk_type::POLYHEDRON {
-                let (apex, base) = ids.split_last().expect("base and apex");
-                let k = base.len();
-                let mut faces = vec![base.to_vec()];
-                for j in 0..k {
-                    faces.push(vec![base[(j + 1) % k], base[j], *apex]);
-                }
-                out.push_polyhedron(&faces);
-            } else {
-                out.push(t, ids);
-            }
+            push_piece(&mut out, t, ids);
             source.push(c as u32);
         }
         done = c + 1;
@@ -726,6 +794,21 @@ fn assemble(cells: &Cells, pieces_of: &Pieces) -> Result<(Cells, Vec<u32>), Spli
         (out_cells, out_conn, out_stream)
     );
     Ok((out, source))
+}
+
+/// Appends a piece (a polyhedron piece is its base loop, then its apex).
+fn push_piece(out: &mut Cells, t: u8, ids: &[u32]) {
+    if t == vtk_type::POLYHEDRON {
+        let (apex, base) = ids.split_last().expect("base and apex");
+        let k = base.len();
+        let mut faces = vec![base.to_vec()];
+        for j in 0..k {
+            faces.push(vec![base[(j + 1) % k], base[j], *apex]);
+        }
+        out.push_polyhedron(&faces);
+    } else {
+        out.push(t, ids);
+    }
 }
 
 /// The input's point data extended to the new vertices (means) and its
