@@ -375,28 +375,6 @@ impl Loops {
     }
 }
 
-/// Per marked vertex, the cells that use it (CSR): see
-/// [`PlanContext::incident_to_marked`].
-struct Incident {
-    /// Per point: its marked index, or `u32::MAX`.
-    at: Vec<u32>,
-    /// Per marked index: its first entry in `cells` (marked + 1).
-    start: Vec<u32>,
-    cells: Vec<u32>,
-}
-
-impl Incident {
-    /// The cells using vertex `v` (none when `v` is not marked).
-    fn cells_of(&self, v: u32) -> &[u32] {
-        match self.at.get(v as usize) {
-            Some(&m) if m != u32::MAX => {
-                &self.cells[self.start[m as usize] as usize..self.start[m as usize + 1] as usize]
-            }
-            _ => &[],
-        }
-    }
-}
-
 /// What the face plans read of the input grid.
 struct PlanContext<'a> {
     cells: &'a Cells,
@@ -445,13 +423,7 @@ impl PlanContext<'_> {
                 face_is_bad(&pts)
             })
             .collect();
-        let incident = self.incident_to_marked(&loops, &bad, &table.split_uses);
-        let shared_with_unsplit = |l: &[u32]| {
-            incident.cells_of(l[0]).iter().any(|&c| {
-                let ids = self.cells.cell(c as usize);
-                l.iter().all(|v| ids.contains(v))
-            })
-        };
+        let shared = self.shared_with_unsplit(&loops, &bad, &table.split_uses);
         let np0 = self.points.len();
         for ((c, faces), ids) in found.iter().zip(face_ids) {
             for (fi, &i) in ids.iter().enumerate().take(faces.len()) {
@@ -461,7 +433,7 @@ impl PlanContext<'_> {
                 let l = loops.get(i);
                 let plan = if !bad[i] {
                     FacePlan::Whole
-                } else if table.split_uses[i] == 1 && shared_with_unsplit(l) {
+                } else if table.split_uses[i] == 1 && shared[i] {
                     report.kept_faces += 1;
                     FacePlan::Whole
                 } else {
@@ -483,25 +455,24 @@ impl PlanContext<'_> {
         Ok(())
     }
 
-    /// Per marked vertex (the first vertex of each bad face used by one
-    /// split cell), the live cells that are not split and use it, in cell
-    /// order: the cells that may share such a face. One pass over the
-    /// cells: a bit per point (small enough to stay in cache) picks the
-    /// few cells with a marked vertex, whose (marked vertex, cell) pairs
-    /// are then grouped by a counting sort that keeps the cell order.
-    fn incident_to_marked(&self, loops: &Loops, bad: &[bool], split_uses: &[u8]) -> Incident {
+    /// Per face entry: whether it is a bad face used by one split cell
+    /// whose vertices a live cell that is not split all uses (the cell
+    /// across it may share it). One pass over the cells: a bit per point
+    /// (small enough to stay in cache) marks the first vertex of each such
+    /// face and picks the few cells with a marked vertex; their ids are
+    /// checked against the faces chained at that vertex while in cache
+    /// (rather than listed per vertex and read again at random).
+    fn shared_with_unsplit(&self, loops: &Loops, bad: &[bool], split_uses: &[u8]) -> Vec<bool> {
         const NONE: u32 = u32::MAX;
-        let mut at = vec![NONE; self.points.len()];
+        let mut head = vec![NONE; self.points.len()];
+        let mut next = vec![NONE; loops.len()];
         let mut bits = vec![0u64; self.points.len().div_ceil(64)];
-        let mut marked = 0u32;
         for i in 0..loops.len() {
             if bad[i] && split_uses[i] == 1 {
                 let v = loops.get(i)[0] as usize;
-                if at[v] == NONE {
-                    at[v] = marked;
-                    bits[v / 64] |= 1 << (v % 64);
-                    marked += 1;
-                }
+                next[i] = head[v];
+                head[v] = i as u32;
+                bits[v / 64] |= 1 << (v % 64);
             }
         }
         let live = |c: usize| {
@@ -511,29 +482,24 @@ impl PlanContext<'_> {
             bits.get(v as usize / 64)
                 .is_some_and(|w| w >> (v % 64) & 1 == 1)
         };
-        let mut pairs: Vec<(u32, u32)> = Vec::new();
+        let mut shared = vec![false; loops.len()];
         for c in 0..self.cells.len() {
             let ids = self.cells.cell(c);
-            if ids.iter().any(|&v| is_marked(v)) && live(c) {
-                for &v in ids.iter().filter(|&&v| is_marked(v)) {
-                    pairs.push((at[v as usize], c as u32));
+            if !(ids.iter().any(|&v| is_marked(v)) && live(c)) {
+                continue;
+            }
+            for &v in ids.iter().filter(|&&v| is_marked(v)) {
+                let mut f = head[v as usize];
+                while f != NONE {
+                    let i = f as usize;
+                    if !shared[i] && loops.get(i).iter().all(|x| ids.contains(x)) {
+                        shared[i] = true;
+                    }
+                    f = next[i];
                 }
             }
         }
-        let mut start = vec![0u32; marked as usize + 1];
-        for &(m, _) in &pairs {
-            start[m as usize + 1] += 1;
-        }
-        for m in 0..marked as usize {
-            start[m + 1] += start[m];
-        }
-        let mut fill = start.clone();
-        let mut cells = vec![0u32; pairs.len()];
-        for &(m, c) in &pairs {
-            cells[fill[m as usize] as usize] = c;
-            fill[m as usize] += 1;
-        }
-        Incident { at, start, cells }
+        shared
     }
 }
 
