@@ -464,7 +464,7 @@ enum Element<'a> {
 }
 
 /// Plane of an element: (point on it, unit outward normal).
-fn element_plane(e: &Element, pos: &dyn Fn(u32) -> P3) -> Option<(P3, P3)> {
+fn element_plane(e: &Element, pos: &impl Fn(u32) -> P3) -> Option<(P3, P3)> {
     let (c, n) = match e {
         Element::Base(ids) => (
             mean(ids.iter().map(|&v| pos(v))),
@@ -480,7 +480,7 @@ fn element_plane(e: &Element, pos: &dyn Fn(u32) -> P3) -> Option<(P3, P3)> {
 }
 
 /// Signed volume of the cone from `p` over an element (positive inside).
-fn cone_volume(e: &Element, p: P3, pos: &dyn Fn(u32) -> P3) -> f64 {
+fn cone_volume(e: &Element, p: P3, pos: &impl Fn(u32) -> P3) -> f64 {
     let tri = |a: P3, b: P3, c: P3| dot(sub(a, p), cross(sub(b, p), sub(c, p))) / 6.0;
     match e {
         Element::Base(ids) => {

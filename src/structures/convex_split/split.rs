@@ -534,7 +534,7 @@ fn boundary_elements<'a>(
 }
 
 /// Volume centroid of the closed boundary `elems` (cones from `vm`).
-fn volume_centroid(elems: &[(usize, Element)], vm: P3, cpos: &dyn Fn(u32) -> P3) -> P3 {
+fn volume_centroid(elems: &[(usize, Element)], vm: P3, cpos: &impl Fn(u32) -> P3) -> P3 {
     let mut vol = 0.0;
     let mut acc = [0.0; 3];
     for (_, e) in elems {
@@ -563,7 +563,7 @@ fn cell_star<'a>(
     ids: &[usize],
     table: &FaceTable,
     points: &[P3],
-    cpos: &(dyn Fn(u32) -> P3 + Sync),
+    cpos: &(impl Fn(u32) -> P3 + Sync),
 ) -> Result<CellStar<'a>, SplitError> {
     let mut elems = boundary_elements(faces, ids, table);
     let mut verts: Vec<u32> = faces.ids.clone();
