@@ -11,6 +11,7 @@ pub mod convex_split;
 pub mod cpgraph;
 mod hex_lanes;
 pub mod polyhedron;
+mod resolve;
 pub mod scgraph;
 
 pub use common::{

@@ -12,8 +12,9 @@ use rayon::prelude::*;
 use super::{CpCounts, CpGraph, EXPLICIT, IjkLayout};
 use crate::grid::{Cells, Grid, Topology};
 use crate::metacell::{Catalog, builtin};
-use crate::structures::cgraph::{NON_VOLUMETRIC, Resolver, classify_and_orient, resolve_cells};
+use crate::structures::cgraph::{NON_VOLUMETRIC, classify_and_orient};
 use crate::structures::convex_split::{SplitMap, SplitPieces};
+use crate::structures::resolve::{Resolver, resolve_cells};
 use crate::structures::{BitSet, CellClass, StructureError, is_sweepable};
 
 /// A multiply-rotate hasher for the stencil table's `[u32; 8]` keys.
@@ -457,17 +458,25 @@ fn resolve_split<'a>(
     let n = map.source.len();
     let conn = cells.connectivity.len() + pieces.connectivity.len();
     let mut r = Resolver::new(n, conn);
-    let mut next = 0;
-    for (o, &src) in map.source.iter().enumerate() {
-        let src = src as usize;
+    let (mut o, mut next) = (0, 0);
+    while o < n {
+        let src = map.source[o] as usize;
         if map.is_split[src] {
             let (t, ids, faces) = (pieces.types[next], pieces.cell(next), pieces.faces_of(next));
-            next += 1;
             r.push(catalog, points, o, t, ids, faces)?;
-        } else {
-            let (t, ids, faces) = (cells.types[src], cells.cell(src), cells.faces_of(src));
-            r.push(catalog, points, o, t, ids, faces)?;
+            (o, next) = (o + 1, next + 1);
+            continue;
         }
+        // A run of cells that are not split (consecutive input cells).
+        let mut end = o + 1;
+        while end < n
+            && map.source[end] as usize == src + (end - o)
+            && !map.is_split[src + (end - o)]
+        {
+            end += 1;
+        }
+        r.push_run(catalog, points, cells, (src, src + end - o), o)?;
+        o = end;
     }
     let (metas, voff, verts) = r.finish();
     Ok((metas, Cow::Owned(voff), Cow::Owned(verts)))
