@@ -100,7 +100,7 @@ impl Resolver {
             by_type: [u16::MAX; 256],
             metas: Vec::with_capacity(n),
             offsets,
-            verts: Vec::with_capacity(conn),
+            verts: crate::mem::huge_vec(conn),
         }
     }
 

@@ -190,7 +190,7 @@ pub(super) fn split_pieces(
     source.extend(done as u32..n as u32);
     let np0 = grid.points.len();
     let (map, new_points) = parts.into_map(source, np0);
-    let mut points = Vec::with_capacity(np0 + new_points.len());
+    let mut points = crate::mem::huge_vec(np0 + new_points.len());
     points.extend_from_slice(&grid.points);
     points.extend_from_slice(&new_points);
     Ok(Some(SplitPieces { cells, points, map }))
