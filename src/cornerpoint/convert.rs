@@ -367,7 +367,7 @@ impl CellArrays {
         CellArrays {
             types: vec![0u8; kept_cells],
             offsets: vec![0u32; kept_cells + 1],
-            connectivity: huge_zeroed(nconn),
+            connectivity: vec![0u32; nconn],
             source: vec![0u32; kept_cells],
             face_offsets: if nfaces > 0 {
                 vec![0u32; kept_cells + 1]
@@ -377,15 +377,6 @@ impl CellArrays {
             face_stream: vec![0u32; nfaces],
         }
     }
-}
-
-/// `n` zeros in a buffer that asks for transparent huge pages
-/// ([`crate::mem::huge_vec`]): the zeros fault it in 2 MB at a time, where
-/// a `vec!` of zeros would be faulted in 4 KiB at a time by the writes.
-fn huge_zeroed<T: Clone + Default>(n: usize) -> Vec<T> {
-    let mut v = crate::mem::huge_vec(n);
-    v.resize(n, T::default());
-    v
 }
 
 /// One IJ row's share of the output arrays (offsets without the leading 0).
@@ -814,7 +805,7 @@ impl CornerPointGrid {
 
     /// World positions of the welded vertices, in parallel over pillars.
     fn points(&self, tr: &[f64; 6], depths: &PillarDepths) -> Vec<[f64; 3]> {
-        let mut points = huge_zeroed(depths.vertices());
+        let mut points = vec![[0.0f64; 3]; depths.vertices()];
         split_at_starts(&mut points, &depths.start)
             .into_par_iter()
             .enumerate()
