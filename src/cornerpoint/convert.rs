@@ -484,7 +484,13 @@ impl CellWriter<'_> {
                 continue;
             }
             let (shape, merged) = self.shapes.at(c, code);
-            let z: [f64; 8] = std::array::from_fn(|q| zc[g.zcorn_index(i, j, k, q)]);
+            // Plain loops rather than `array::from_fn`: whether from_fn's
+            // closures were inlined here depended on how the crate falls
+            // into codegen units (+0.5 G instructions on f100 when not).
+            let mut z = [0.0f64; 8];
+            for (q, zq) in z.iter_mut().enumerate() {
+                *zq = zc[g.zcorn_index(i, j, k, q)];
+            }
             let (bz, bw) = &mut below[i];
             // Bottom corners first: a top corner is then searched from
             // just above the bottom corner on its pillar (usually the next
@@ -497,23 +503,24 @@ impl CellWriter<'_> {
                 }
                 _ => None,
             };
-            let bottom: [u32; 4] = std::array::from_fn(|b| {
+            let mut raw = [0u32; 8];
+            for b in 0..4 {
                 let q = b + 4;
-                match from_prev(q) {
+                raw[q] = match from_prev(q) {
                     Some(v) => v,
                     None if self.reuse_below && bz[b] == z[q].to_bits() => bw[b],
                     None => self.depths.vid(g, zc, [i, j, k], q),
-                }
-            });
-            let top: [u32; 4] = std::array::from_fn(|q| {
-                from_prev(q).unwrap_or_else(|| self.depths.vid_near(g, zc, [i, j, k], q, bottom[q]))
-            });
-            let raw: [u32; 8] = std::array::from_fn(|q| if q < 4 { top[q] } else { bottom[q - 4] });
+                };
+            }
+            for q in 0..4 {
+                raw[q] = from_prev(q)
+                    .unwrap_or_else(|| self.depths.vid_near(g, zc, [i, j, k], q, raw[q + 4]));
+            }
             prev = Some((i, z, raw));
-            (*bz, *bw) = (
-                std::array::from_fn(|q| z[q].to_bits()),
-                std::array::from_fn(|q| raw[q]),
-            );
+            for q in 0..4 {
+                bz[q] = z[q].to_bits();
+                bw[q] = raw[q];
+            }
             let mut w = raw;
             if let (Some(cm), true) = (self.canon, merged || code & CODE_CROSS == 0) {
                 w = w.map(|v| cm[v as usize]);
@@ -709,19 +716,28 @@ impl CornerPointGrid {
                     if !self.is_active(c) {
                         continue;
                     }
-                    let z: [f64; 8] = std::array::from_fn(|q| zcorn[self.zcorn_index(i, j, k, q)]);
-                    let corners: [[f64; 3]; 8] = std::array::from_fn(|q| match prev {
-                        Some((pi, pz, pc))
-                            if pi + 1 == i && q & 1 == 0 && pz[q + 1] == z[q].to_bits() =>
-                        {
-                            pc[q + 1]
-                        }
-                        _ => {
-                            let p = self.pillar_index(i + (q & 1), j + (q >> 1 & 1));
-                            Self::apply_with(identity, tr, self.on_pillar(p, z[q]))
-                        }
-                    });
-                    prev = Some((i, z.map(f64::to_bits), corners));
+                    // Plain loops, not `array::from_fn` (see `write_row`).
+                    let mut z = [0.0f64; 8];
+                    let mut zb = [0u64; 8];
+                    for q in 0..8 {
+                        z[q] = zcorn[self.zcorn_index(i, j, k, q)];
+                        zb[q] = z[q].to_bits();
+                    }
+                    let mut corners = [[0.0f64; 3]; 8];
+                    for q in 0..8 {
+                        corners[q] = match prev {
+                            Some((pi, pz, pc))
+                                if pi + 1 == i && q & 1 == 0 && pz[q + 1] == zb[q] =>
+                            {
+                                pc[q + 1]
+                            }
+                            _ => {
+                                let p = self.pillar_index(i + (q & 1), j + (q >> 1 & 1));
+                                Self::apply_with(identity, tr, self.on_pillar(p, z[q]))
+                            }
+                        };
+                    }
+                    prev = Some((i, zb, corners));
                     let mut ext = 0.0f64;
                     for q in &corners[1..] {
                         for a in 0..3 {

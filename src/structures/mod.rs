@@ -11,6 +11,7 @@ pub mod convex_split;
 pub mod cpgraph;
 mod hex_lanes;
 pub mod polyhedron;
+mod resolve;
 pub mod scgraph;
 
 pub use common::{
@@ -22,7 +23,7 @@ use crate::cellgraph::CellGraph;
 use crate::grid::{Grid, Topology};
 use cgraph::CGraph;
 use ciel::Ciel;
-use convex_split::{Split, SplitMap, split_non_convex_cells};
+use convex_split::{Split, SplitMap, split_non_convex_cells, split_non_convex_pieces};
 use cpgraph::{CpGraph, IjkLayout};
 use scgraph::SCGraph;
 
@@ -104,13 +105,13 @@ impl Structure {
             _ => None,
         };
         if let Some(layout) = cp {
+            // The pieces only: the graph reads the other cells from `grid`.
             let hidden = grid.hidden_cells();
-            let (split_grid, map, h) = split_for_build(grid, hidden)?;
-            let g = split_grid.as_ref().unwrap_or(grid);
+            let split = split_non_convex_pieces(grid, hidden.as_deref())?;
             return Ok(Structure::CpGraph(Box::new(CpGraph::build(
-                g,
-                h.as_deref(),
-                map,
+                grid,
+                hidden.as_deref(),
+                split,
                 layout,
             )?)));
         }

@@ -153,7 +153,9 @@ impl Parser {
             }
             "ZCORN" => {
                 let n = 8 * self.cells(lx, line, kw)?;
-                let mut v = Vec::with_capacity(lx.reserve_hint(n));
+                // The largest array of a deck (64 MB for 10⁶ cells): huge
+                // pages make faulting it in cheaper.
+                let mut v = crate::mem::huge_vec(lx.reserve_hint(n));
                 read_values(lx, kw, line, n, &mut v, None)?;
                 self.zcorn = Some(v);
             }
@@ -214,7 +216,7 @@ impl Parser {
             }
             _ if KNOWN_PROPERTIES.contains(&kw) => {
                 let n = self.cells(lx, line, kw)?;
-                let mut v = Vec::with_capacity(lx.reserve_hint(n));
+                let mut v = crate::mem::huge_vec(lx.reserve_hint(n));
                 read_values(lx, kw, line, n, &mut v, None)?;
                 self.set_property(kw, v);
             }

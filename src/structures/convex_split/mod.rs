@@ -45,7 +45,7 @@ use thiserror::Error;
 use crate::cellgraph::{CellGraph, Lattice, Stamp};
 use crate::extract::EmitContext;
 use crate::field::ScalarField;
-use crate::grid::{Grid, Property};
+use crate::grid::{Cells, Grid, Property};
 use crate::metacell::{Catalog, MAX_META_VERTICES};
 use crate::structures::polyhedron::CONVEXITY_TOLERANCE;
 use split::split_with;
@@ -189,6 +189,20 @@ pub struct SplitGrid {
     /// The split grid.
     pub grid: Grid,
     /// Output → input.
+    pub map: SplitMap,
+}
+
+/// The pieces of a split without the split grid: what the corner-point
+/// graph reads, taking the cells that are not split from the input.
+#[derive(Clone, Debug)]
+pub struct SplitPieces {
+    /// The pieces of the split cells: split cell by split cell, in cell
+    /// order, each cell's pieces as the split grid orders them (output
+    /// cell `o` with `map.is_split[map.source[o]]` is the next piece here).
+    pub cells: Cells,
+    /// The input's points, then the new vertices (the split grid's points).
+    pub points: Vec<P3>,
+    /// Output (split grid) → input.
     pub map: SplitMap,
 }
 
@@ -450,7 +464,7 @@ enum Element<'a> {
 }
 
 /// Plane of an element: (point on it, unit outward normal).
-fn element_plane(e: &Element, pos: &dyn Fn(u32) -> P3) -> Option<(P3, P3)> {
+fn element_plane(e: &Element, pos: &impl Fn(u32) -> P3) -> Option<(P3, P3)> {
     let (c, n) = match e {
         Element::Base(ids) => (
             mean(ids.iter().map(|&v| pos(v))),
@@ -466,7 +480,7 @@ fn element_plane(e: &Element, pos: &dyn Fn(u32) -> P3) -> Option<(P3, P3)> {
 }
 
 /// Signed volume of the cone from `p` over an element (positive inside).
-fn cone_volume(e: &Element, p: P3, pos: &dyn Fn(u32) -> P3) -> f64 {
+fn cone_volume(e: &Element, p: P3, pos: &impl Fn(u32) -> P3) -> f64 {
     let tri = |a: P3, b: P3, c: P3| dot(sub(a, p), cross(sub(b, p), sub(c, p))) / 6.0;
     match e {
         Element::Base(ids) => {
@@ -574,6 +588,16 @@ pub fn split_non_convex_cells(
     hidden: Option<&[bool]>,
 ) -> Result<Option<SplitGrid>, SplitError> {
     split_with(grid, hidden, false)
+}
+
+/// [`split_non_convex_cells`] without the split grid: the pieces only,
+/// the points and the map, so that nothing is copied for the cells that are
+/// not split. `Ok(None)` when there is no non-convex polyhedron.
+pub fn split_non_convex_pieces(
+    grid: &Grid,
+    hidden: Option<&[bool]>,
+) -> Result<Option<SplitPieces>, SplitError> {
+    split::split_pieces(grid, hidden)
 }
 
 /// A point property with values for the new vertices (component-wise means).

@@ -9,9 +9,9 @@ use std::hash::{BuildHasherDefault, Hasher};
 use rayon::prelude::*;
 
 use super::{
-    Element, FacePlan, FaceTable, IdsHasher, SplitError, SplitGrid, SplitMap, SplitReport, Star,
-    canonical_at, canonical_start, cone_volume, ear_clip, element_plane, extend_point_property,
-    face_is_bad, fan_point, gather_tuples, kernel_point,
+    Element, FacePlan, FaceTable, IdsHasher, SplitError, SplitGrid, SplitMap, SplitPieces,
+    SplitReport, Star, canonical_at, canonical_start, cone_volume, ear_clip, element_plane,
+    extend_point_property, face_is_bad, fan_point, gather_tuples, kernel_point,
 };
 use crate::grid::{Cells, Grid, Property, Topology, is_lower_dimensional, vtk_type};
 use crate::structures::is_sweepable;
@@ -97,6 +97,32 @@ impl NewPoints {
     }
 }
 
+/// What a split made, before any output grid: the pieces of the split
+/// cells, the new vertices, which input cells were split and the counts.
+struct Parts<'a> {
+    cells: &'a Cells,
+    pieces: Pieces,
+    new: NewPoints,
+    split: Vec<bool>,
+    report: SplitReport,
+}
+
+impl Parts<'_> {
+    /// The map to the input, with `source` per output cell.
+    fn into_map(self, source: Vec<u32>, np0: usize) -> (SplitMap, Vec<P3>) {
+        let map = SplitMap {
+            source,
+            is_split: self.split,
+            input_points: np0,
+            input_cells: self.cells.len(),
+            mean_offsets: self.new.mean_offsets,
+            mean_ids: self.new.mean_ids,
+            report: self.report,
+        };
+        (map, self.new.points)
+    }
+}
+
 /// [`super::split_non_convex`], with the point and cell data carried over
 /// when `properties` is set.
 pub(super) fn split_with(
@@ -104,6 +130,78 @@ pub(super) fn split_with(
     hidden: Option<&[bool]>,
     properties: bool,
 ) -> Result<Option<SplitGrid>, SplitError> {
+    let Some(parts) = split_parts(grid, hidden)? else {
+        return Ok(None);
+    };
+    let points = &grid.points;
+    let np0 = points.len();
+    let (out, source) = assemble(parts.cells, &parts.pieces)?;
+    let (map, new_points) = parts.into_map(source, np0);
+    let mut all_points = Vec::with_capacity(np0 + new_points.len());
+    all_points.extend_from_slice(points);
+    all_points.extend_from_slice(&new_points);
+    let (point_data, cell_data) = if properties {
+        carry_properties(grid, &map)
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    Ok(Some(SplitGrid {
+        grid: Grid {
+            points: all_points,
+            topology: Topology::Unstructured(out),
+            point_data,
+            cell_data,
+        },
+        map,
+    }))
+}
+
+/// [`super::split_non_convex_pieces`].
+pub(super) fn split_pieces(
+    grid: &Grid,
+    hidden: Option<&[bool]>,
+) -> Result<Option<SplitPieces>, SplitError> {
+    let Some(parts) = split_parts(grid, hidden)? else {
+        return Ok(None);
+    };
+    let (n, split_cells) = (parts.cells.len(), parts.pieces.cells.len());
+    let out_cells = n - split_cells + parts.pieces.types.len();
+    if out_cells >= u32::MAX as usize {
+        return Err(SplitError::TooLarge(format!("{out_cells} cells")));
+    }
+    let mut cells = Cells {
+        types: Vec::with_capacity(parts.pieces.types.len()),
+        offsets: vec![0],
+        connectivity: Vec::with_capacity(parts.pieces.ids.len()),
+        face_offsets: vec![0],
+        face_stream: Vec::new(),
+    };
+    let mut source = Vec::with_capacity(out_cells);
+    let mut done = 0;
+    for i in 0..split_cells {
+        let (c, pieces) = parts.pieces.of(i);
+        source.extend(done as u32..c as u32);
+        for (t, ids) in pieces {
+            push_piece(&mut cells, t, ids);
+            source.push(c as u32);
+        }
+        done = c + 1;
+    }
+    source.extend(done as u32..n as u32);
+    let np0 = grid.points.len();
+    let (map, new_points) = parts.into_map(source, np0);
+    let mut points = crate::mem::huge_vec(np0 + new_points.len());
+    points.extend_from_slice(&grid.points);
+    points.extend_from_slice(&new_points);
+    Ok(Some(SplitPieces { cells, points, map }))
+}
+
+/// The passes of a split up to its pieces (see the module docs); `None`
+/// when there is no non-convex polyhedron.
+fn split_parts<'a>(
+    grid: &'a Grid,
+    hidden: Option<&[bool]>,
+) -> Result<Option<Parts<'a>>, SplitError> {
     let Topology::Unstructured(cells) = &grid.topology else {
         return Ok(None);
     };
@@ -154,7 +252,7 @@ pub(super) fn split_with(
         .zip(face_ids.par_iter())
         .map(|((c, faces), ids)| cell_star(*c, faces, ids, &table, points, &cpos))
         .collect();
-    let pieces_of = cut_cells(&found, stars, np0, &mut new, &mut report)?;
+    let pieces = cut_cells(&found, stars, np0, &mut new, &mut report)?;
     report.new_vertices = new.points.len();
     if np0 + new.points.len() >= u32::MAX as usize / 4 {
         return Err(SplitError::TooLarge(format!(
@@ -162,32 +260,12 @@ pub(super) fn split_with(
             np0 + new.points.len()
         )));
     }
-    let (out, source) = assemble(cells, &pieces_of)?;
-    let mut all_points = Vec::with_capacity(np0 + new.points.len());
-    all_points.extend_from_slice(points);
-    all_points.extend_from_slice(&new.points);
-    let map = SplitMap {
-        source,
-        is_split: split,
-        input_points: np0,
-        input_cells: n,
-        mean_offsets: new.mean_offsets,
-        mean_ids: new.mean_ids,
+    Ok(Some(Parts {
+        cells,
+        pieces,
+        new,
+        split,
         report,
-    };
-    let (point_data, cell_data) = if properties {
-        carry_properties(grid, &map)
-    } else {
-        (Vec::new(), Vec::new())
-    };
-    Ok(Some(SplitGrid {
-        grid: Grid {
-            points: all_points,
-            topology: Topology::Unstructured(out),
-            point_data,
-            cell_data,
-        },
-        map,
     }))
 }
 
@@ -297,28 +375,6 @@ impl Loops {
     }
 }
 
-/// Per marked vertex, the cells that use it (CSR): see
-/// [`PlanContext::incident_to_marked`].
-struct Incident {
-    /// Per point: its marked index, or `u32::MAX`.
-    at: Vec<u32>,
-    /// Per marked index: its first entry in `cells` (marked + 1).
-    start: Vec<u32>,
-    cells: Vec<u32>,
-}
-
-impl Incident {
-    /// The cells using vertex `v` (none when `v` is not marked).
-    fn cells_of(&self, v: u32) -> &[u32] {
-        match self.at.get(v as usize) {
-            Some(&m) if m != u32::MAX => {
-                &self.cells[self.start[m as usize] as usize..self.start[m as usize + 1] as usize]
-            }
-            _ => &[],
-        }
-    }
-}
-
 /// What the face plans read of the input grid.
 struct PlanContext<'a> {
     cells: &'a Cells,
@@ -367,13 +423,7 @@ impl PlanContext<'_> {
                 face_is_bad(&pts)
             })
             .collect();
-        let incident = self.incident_to_marked(&loops, &bad, &table.split_uses);
-        let shared_with_unsplit = |l: &[u32]| {
-            incident.cells_of(l[0]).iter().any(|&c| {
-                let ids = self.cells.cell(c as usize);
-                l.iter().all(|v| ids.contains(v))
-            })
-        };
+        let shared = self.shared_with_unsplit(&loops, &bad, &table.split_uses);
         let np0 = self.points.len();
         for ((c, faces), ids) in found.iter().zip(face_ids) {
             for (fi, &i) in ids.iter().enumerate().take(faces.len()) {
@@ -383,7 +433,7 @@ impl PlanContext<'_> {
                 let l = loops.get(i);
                 let plan = if !bad[i] {
                     FacePlan::Whole
-                } else if table.split_uses[i] == 1 && shared_with_unsplit(l) {
+                } else if table.split_uses[i] == 1 && shared[i] {
                     report.kept_faces += 1;
                     FacePlan::Whole
                 } else {
@@ -405,25 +455,24 @@ impl PlanContext<'_> {
         Ok(())
     }
 
-    /// Per marked vertex (the first vertex of each bad face used by one
-    /// split cell), the live cells that are not split and use it, in cell
-    /// order: the cells that may share such a face. One pass over the
-    /// cells: a bit per point (small enough to stay in cache) picks the
-    /// few cells with a marked vertex, whose (marked vertex, cell) pairs
-    /// are then grouped by a counting sort that keeps the cell order.
-    fn incident_to_marked(&self, loops: &Loops, bad: &[bool], split_uses: &[u8]) -> Incident {
+    /// Per face entry: whether it is a bad face used by one split cell
+    /// whose vertices a live cell that is not split all uses (the cell
+    /// across it may share it). One pass over the cells: a bit per point
+    /// (small enough to stay in cache) marks the first vertex of each such
+    /// face and picks the few cells with a marked vertex; their ids are
+    /// checked against the faces chained at that vertex while in cache
+    /// (rather than listed per vertex and read again at random).
+    fn shared_with_unsplit(&self, loops: &Loops, bad: &[bool], split_uses: &[u8]) -> Vec<bool> {
         const NONE: u32 = u32::MAX;
-        let mut at = vec![NONE; self.points.len()];
+        let mut head = vec![NONE; self.points.len()];
+        let mut next = vec![NONE; loops.len()];
         let mut bits = vec![0u64; self.points.len().div_ceil(64)];
-        let mut marked = 0u32;
         for i in 0..loops.len() {
             if bad[i] && split_uses[i] == 1 {
                 let v = loops.get(i)[0] as usize;
-                if at[v] == NONE {
-                    at[v] = marked;
-                    bits[v / 64] |= 1 << (v % 64);
-                    marked += 1;
-                }
+                next[i] = head[v];
+                head[v] = i as u32;
+                bits[v / 64] |= 1 << (v % 64);
             }
         }
         let live = |c: usize| {
@@ -433,29 +482,24 @@ impl PlanContext<'_> {
             bits.get(v as usize / 64)
                 .is_some_and(|w| w >> (v % 64) & 1 == 1)
         };
-        let mut pairs: Vec<(u32, u32)> = Vec::new();
+        let mut shared = vec![false; loops.len()];
         for c in 0..self.cells.len() {
             let ids = self.cells.cell(c);
-            if ids.iter().any(|&v| is_marked(v)) && live(c) {
-                for &v in ids.iter().filter(|&&v| is_marked(v)) {
-                    pairs.push((at[v as usize], c as u32));
+            if !(ids.iter().any(|&v| is_marked(v)) && live(c)) {
+                continue;
+            }
+            for &v in ids.iter().filter(|&&v| is_marked(v)) {
+                let mut f = head[v as usize];
+                while f != NONE {
+                    let i = f as usize;
+                    if !shared[i] && loops.get(i).iter().all(|x| ids.contains(x)) {
+                        shared[i] = true;
+                    }
+                    f = next[i];
                 }
             }
         }
-        let mut start = vec![0u32; marked as usize + 1];
-        for &(m, _) in &pairs {
-            start[m as usize + 1] += 1;
-        }
-        for m in 0..marked as usize {
-            start[m + 1] += start[m];
-        }
-        let mut fill = start.clone();
-        let mut cells = vec![0u32; pairs.len()];
-        for &(m, c) in &pairs {
-            cells[fill[m as usize] as usize] = c;
-            fill[m as usize] += 1;
-        }
-        Incident { at, start, cells }
+        shared
     }
 }
 
@@ -490,7 +534,7 @@ fn boundary_elements<'a>(
 }
 
 /// Volume centroid of the closed boundary `elems` (cones from `vm`).
-fn volume_centroid(elems: &[(usize, Element)], vm: P3, cpos: &dyn Fn(u32) -> P3) -> P3 {
+fn volume_centroid(elems: &[(usize, Element)], vm: P3, cpos: &impl Fn(u32) -> P3) -> P3 {
     let mut vol = 0.0;
     let mut acc = [0.0; 3];
     for (_, e) in elems {
@@ -519,7 +563,7 @@ fn cell_star<'a>(
     ids: &[usize],
     table: &FaceTable,
     points: &[P3],
-    cpos: &(dyn Fn(u32) -> P3 + Sync),
+    cpos: &(impl Fn(u32) -> P3 + Sync),
 ) -> Result<CellStar<'a>, SplitError> {
     let mut elems = boundary_elements(faces, ids, table);
     let mut verts: Vec<u32> = faces.ids.clone();
@@ -701,17 +745,7 @@ fn assemble(cells: &Cells, pieces_of: &Pieces) -> Result<(Cells, Vec<u32>), Spli
         let (c, pieces) = pieces_of.of(i);
         copy_run(cells, &mut out, &mut source, done, c);
         for (t, ids) in pieces {
-            if t == vtk_type::POLYHEDRON {
-                let (apex, base) = ids.split_last().expect("base and apex");
-                let k = base.len();
-                let mut faces = vec![base.to_vec()];
-                for j in 0..k {
-                    faces.push(vec![base[(j + 1) % k], base[j], *apex]);
-                }
-                out.push_polyhedron(&faces);
-            } else {
-                out.push(t, ids);
-            }
+            push_piece(&mut out, t, ids);
             source.push(c as u32);
         }
         done = c + 1;
@@ -726,6 +760,21 @@ fn assemble(cells: &Cells, pieces_of: &Pieces) -> Result<(Cells, Vec<u32>), Spli
         (out_cells, out_conn, out_stream)
     );
     Ok((out, source))
+}
+
+/// Appends a piece (a polyhedron piece is its base loop, then its apex).
+fn push_piece(out: &mut Cells, t: u8, ids: &[u32]) {
+    if t == vtk_type::POLYHEDRON {
+        let (apex, base) = ids.split_last().expect("base and apex");
+        let k = base.len();
+        let mut faces = vec![base.to_vec()];
+        for j in 0..k {
+            faces.push(vec![base[(j + 1) % k], base[j], *apex]);
+        }
+        out.push_polyhedron(&faces);
+    } else {
+        out.push(t, ids);
+    }
 }
 
 /// The input's point data extended to the new vertices (means) and its

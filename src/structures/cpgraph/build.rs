@@ -10,10 +10,11 @@ use std::hash::{BuildHasherDefault, Hasher};
 use rayon::prelude::*;
 
 use super::{CpCounts, CpGraph, EXPLICIT, IjkLayout};
-use crate::grid::{Grid, Topology};
+use crate::grid::{Cells, Grid, Topology};
 use crate::metacell::{Catalog, builtin};
-use crate::structures::cgraph::{NON_VOLUMETRIC, classify_and_orient, resolve_cells};
-use crate::structures::convex_split::SplitMap;
+use crate::structures::cgraph::{NON_VOLUMETRIC, classify_and_orient};
+use crate::structures::convex_split::{SplitMap, SplitPieces};
+use crate::structures::resolve::{Resolver, resolve_cells};
 use crate::structures::{BitSet, CellClass, StructureError, is_sweepable};
 
 /// A multiply-rotate hasher for the stencil table's `[u32; 8]` keys.
@@ -314,7 +315,7 @@ impl Slots {
             if r.metas[c] != NON_VOLUMETRIC {
                 s.meta_counts[r.metas[c] as usize] += 1;
             }
-            let h = hidden.is_some_and(|h| h.get(c).copied().unwrap_or(false));
+            let h = hidden.is_some_and(|h| h.get(src).copied().unwrap_or(false));
             s.hidden_count += h as usize;
             if !is_sweepable(r.class[c]) || h {
                 continue;
@@ -358,12 +359,14 @@ impl Slots {
 
 impl CpGraph {
     /// Builds the corner-point graph of `grid` (a corner-point grid's zoo
-    /// grid, or its split: then `map` is the split and `layout` describes
-    /// the input cells). `hidden` marks the (split) grid's cells to exclude.
+    /// grid; `layout` describes its cells). With `split`, its non-convex
+    /// polyhedra are replaced by the split's pieces: the cells that are not
+    /// split are read from `grid`, the pieces and the new vertices from
+    /// `split`. `hidden` marks `grid`'s cells to exclude.
     pub fn build(
         grid: &Grid,
         hidden: Option<&[bool]>,
-        map: Option<SplitMap>,
+        split: Option<SplitPieces>,
         layout: &IjkLayout,
     ) -> Result<Self, StructureError> {
         let Topology::Unstructured(cells) = &grid.topology else {
@@ -372,11 +375,18 @@ impl CpGraph {
                 why: "the corner-point graph needs a corner-point grid's cells".into(),
             });
         };
-        let input_cells = map.as_ref().map_or(cells.len(), |m| m.input_cells);
-        let shape = Shape::of(layout, input_cells)?;
+        let shape = Shape::of(layout, cells.len())?;
         let mut catalog = Catalog::new();
-        let (mut metas, voff, verts) = resolve_cells(cells, &grid.points, &mut catalog)?;
-        let class = classify_and_orient(&mut catalog, &mut metas, &voff, &verts, &grid.points)?;
+        let (points, map) = match split {
+            Some(sp) => (Cow::Owned(sp.points), Some((sp.map, sp.cells))),
+            None => (Cow::Borrowed(&grid.points[..]), None),
+        };
+        let (mut metas, voff, verts) = match &map {
+            Some((m, pieces)) => resolve_split(cells, pieces, m, &points, &mut catalog)?,
+            None => resolve_cells(cells, &points, &mut catalog)?,
+        };
+        let class = classify_and_orient(&mut catalog, &mut metas, &voff, &verts, &points)?;
+        let map = map.map(|(m, _)| m);
         let r = Resolved {
             metas,
             voff,
@@ -404,7 +414,7 @@ impl CpGraph {
             ..s.counts
         };
         let mut g = CpGraph {
-            origin: grid.origin(),
+            origin: origin_of(&points),
             positions: Vec::new(),
             catalog,
             dims: layout.dims,
@@ -429,9 +439,47 @@ impl CpGraph {
             counts,
             map,
         };
-        g.positions = grid.rebased_positions();
+        g.positions = rebased(&points, g.origin);
         Ok(g)
     }
+}
+
+/// [`resolve_cells`] of the split grid without building it: output cell
+/// `o` is input cell `map.source[o]`, or the next of the `pieces` when
+/// that cell is split.
+type ResolvedCells<'a> = (Vec<u16>, Cow<'a, [u32]>, Cow<'a, [u32]>);
+fn resolve_split<'a>(
+    cells: &Cells,
+    pieces: &Cells,
+    map: &SplitMap,
+    points: &[[f64; 3]],
+    catalog: &mut Catalog,
+) -> Result<ResolvedCells<'a>, StructureError> {
+    let n = map.source.len();
+    let conn = cells.connectivity.len() + pieces.connectivity.len();
+    let mut r = Resolver::new(n, conn);
+    let (mut o, mut next) = (0, 0);
+    while o < n {
+        let src = map.source[o] as usize;
+        if map.is_split[src] {
+            let (t, ids, faces) = (pieces.types[next], pieces.cell(next), pieces.faces_of(next));
+            r.push(catalog, points, o, t, ids, faces)?;
+            (o, next) = (o + 1, next + 1);
+            continue;
+        }
+        // A run of cells that are not split (consecutive input cells).
+        let mut end = o + 1;
+        while end < n
+            && map.source[end] as usize == src + (end - o)
+            && !map.is_split[src + (end - o)]
+        {
+            end += 1;
+        }
+        r.push_run(catalog, points, cells, (src, src + end - o), o)?;
+        o = end;
+    }
+    let (metas, voff, verts) = r.finish();
+    Ok((metas, Cow::Owned(voff), Cow::Owned(verts)))
 }
 
 /// Per lattice slot, the (split) cell placed there: only read at live
@@ -546,4 +594,31 @@ fn shared_vertices(a: &[u32], b: &[u32]) -> usize {
         return k;
     }
     a.iter().filter(|v| b.contains(v)).count()
+}
+
+/// [`Grid::origin`] of a grid with these points (the bounding-box centre,
+/// the same arithmetic).
+fn origin_of(points: &[[f64; 3]]) -> [f64; 3] {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]))
+}
+
+/// [`Grid::rebased_positions`] of a grid with these points, `o` its origin.
+fn rebased(points: &[[f64; 3]], o: [f64; 3]) -> Vec<[f32; 3]> {
+    let mut out = crate::mem::huge_vec(points.len());
+    out.extend(points.iter().map(|p| {
+        [
+            (p[0] - o[0]) as f32,
+            (p[1] - o[1]) as f32,
+            (p[2] - o[2]) as f32,
+        ]
+    }));
+    out
 }
