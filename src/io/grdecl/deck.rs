@@ -153,9 +153,7 @@ impl Parser {
             }
             "ZCORN" => {
                 let n = 8 * self.cells(lx, line, kw)?;
-                // The largest array of a deck (64 MB for 10⁶ cells): huge
-                // pages make faulting it in cheaper.
-                let mut v = crate::mem::huge_vec(lx.reserve_hint(n));
+                let mut v = Vec::with_capacity(lx.reserve_hint(n));
                 read_values(lx, kw, line, n, &mut v, None)?;
                 self.zcorn = Some(v);
             }
@@ -216,7 +214,7 @@ impl Parser {
             }
             _ if KNOWN_PROPERTIES.contains(&kw) => {
                 let n = self.cells(lx, line, kw)?;
-                let mut v = crate::mem::huge_vec(lx.reserve_hint(n));
+                let mut v = Vec::with_capacity(lx.reserve_hint(n));
                 read_values(lx, kw, line, n, &mut v, None)?;
                 self.set_property(kw, v);
             }
