@@ -22,14 +22,11 @@ use crate::cellgraph::{BitSet, CellGraph};
 use crate::grid::{Grid, Topology, hex_corner_offsets};
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use crate::structures::hex_lanes::{LANES, classify_hexes};
-use crate::structures::resolve::resolve_cells;
+use crate::structures::resolve::{NON_VOLUMETRIC, resolve_cells};
 use crate::structures::{CellClass, StructureError, classify_cell, is_sweepable};
 
 /// "No neighbour" marker.
 pub const NONE: u32 = u32::MAX;
-
-/// Meta id of skipped 0D/1D/2D cells (no vertices, no faces stored).
-pub(crate) const NON_VOLUMETRIC: u16 = u16::MAX;
 
 /// The cellular graph of a zoo grid.
 #[derive(Clone, Debug)]

@@ -7,7 +7,9 @@ use std::borrow::Cow;
 use crate::grid::{Cells, is_lower_dimensional, vtk_type};
 use crate::metacell::{Catalog, MAX_META_VERTICES, VOXEL_TO_HEX};
 use crate::structures::StructureError;
-use crate::structures::cgraph::NON_VOLUMETRIC;
+
+/// Meta id of skipped 0D/1D/2D cells (no vertices, no faces stored).
+pub(crate) const NON_VOLUMETRIC: u16 = u16::MAX;
 
 /// Resolves each cell to a meta-cell id and its local-order vertex ids
 /// (offsets and ids; borrowed from `cells` when every cell is a typed

@@ -12,8 +12,9 @@ use rayon::prelude::*;
 use super::{CpCounts, CpGraph, EXPLICIT, IjkLayout};
 use crate::grid::{Cells, Grid, Topology};
 use crate::metacell::{Catalog, builtin};
-use crate::structures::cgraph::{NON_VOLUMETRIC, classify_and_orient};
+use crate::structures::cgraph::classify_and_orient;
 use crate::structures::convex_split::{SplitMap, SplitPieces};
+use crate::structures::resolve::NON_VOLUMETRIC;
 use crate::structures::resolve::{Resolver, resolve_cells};
 use crate::structures::{BitSet, CellClass, StructureError, is_sweepable};
 
