@@ -445,10 +445,12 @@ impl CpGraph {
     }
 }
 
+/// Meta ids, vertex offsets and vertex ids of resolved cells.
+type ResolvedCells<'a> = (Vec<u16>, Cow<'a, [u32]>, Cow<'a, [u32]>);
+
 /// [`resolve_cells`] of the split grid without building it: output cell
 /// `o` is input cell `map.source[o]`, or the next of the `pieces` when
 /// that cell is split.
-type ResolvedCells<'a> = (Vec<u16>, Cow<'a, [u32]>, Cow<'a, [u32]>);
 fn resolve_split<'a>(
     cells: &Cells,
     pieces: &Cells,
