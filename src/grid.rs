@@ -317,35 +317,17 @@ impl Grid {
 
     /// Axis-aligned bounding box `(min, max)` of the points.
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in &self.points {
-            for a in 0..3 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
-        (lo, hi)
+        bounds_of(&self.points)
     }
 
     /// The f64 origin the sweep structures rebase positions to: the bounding-box centre.
     pub fn origin(&self) -> [f64; 3] {
-        let (lo, hi) = self.bounds();
-        [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]))
+        origin_of(&self.points)
     }
 
     /// Positions as f32 relative to [`Grid::origin`].
     pub fn rebased_positions(&self) -> Vec<[f32; 3]> {
-        let o = self.origin();
-        let mut out = crate::mem::huge_vec(self.points.len());
-        out.extend(self.points.iter().map(|p| {
-            [
-                (p[0] - o[0]) as f32,
-                (p[1] - o[1]) as f32,
-                (p[2] - o[2]) as f32,
-            ]
-        }));
-        out
+        rebased(&self.points, self.origin())
     }
 
     /// Looks up a point property by name.
@@ -552,6 +534,38 @@ fn validate_face_stream(
         )));
     }
     Ok(())
+}
+
+/// Lower and upper corners of the bounding box of `points` (see [`Grid::bounds`]).
+pub fn bounds_of(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (lo, hi)
+}
+
+/// The bounding-box centre of `points` (see [`Grid::origin`]).
+pub fn origin_of(points: &[[f64; 3]]) -> [f64; 3] {
+    let (lo, hi) = bounds_of(points);
+    [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]))
+}
+
+/// `points` as f32 relative to `o` (see [`Grid::rebased_positions`]).
+pub fn rebased(points: &[[f64; 3]], o: [f64; 3]) -> Vec<[f32; 3]> {
+    let mut out = crate::mem::huge_vec(points.len());
+    out.extend(points.iter().map(|p| {
+        [
+            (p[0] - o[0]) as f32,
+            (p[1] - o[1]) as f32,
+            (p[2] - o[2]) as f32,
+        ]
+    }));
+    out
 }
 
 #[cfg(test)]

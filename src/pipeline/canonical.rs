@@ -92,8 +92,10 @@ pub(super) fn canonical_mesh<'a>(
     // Per part: its vertices' output index at this level, once looked up.
     let mut canon: Vec<Vec<u32>> = vec![Vec::new(); parts];
     let mut order: Vec<(u64, u32, u32)> = Vec::new();
+    let mut copies: Vec<Option<&LevelCopy>> = Vec::with_capacity(parts);
     for lv in 0..world.len() {
-        let copies: Vec<Option<&LevelCopy>> = (0..parts).map(|p| levels(p, lv)).collect();
+        copies.clear();
+        copies.extend((0..parts).map(|p| levels(p, lv)));
         order.clear();
         for (p, c) in copies.iter().enumerate() {
             let Some(c) = c else { continue };

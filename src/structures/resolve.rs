@@ -20,11 +20,7 @@ pub(crate) fn resolve_cells<'a>(
     catalog: &mut Catalog,
 ) -> Result<(Vec<u16>, Cow<'a, [u32]>, Cow<'a, [u32]>), StructureError> {
     let n = cells.len();
-    let borrow = cells
-        .types
-        .iter()
-        .all(|&t| t != vtk_type::POLYHEDRON && t != vtk_type::VOXEL && !is_lower_dimensional(t));
-    if !borrow {
+    if !cells.types.iter().all(|&t| keeps_order(t)) {
         let mut r = Resolver::new(n, cells.connectivity.len());
         for c in 0..n {
             r.push(
@@ -54,6 +50,12 @@ pub(crate) fn resolve_cells<'a>(
         Cow::Borrowed(&cells.offsets[..]),
         Cow::Borrowed(&cells.connectivity[..]),
     ))
+}
+
+/// Whether a cell of VTK type `t` resolves to its own ids in their order
+/// (a typed volumetric cell other than a voxel).
+fn keeps_order(t: u8) -> bool {
+    t != vtk_type::POLYHEDRON && t != vtk_type::VOXEL && !is_lower_dimensional(t)
 }
 
 /// The meta-cell of VTK type `t` (cell `c`), looked up once per type.
@@ -161,9 +163,7 @@ impl Resolver {
         (a, b): (usize, usize),
         first: usize,
     ) -> Result<(), StructureError> {
-        let plain =
-            |t: u8| t != vtk_type::POLYHEDRON && t != vtk_type::VOXEL && !is_lower_dimensional(t);
-        if !cells.types[a..b].iter().all(|&t| plain(t)) {
+        if !cells.types[a..b].iter().all(|&t| keeps_order(t)) {
             for c in a..b {
                 let (t, ids, faces) = (cells.types[c], cells.cell(c), cells.faces_of(c));
                 self.push(catalog, points, first + c - a, t, ids, faces)?;
@@ -173,10 +173,7 @@ impl Resolver {
         let off = &cells.offsets;
         for c in a..b {
             let t = cells.types[c];
-            let m = match self.by_type[t as usize] {
-                u16::MAX => type_meta(catalog, &mut self.by_type, first + c - a, t)?,
-                m => m,
-            };
+            let m = type_meta(catalog, &mut self.by_type, first + c - a, t)?;
             if (off[c + 1] - off[c]) as usize != catalog.get(m).nv {
                 return Err(count_mismatch(first + c - a));
             }

@@ -10,7 +10,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 use rayon::prelude::*;
 
 use super::{CpCounts, CpGraph, EXPLICIT, IjkLayout};
-use crate::grid::{Cells, Grid, Topology};
+use crate::grid::{Cells, Grid, Topology, origin_of, rebased};
 use crate::metacell::{Catalog, builtin};
 use crate::structures::cgraph::classify_and_orient;
 use crate::structures::convex_split::{SplitMap, SplitPieces};
@@ -597,31 +597,4 @@ fn shared_vertices(a: &[u32], b: &[u32]) -> usize {
         return k;
     }
     a.iter().filter(|v| b.contains(v)).count()
-}
-
-/// [`Grid::origin`] of a grid with these points (the bounding-box centre,
-/// the same arithmetic).
-fn origin_of(points: &[[f64; 3]]) -> [f64; 3] {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
-    [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]))
-}
-
-/// [`Grid::rebased_positions`] of a grid with these points, `o` its origin.
-fn rebased(points: &[[f64; 3]], o: [f64; 3]) -> Vec<[f32; 3]> {
-    let mut out = crate::mem::huge_vec(points.len());
-    out.extend(points.iter().map(|p| {
-        [
-            (p[0] - o[0]) as f32,
-            (p[1] - o[1]) as f32,
-            (p[2] - o[2]) as f32,
-        ]
-    }));
-    out
 }
