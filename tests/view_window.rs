@@ -2,7 +2,8 @@
 //! --screenshot` equals `render`'s PNG with the same options (mean absolute
 //! difference per channel), `--orbit-bench --json` reports its keys over a
 //! turn that crosses axis cones, `view` without a display says to use
-//! `render`, and `render --legend` changes only the legend's corner.
+//! `render`, and `render --legend` changes only the legend's corner. The
+//! same frame and bench checks run `--headless` (offscreen, no display).
 //!
 //! Window tests need a display (X11 or Wayland) and a GPU adapter; without
 //! either they skip loudly, unless `STRATASWEEP_REQUIRE_DISPLAY=1` (CI,
@@ -74,14 +75,31 @@ fn mad(a: &[u8], b: &[u8]) -> [f64; 4] {
 const SCENE: [&str; 4] = ["--demo", "--slices", "40", "--quiet"];
 const SMALL: [&str; 2] = ["--size", "160x120"];
 
-#[test]
-fn first_frame_equals_render() {
-    if gpu_common::gpu("first_frame_equals_render").is_none()
-        || !display("first_frame_equals_render")
-    {
-        return;
+/// Runs `args` without a display (headless) or as is; panics on failure.
+fn run_view(args: &[&str], headless: bool) -> String {
+    let mut c = bin();
+    c.args(args);
+    if headless {
+        c.arg("--headless")
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY");
     }
-    let (r, v) = (tmp("render.png"), tmp("view.png"));
+    let o = c.output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success(),
+        "{args:?} (headless {headless}) failed: {err}"
+    );
+    String::from_utf8_lossy(&o.stdout).into()
+}
+
+/// `view --frames 1 --screenshot`'s frame equals `render`'s PNG.
+fn check_first_frame(headless: bool) {
+    let tag = if headless { "headless" } else { "window" };
+    let (r, v) = (
+        tmp(&format!("render-{tag}.png")),
+        tmp(&format!("view-{tag}.png")),
+    );
     let z = ["--z-scale", "2"];
     run_ok(
         &[
@@ -93,7 +111,7 @@ fn first_frame_equals_render() {
         ]
         .concat(),
     );
-    run_ok(
+    run_view(
         &[
             &["view"][..],
             &SCENE,
@@ -102,14 +120,15 @@ fn first_frame_equals_render() {
             &["--frames", "1", "--screenshot", v.to_str().unwrap()],
         ]
         .concat(),
+        headless,
     );
     let (a, b) = (rgba(&r), rgba(&v));
     assert_eq!((a.0, a.1), (b.0, b.1));
     let d = mad(&a.2, &b.2);
-    eprintln!("mean absolute difference per channel: {d:?}");
+    eprintln!("{tag}: mean absolute difference per channel: {d:?}");
     assert!(
         d.iter().all(|&x| x <= 0.5),
-        "view's first frame differs from render: {d:?}"
+        "view's first frame ({tag}) differs from render: {d:?}"
     );
     assert!(
         a.2.chunks(4).any(|p| p[0] != 255 || p[1] != 255),
@@ -118,13 +137,26 @@ fn first_frame_equals_render() {
 }
 
 #[test]
-fn orbit_bench_reports_its_keys_over_a_turn() {
-    if gpu_common::gpu("orbit_bench_reports_its_keys").is_none()
-        || !display("orbit_bench_reports_its_keys")
+fn first_frame_equals_render() {
+    if gpu_common::gpu("first_frame_equals_render").is_none()
+        || !display("first_frame_equals_render")
     {
         return;
     }
-    let out = run_ok(
+    check_first_frame(false);
+}
+
+#[test]
+fn headless_first_frame_equals_render_without_a_display() {
+    if gpu_common::gpu("headless_first_frame_equals_render").is_none() {
+        return;
+    }
+    check_first_frame(true);
+}
+
+/// `view --orbit-bench 8 --json` over a turn that crosses axis cones.
+fn check_orbit_bench(headless: bool) {
+    let out = run_view(
         &[
             &["view"][..],
             &SCENE,
@@ -132,6 +164,7 @@ fn orbit_bench_reports_its_keys_over_a_turn() {
             &["--orbit-bench", "8", "--json"],
         ]
         .concat(),
+        headless,
     );
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
     for k in [
@@ -147,6 +180,7 @@ fn orbit_bench_reports_its_keys_over_a_turn() {
         assert!(j.get(k).is_some(), "missing key {k} in {j}");
     }
     assert_eq!(j["frames"], 8);
+    assert_eq!(j["headless"], headless);
     let (p50, p95, max) = (
         j["frame_ms_p50"].as_f64().unwrap(),
         j["frame_ms_p95"].as_f64().unwrap(),
@@ -157,6 +191,36 @@ fn orbit_bench_reports_its_keys_over_a_turn() {
     // cones: at least one re-sweep finishes within the turn.
     assert!(j["resweeps"].as_u64().unwrap() >= 1, "{j}");
     assert!(j["cut_cells_per_frame"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn orbit_bench_reports_its_keys_over_a_turn() {
+    if gpu_common::gpu("orbit_bench_reports_its_keys").is_none()
+        || !display("orbit_bench_reports_its_keys")
+    {
+        return;
+    }
+    check_orbit_bench(false);
+}
+
+#[test]
+fn headless_orbit_bench_reports_its_keys_without_a_display() {
+    if gpu_common::gpu("headless_orbit_bench_reports_its_keys").is_none() {
+        return;
+    }
+    check_orbit_bench(true);
+}
+
+#[test]
+fn headless_without_a_script_is_a_clear_error() {
+    let o = bin()
+        .args(["view", "--demo", "--headless"])
+        .env_remove("DISPLAY")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("--frames N or --orbit-bench N"), "{err}");
 }
 
 #[test]

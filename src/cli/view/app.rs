@@ -20,7 +20,7 @@ use stratasweep::gpu::present::Compositor;
 use stratasweep::gpu::scene::{FrameInfo, Scene};
 
 use super::overlay::{Overlay, read_rgba8};
-use super::panel::{Panel, motion_lod};
+use super::panel::{Action, Panel, motion_lod};
 
 /// What a scripted run does (`--frames`, `--screenshot`, `--orbit-bench`).
 #[derive(Clone, Debug, Default)]
@@ -55,12 +55,27 @@ pub struct Timeline {
     pub stale: Vec<bool>,
 }
 
+/// What draws a frame's present pass, outline and panel into a target of
+/// one format (the window's surface or the headless texture).
+struct FrameParts {
+    compositor: Compositor,
+    overlay: Overlay,
+}
+
+impl FrameParts {
+    fn new(ctx: &GpuContext, format: wgpu::TextureFormat) -> Result<Self> {
+        Ok(FrameParts {
+            compositor: Compositor::new(ctx, format)?,
+            overlay: Overlay::new(ctx, format),
+        })
+    }
+}
+
 struct Gfx {
     window: Arc<Window>,
     surface: wgpu::Surface<'static>,
     config: wgpu::SurfaceConfiguration,
-    compositor: Compositor,
-    overlay: Overlay,
+    parts: FrameParts,
     egui_winit: egui_winit::State,
 }
 
@@ -87,6 +102,8 @@ pub struct App {
     /// The first error (the loop exits on it).
     pub error: Option<anyhow::Error>,
     last_info: Option<FrameInfo>,
+    /// When the application was made (egui's clock when headless).
+    started: Instant,
 }
 
 impl App {
@@ -103,6 +120,7 @@ impl App {
             frame: 0,
             error: None,
             last_info: None,
+            started: Instant::now(),
         }
     }
 
@@ -135,10 +153,9 @@ impl App {
         }
         config.present_mode = wgpu::PresentMode::AutoNoVsync;
         surface.configure(&ctx.device, &config);
-        let compositor = Compositor::new(ctx, config.format)?;
-        let overlay = Overlay::new(ctx, config.format);
+        let parts = FrameParts::new(ctx, config.format)?;
         let egui_winit = egui_winit::State::new(
-            overlay.egui.clone(),
+            parts.overlay.egui.clone(),
             egui::ViewportId::ROOT,
             &window,
             Some(window.scale_factor() as f32),
@@ -150,8 +167,7 @@ impl App {
             window,
             surface,
             config,
-            compositor,
-            overlay,
+            parts,
             egui_winit,
         });
         Ok(())
@@ -170,9 +186,9 @@ impl App {
         }
     }
 
-    /// Draws one frame; returns whether the scripted run is over.
-    fn redraw(&mut self) -> Result<bool> {
-        let t0 = Instant::now();
+    /// Steps a scripted orbit, takes a finished slice build and picks the
+    /// level of detail: the start of every frame.
+    fn begin_frame(&mut self) -> Result<u32> {
         if let (Some(n), true) = (self.script.orbit, self.frame > 0) {
             self.scene
                 .camera
@@ -187,66 +203,49 @@ impl App {
                 .pointer
                 .moved_at
                 .is_some_and(|t| t.elapsed() < Duration::from_millis(250));
-        let lod = if moving && self.panel.motion_lod {
+        Ok(if moving && self.panel.motion_lod {
             motion_lod(self.scene.options.slices)
         } else {
             1
-        };
+        })
+    }
+
+    /// Whether the frame being drawn is a scripted run's last.
+    fn last_frame(&self) -> bool {
+        self.script.total().is_some_and(|n| self.frame + 1 >= n)
+    }
+
+    /// Records the scene, the outline and the panel over `view` (`size`
+    /// pixels) with `parts`, given egui's `input`.
+    fn encode_frame(
+        &mut self,
+        parts: &mut FrameParts,
+        enc: &mut wgpu::CommandEncoder,
+        (view, size): (&wgpu::TextureView, (u32, u32)),
+        input: egui::RawInput,
+        lod: u32,
+    ) -> Result<(FrameInfo, Vec<Action>, egui::PlatformOutput)> {
         let ctx = self.scene.ctx();
-        let Some(g) = &mut self.gfx else {
-            return Ok(false);
-        };
-        let frame = match g.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(t)
-            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
-            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-                g.surface.configure(&ctx.device, &g.config);
-                return Ok(false);
-            }
-            _ => return Ok(false),
-        };
-        let last = self.script.total().is_some_and(|n| self.frame + 1 >= n);
-        let shot = match (&self.script.window_shot, last) {
-            (Some(_), true) => Some(offscreen(ctx, &g.config)),
-            _ => None,
-        };
-        let view = match &shot {
-            Some(t) => t.create_view(&Default::default()),
-            None => frame.texture.create_view(&Default::default()),
-        };
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let info = self.scene.encode(&mut enc, lod)?;
-        g.compositor.encode(
-            ctx,
-            &mut enc,
-            self.scene.target(),
-            &view,
-            self.scene.options.background,
-        );
-        g.compositor.encode_outline(
-            ctx,
-            &mut enc,
-            self.scene.target(),
-            &view,
-            &self.scene.camera,
-        );
-        let input = g.egui_winit.take_egui_input(&g.window);
-        let size = (g.config.width, g.config.height);
+        let info = self.scene.encode(enc, lod)?;
+        let target = self.scene.target();
+        let background = self.scene.options.background;
+        parts.compositor.encode(ctx, enc, target, view, background);
+        parts
+            .compositor
+            .encode_outline(ctx, enc, target, view, &self.scene.camera);
         let panel = &mut self.panel;
         let scene = &self.scene;
         let mut actions = Vec::new();
-        let out = g.overlay.paint(ctx, &mut enc, &view, size, input, |ectx| {
+        let out = parts.overlay.paint(ctx, enc, view, size, input, |ectx| {
             actions = panel.ui(ectx, scene, info);
         });
-        g.egui_winit.handle_platform_output(&g.window, out);
-        ctx.queue.submit([enc.finish()]);
-        g.window.pre_present_notify();
-        ctx.queue.present(frame);
-        ctx.wait()?;
-        if let (Some(t), Some(p)) = (&shot, &self.script.window_shot) {
-            let rgba = read_rgba8(ctx, t)?;
-            write_png(p, size, &rgba)?;
-        }
+        Ok((info, actions, out))
+    }
+
+    /// After the frame's submission and the device's idle: applies the
+    /// panel's actions and records the frame's figures. Returns whether
+    /// the scripted run is over.
+    fn end_frame(&mut self, t0: Instant, info: FrameInfo, actions: Vec<Action>) -> Result<bool> {
         for a in actions {
             self.panel.apply(a, &mut self.scene)?;
         }
@@ -259,6 +258,111 @@ impl App {
         self.last_info = Some(info);
         self.frame += 1;
         Ok(self.script.total().is_some_and(|n| self.frame >= n))
+    }
+
+    /// Draws one frame; returns whether the scripted run is over.
+    fn redraw(&mut self) -> Result<bool> {
+        let t0 = Instant::now();
+        let lod = self.begin_frame()?;
+        let ctx = self.scene.ctx();
+        let Some(mut g) = self.gfx.take() else {
+            return Ok(false);
+        };
+        let r = self.redraw_window(&mut g, ctx, lod);
+        self.gfx = Some(g);
+        match r? {
+            Some((info, actions)) => self.end_frame(t0, info, actions),
+            None => Ok(false),
+        }
+    }
+
+    /// The window's part of [`App::redraw`]: draws into the surface's
+    /// texture (or a readable copy for the window screenshot) and presents.
+    fn redraw_window(
+        &mut self,
+        g: &mut Gfx,
+        ctx: &GpuContext,
+        lod: u32,
+    ) -> Result<Option<(FrameInfo, Vec<Action>)>> {
+        let frame = match g.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                g.surface.configure(&ctx.device, &g.config);
+                return Ok(None);
+            }
+            _ => return Ok(None),
+        };
+        let shot = match (&self.script.window_shot, self.last_frame()) {
+            (Some(_), true) => Some(offscreen(
+                ctx,
+                (g.config.width, g.config.height),
+                g.config.format,
+            )),
+            _ => None,
+        };
+        let view = match &shot {
+            Some(t) => t.create_view(&Default::default()),
+            None => frame.texture.create_view(&Default::default()),
+        };
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let input = g.egui_winit.take_egui_input(&g.window);
+        let size = (g.config.width, g.config.height);
+        let (info, actions, out) =
+            self.encode_frame(&mut g.parts, &mut enc, (&view, size), input, lod)?;
+        g.egui_winit.handle_platform_output(&g.window, out);
+        ctx.queue.submit([enc.finish()]);
+        g.window.pre_present_notify();
+        ctx.queue.present(frame);
+        ctx.wait()?;
+        if let (Some(t), Some(p)) = (&shot, &self.script.window_shot) {
+            let rgba = read_rgba8(ctx, t)?;
+            write_png(p, size, &rgba)?;
+        }
+        Ok(Some((info, actions)))
+    }
+
+    /// Draws the scripted frames without a window (`view --headless`): each
+    /// as the window draws it (scene, outline, panel), into an offscreen
+    /// texture of the window's size, with no present. Writes the
+    /// screenshots the script names.
+    pub fn run_headless(&mut self) -> Result<()> {
+        if self.script.total().is_none() {
+            return Err(anyhow!("--headless needs --frames or --orbit-bench"));
+        }
+        let ctx = self.scene.ctx();
+        let size = self.scene.options.size;
+        let format = wgpu::TextureFormat::Rgba8Unorm;
+        let mut parts = FrameParts::new(ctx, format)?;
+        let tex = offscreen(ctx, size, format);
+        let view = tex.create_view(&Default::default());
+        self.scene.resize(size);
+        let screen =
+            egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(size.0 as f32, size.1 as f32));
+        loop {
+            let t0 = Instant::now();
+            let lod = self.begin_frame()?;
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            let input = egui::RawInput {
+                screen_rect: Some(screen),
+                time: Some(t0.duration_since(self.started).as_secs_f64()),
+                ..Default::default()
+            };
+            let (info, actions, _) =
+                self.encode_frame(&mut parts, &mut enc, (&view, size), input, lod)?;
+            ctx.queue.submit([enc.finish()]);
+            ctx.wait()?;
+            if let (true, Some(p)) = (self.last_frame(), &self.script.window_shot) {
+                write_png(p, size, &read_rgba8(ctx, &tex)?)?;
+            }
+            if self.end_frame(t0, info, actions)? {
+                break;
+            }
+        }
+        if let Some(p) = self.script.screenshot.clone() {
+            self.screenshot(&p)?;
+        }
+        Ok(())
     }
 
     /// Writes the scene target (the last frame's scene, without the panel)
@@ -343,19 +447,24 @@ impl App {
     }
 }
 
-/// An 8-bit texture like the surface's, readable back (window screenshots).
-fn offscreen(ctx: &GpuContext, config: &wgpu::SurfaceConfiguration) -> wgpu::Texture {
+/// An 8-bit render target that can be read back (window screenshots and
+/// headless frames).
+fn offscreen(
+    ctx: &GpuContext,
+    (width, height): (u32, u32),
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
     ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("window shot"),
+        label: Some("offscreen frame"),
         size: wgpu::Extent3d {
-            width: config.width,
-            height: config.height,
+            width,
+            height,
             depth_or_array_layers: 1,
         },
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: config.format,
+        format,
         usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
         view_formats: &[],
     })

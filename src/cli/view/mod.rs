@@ -54,6 +54,11 @@ pub struct ViewArgs {
     /// With --orbit-bench: print JSON.
     #[arg(long, requires = "orbit_bench")]
     json: bool,
+    /// Draw the scripted frames (--frames or --orbit-bench) into an
+    /// offscreen texture instead of a window: no display needed (GPU
+    /// servers); frame times then leave out presenting.
+    #[arg(long)]
+    headless: bool,
 }
 
 /// Fails with a hint to `render` when there is no display to open a window on.
@@ -71,7 +76,12 @@ fn require_display() -> Result<()> {
 
 /// `stratasweep view`.
 pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
-    require_display()?;
+    if a.headless && a.frames.is_none() && a.orbit_bench.is_none() {
+        bail!("--headless draws a scripted run: give --frames N or --orbit-bench N");
+    }
+    if !a.headless {
+        require_display()?;
+    }
     if a.frames == Some(0) || a.orbit_bench == Some(0) {
         bail!("--frames and --orbit-bench need at least 1");
     }
@@ -95,11 +105,15 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
     // input, so the panel's pre-integration switch gets the index-space path.
     let s = Structure::build_with(&grid, StructureChoice::Auto, ijk.as_ref())
         .with_context(|| format!("cannot build a structure for {name}"))?;
-    let event_loop = EventLoop::new().context("cannot start the window event loop")?;
-    let ctx = GpuContext::with_display(
-        || Box::new(event_loop.owned_display_handle()),
-        &crate::cli::device::context_options(&a.scene.adapter),
-    )?;
+    let event_loop = match a.headless {
+        true => None,
+        false => Some(EventLoop::new().context("cannot start the window event loop")?),
+    };
+    let options = crate::cli::device::context_options(&a.scene.adapter);
+    let ctx = match &event_loop {
+        Some(el) => GpuContext::with_display(|| Box::new(el.owned_display_handle()), &options)?,
+        None => GpuContext::new(&options)?,
+    };
     if !quiet {
         eprintln!("GPU adapter: {}", ctx.name);
     }
@@ -137,9 +151,12 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         window_shot: a.window_screenshot.clone(),
     };
     let mut app = App::new(scene, script);
-    event_loop
-        .run_app(&mut app)
-        .context("the window event loop failed")?;
+    match event_loop {
+        Some(el) => el
+            .run_app(&mut app)
+            .context("the window event loop failed")?,
+        None => app.run_headless()?,
+    }
     if let Some(e) = app.error.take() {
         return Err(e);
     }
@@ -147,7 +164,7 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         // A build still running after the last view is waited for, so that
         // its duration is counted.
         app.scene.poll(true)?;
-        report_bench(&app, &name, n, a.json)?;
+        report_bench(&app, &name, n, a.json, a.headless)?;
     } else if let (Some(p), false) = (&a.screenshot, quiet) {
         eprintln!("wrote {}", p.display());
     }
@@ -182,7 +199,7 @@ fn percentile(v: &[f64], p: f64) -> f64 {
     s[i]
 }
 
-fn report_bench(app: &App, name: &str, n: u32, as_json: bool) -> Result<()> {
+fn report_bench(app: &App, name: &str, n: u32, as_json: bool, headless: bool) -> Result<()> {
     let Timeline {
         frame_ms,
         cut_cells,
@@ -217,17 +234,23 @@ fn report_bench(app: &App, name: &str, n: u32, as_json: bool) -> Result<()> {
         "slices": o.slices, "size": [o.size.0, o.size.1], "z_scale": app.scene.z_scale,
         "compute_dispatches": app.scene.dispatches(),
         "adapter": app.scene.ctx().name,
+        "headless": headless,
     });
     if as_json {
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
     }
     println!(
-        "{name}: {} frames over one turn, {} slices, {}x{}; adapter {}",
+        "{name}: {} frames over one turn, {} slices, {}x{}{}; adapter {}",
         frame_ms.len(),
         o.slices,
         o.size.0,
         o.size.1,
+        if headless {
+            " (headless: no present)"
+        } else {
+            ""
+        },
         app.scene.ctx().name
     );
     println!(
