@@ -111,6 +111,24 @@ fn view_change_in_cone_dispatches_nothing_and_axis_change_builds_on_the_worker()
 }
 
 #[test]
+fn dropping_a_scene_mid_build_waits_for_its_worker() {
+    let Some(ctx) = gpu_common::gpu("dropping_a_scene_mid_build_waits_for_its_worker") else {
+        return;
+    };
+    let g = Arc::new(warped([12, 10, 8], 1));
+    let s = Arc::new(Structure::build(&g, StructureChoice::Auto).unwrap());
+    let mut sc = Scene::new(ctx, g.clone(), s, warped_opts(), 1.0, false).unwrap();
+    // The y cone: a build starts on the worker, which holds the grid.
+    sc.camera.orbit(90f32.to_radians(), 0.0);
+    sc.request().unwrap();
+    assert!(sc.building());
+    drop(sc);
+    // A worker still running at process exit crashed NVIDIA's driver: once
+    // the scene is gone, nothing may hold the grid any more.
+    assert_eq!(Arc::strong_count(&g), 1, "the worker outlived its scene");
+}
+
+#[test]
 fn first_image_equals_render_with_z_scale() {
     let Some(ctx) = gpu_common::gpu("first_image_equals_render_with_z_scale") else {
         return;

@@ -38,6 +38,8 @@ struct Pending {
     key: SliceKey,
     rx: Receiver<Result<Built, RenderError>>,
     started: Instant,
+    /// The worker (joined when the scene is dropped mid-build).
+    worker: std::thread::JoinHandle<()>,
 }
 
 /// Counters of the scene's slice builds.
@@ -228,7 +230,7 @@ impl Scene {
             self.structure.clone(),
             want.clone(),
         );
-        std::thread::Builder::new()
+        let worker = std::thread::Builder::new()
             .name("stratasweep-slices".into())
             .spawn(move || {
                 let built = if k.iso {
@@ -243,6 +245,7 @@ impl Scene {
             key: want,
             rx,
             started: Instant::now(),
+            worker,
         });
         Ok(())
     }
@@ -264,6 +267,8 @@ impl Scene {
             };
             let p = self.pending.take().expect("pending");
             let ms = p.started.elapsed().as_secs_f64() * 1e3;
+            // It has sent (or stopped): it only has its captures to drop.
+            let _ = p.worker.join();
             match got {
                 Some(Ok(built)) => {
                     let levels = match built {
@@ -383,6 +388,18 @@ impl Scene {
         ctx.queue.submit([enc.finish()]);
         self.renderer
             .read_image(&self.target, self.options.background)
+    }
+}
+
+impl Drop for Scene {
+    /// Waits for a build in flight: its worker uses the device, and one
+    /// still running when the process exits can crash the driver (a
+    /// segmentation fault after `view --orbit-bench` on NVIDIA's Vulkan
+    /// driver).
+    fn drop(&mut self) {
+        if let Some(p) = self.pending.take() {
+            let _ = p.worker.join();
+        }
     }
 }
 
