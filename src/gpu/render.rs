@@ -711,16 +711,6 @@ pub fn emit_slices<'c>(
     k: &SliceKey,
 ) -> Result<SliceSet<'c>, RenderError> {
     let property = &k.property;
-    let req = SliceRequest {
-        field: k.field.clone(),
-        levels: k.levels.clone(),
-        attribute: property.clone(),
-        threads: rayon::current_num_threads(),
-        brute_force: false,
-        collect_mesh: false,
-        sweep: Default::default(),
-    };
-    let mut p = prepare(grid, s, &req)?;
     // A cell property (no point property of that name) colours
     // each slice polygon flat with its own cell's value.
     let cell_values: Option<Vec<f64>> = match property {
@@ -729,6 +719,21 @@ pub fn emit_slices<'c>(
             .map(|c| (0..c.len()).map(|i| c.scalar_at(i)).collect()),
         _ => None,
     };
+    let req = SliceRequest {
+        field: k.field.clone(),
+        levels: k.levels.clone(),
+        // Cell values replace the per-vertex attribute below: averaging
+        // them to the vertices (a volume per cell) would be thrown away.
+        attribute: match cell_values {
+            Some(_) => None,
+            None => property.clone(),
+        },
+        threads: rayon::current_num_threads(),
+        brute_force: false,
+        collect_mesh: false,
+        sweep: Default::default(),
+    };
+    let mut p = prepare(grid, s, &req)?;
     if let Some(v) = &cell_values {
         p.grid.attr = match s {
             Structure::SCGraph(g) => slot_values(g, v),
