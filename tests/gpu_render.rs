@@ -8,7 +8,7 @@
 mod gpu_common;
 
 use stratasweep::generate::warped;
-use stratasweep::gpu::render::{Mode, RenderOptions, Renderer, Transfer};
+use stratasweep::gpu::render::{CellFinding, Mode, RenderOptions, Renderer, Transfer};
 use stratasweep::grid::{Grid, Property, Topology};
 use stratasweep::structures::{Structure, StructureChoice};
 
@@ -538,5 +538,94 @@ fn a_renderer_reused_for_another_grid_draws_that_grid() {
             .rgba8();
         assert_ne!(reused, first, "{what}: the first grid's image");
         assert_eq!(reused, fresh, "{what}: differs from a fresh renderer's");
+    }
+}
+
+/// GPU span-space binning (`CellFinding::Gpu`) finds the cut cells the CPU
+/// sweep finds: the same pictures on the lattice, the CP-Graph (cell
+/// property: flat colours, and iso) and the CGraph, and the binning really
+/// ran (two more dispatches per slice set).
+#[test]
+fn gpu_binned_cells_render_as_the_sweep() {
+    let Some(ctx) = gpu_common::gpu("gpu_binned_cells_render_as_the_sweep") else {
+        return;
+    };
+    let cp = stratasweep::generate::faulted([14, 11, 7], 3, 4);
+    let dims = cp.dims;
+    let (faulted, rep) = cp.into_grid().unwrap();
+    let layout = stratasweep::structures::cpgraph::IjkLayout {
+        dims,
+        source_cell: rep.source_cell,
+    };
+    let lattice = warped([12, 10, 8], 1);
+    let cases = [
+        (
+            "lattice",
+            &lattice,
+            Structure::build(&lattice, StructureChoice::Auto).unwrap(),
+            None,
+        ),
+        (
+            "cp-graph",
+            &faulted,
+            Structure::build_with(&faulted, StructureChoice::Auto, Some(&layout)).unwrap(),
+            Some("PORO"),
+        ),
+        (
+            "cgraph",
+            &faulted,
+            Structure::build(&faulted, StructureChoice::CGraph).unwrap(),
+            Some("PORO"),
+        ),
+    ];
+    for (name, grid, s, property) in &cases {
+        for (mode, iso) in [(Mode::Volume, vec![]), (Mode::Iso, vec![0.2])] {
+            if mode == Mode::Iso && property.is_none() {
+                continue;
+            }
+            let o = RenderOptions {
+                property: property.map(String::from),
+                slices: 40,
+                view_dir: [0.5, 0.4, -0.77],
+                size: (96, 72),
+                mode,
+                iso,
+                ..Default::default()
+            };
+            let mut images = Vec::new();
+            let mut dispatches = Vec::new();
+            for cells in [CellFinding::Sweep, CellFinding::Gpu] {
+                let mut r = Renderer::new(ctx).unwrap();
+                let o = RenderOptions { cells, ..o.clone() };
+                images.push(r.render(grid, s, &o).unwrap().rgba8());
+                dispatches.push(r.dispatches());
+            }
+            let (a, b) = (&images[0], &images[1]);
+            let drawn = a.chunks(4).filter(|p| p[3] > 0).count();
+            assert!(drawn > 500, "{name} {mode:?}: {drawn} pixels drawn");
+            let px = a.len() / 4;
+            let differ = (0..px)
+                .filter(|&i| a[4 * i..][..4] != b[4 * i..][..4])
+                .count();
+            let worst = a
+                .iter()
+                .zip(b)
+                .map(|(x, y)| x.abs_diff(*y))
+                .max()
+                .unwrap_or(0);
+            eprintln!(
+                "{name} {mode:?}: {differ} of {px} pixels differ (at most {worst} levels), \
+                 dispatches {dispatches:?}"
+            );
+            assert!(
+                differ * 100 <= px,
+                "{name} {mode:?}: {differ} of {px} pixels differ"
+            );
+            assert_eq!(
+                dispatches[1],
+                dispatches[0] + 2,
+                "{name} {mode:?}: the binning did not run"
+            );
+        }
     }
 }

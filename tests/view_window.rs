@@ -93,9 +93,14 @@ fn run_view(args: &[&str], headless: bool) -> String {
     String::from_utf8_lossy(&o.stdout).into()
 }
 
-/// `view --frames 1 --screenshot`'s frame equals `render`'s PNG.
-fn check_first_frame(headless: bool) {
-    let tag = if headless { "headless" } else { "window" };
+/// `view --frames 1 --screenshot`'s frame (with `extra` options) equals
+/// `render`'s PNG.
+fn check_first_frame(headless: bool, extra: &[&str]) {
+    let tag = match (headless, extra.is_empty()) {
+        (false, _) => "window",
+        (true, true) => "headless",
+        (true, false) => "headless-extra",
+    };
     let (r, v) = (
         tmp(&format!("render-{tag}.png")),
         tmp(&format!("view-{tag}.png")),
@@ -117,6 +122,7 @@ fn check_first_frame(headless: bool) {
             &SCENE,
             &SMALL,
             &z,
+            extra,
             &["--frames", "1", "--screenshot", v.to_str().unwrap()],
         ]
         .concat(),
@@ -143,7 +149,7 @@ fn first_frame_equals_render() {
     {
         return;
     }
-    check_first_frame(false);
+    check_first_frame(false, &[]);
 }
 
 #[test]
@@ -151,7 +157,15 @@ fn headless_first_frame_equals_render_without_a_display() {
     if gpu_common::gpu("headless_first_frame_equals_render").is_none() {
         return;
     }
-    check_first_frame(true);
+    check_first_frame(true, &[]);
+}
+
+#[test]
+fn gpu_binned_first_frame_equals_the_swept_render() {
+    if gpu_common::gpu("gpu_binned_first_frame_equals_the_swept_render").is_none() {
+        return;
+    }
+    check_first_frame(true, &["--cells", "gpu"]);
 }
 
 /// `view --orbit-bench 8 --json` over a turn that crosses axis cones.

@@ -42,7 +42,11 @@ pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
         .then(|| Named::new("the transfer function", &a.scene.transfer));
     outputs.check_before(a.input.grid.as_deref(), transfer_file.as_slice())?;
     cli_checks::output_ext("-o", &a.output, &["png"])?;
-    let o = a.scene.options()?;
+    let mut o = a.scene.options()?;
+    if a.scene.cells.is_none() {
+        // The same PNG bits on every run (see `--cells`).
+        o.cells = stratasweep::gpu::render::CellFinding::Sweep;
+    }
     if let Some(t) = &o.transfer {
         super::render_checks::check_transfer(t)
             .with_context(|| format!("in {}", a.scene.transfer))?;

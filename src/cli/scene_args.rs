@@ -6,7 +6,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 
 use stratasweep::gpu::camera::default_z_scale;
-use stratasweep::gpu::render::{Mode, RenderOptions, Transfer};
+use stratasweep::gpu::render::{CellFinding, Mode, RenderOptions, Transfer};
 use stratasweep::grid::Grid;
 
 use super::parse_triplet;
@@ -29,6 +29,17 @@ pub enum ModeArg {
     Slices,
     /// Opaque lit isosurfaces.
     Iso,
+}
+
+/// `--cells`.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum CellsArg {
+    /// GPU binning on hardware GPUs, the CPU sweep on software rasterizers.
+    Auto,
+    /// The CPU's incremental sweep.
+    Sweep,
+    /// Span-space binning on the GPU.
+    Gpu,
 }
 
 /// Options shared by `render` and `view`.
@@ -80,6 +91,14 @@ pub struct SceneArgs {
     /// Adapter name (substring); `WGPU_BACKEND` picks backends.
     #[arg(long)]
     pub adapter: Option<String>,
+    /// How the cut cells of the slices are found: the CPU sweep, span-space
+    /// binning on the GPU, or auto (the GPU unless it is a software
+    /// rasterizer such as llvmpipe). Default: auto for `view`; the sweep for
+    /// `render`, whose PNG is then the same bits on every run (binning
+    /// orders a level's polygons by GPU atomics, which changes the blending
+    /// where polygons of one level overlap, along faults).
+    #[arg(long, value_enum)]
+    pub cells: Option<CellsArg>,
 }
 
 /// `--size WxH`, each side at most [`crate::cli::checks::MAX_IMAGE_SIDE`].
@@ -163,6 +182,11 @@ impl SceneArgs {
             size,
             mode,
             iso: self.iso.clone(),
+            cells: match self.cells {
+                None | Some(CellsArg::Auto) => CellFinding::Auto,
+                Some(CellsArg::Sweep) => CellFinding::Sweep,
+                Some(CellsArg::Gpu) => CellFinding::Gpu,
+            },
         })
     }
 

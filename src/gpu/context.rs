@@ -287,6 +287,11 @@ impl GpuContext {
         })
     }
 
+    /// Whether the adapter is a software rasterizer (llvmpipe, WARP).
+    pub fn is_software(&self) -> bool {
+        self.adapter.get_info().device_type == wgpu::DeviceType::Cpu
+    }
+
     /// Waits for all submitted work, then reports any uncaptured error.
     pub fn wait(&self) -> Result<(), GpuError> {
         self.device

@@ -31,7 +31,7 @@ use super::gradient::vertex_gradients;
 use super::ijk_field::IjkField;
 use super::pre_pass::{BoundaryMesh, PrePipeline};
 use super::shaders;
-use super::slice::prepare;
+use super::slice::{prepare, prepare_unswept};
 use super::tables::slot_values;
 
 /// Entries of the transfer-function lookup table (`LUT_SIZE` in `wgsl/render.wgsl`).
@@ -204,6 +204,23 @@ pub struct RenderOptions {
     pub mode: Mode,
     /// Isovalues (iso mode).
     pub iso: Vec<f64>,
+    /// How the cut cells of the slices are found.
+    pub cells: CellFinding,
+}
+
+/// How the cut cells of the slices are found before the GPU emits them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CellFinding {
+    /// GPU binning on hardware GPUs, the CPU sweep on software ones
+    /// (llvmpipe), where the sweep is faster.
+    #[default]
+    Auto,
+    /// The CPU sweep (the paper's incremental sweep).
+    Sweep,
+    /// Span-space binning of every live cell on the GPU; the sweep still
+    /// serves IJK clips, grids split into parts and frames over the
+    /// device's limits.
+    Gpu,
 }
 
 impl Default for RenderOptions {
@@ -221,6 +238,7 @@ impl Default for RenderOptions {
             size: (800, 600),
             mode: Mode::Volume,
             iso: Vec::new(),
+            cells: CellFinding::Auto,
         }
     }
 }
@@ -325,6 +343,8 @@ pub struct SliceKey {
     /// IJK clipping: only cells with `lo ≤ i < hi` (and j, k) are drawn
     /// (IJK grids).
     pub clip: Option<[[usize; 2]; 3]>,
+    /// How the cut cells are found (the slices are the same either way).
+    pub cells: CellFinding,
 }
 
 impl SliceKey {
@@ -410,6 +430,7 @@ pub fn slice_key(grid: &Grid, o: &RenderOptions, axis: usize) -> Result<SliceKey
         axis,
         attr_gradient: false,
         clip: None,
+        cells: o.cells,
     })
 }
 
@@ -733,7 +754,16 @@ pub fn emit_slices<'c>(
         collect_mesh: false,
         sweep: Default::default(),
     };
-    let mut p = prepare(grid, s, &req)?;
+    let span = k.clip.is_none()
+        && match k.cells {
+            CellFinding::Auto => !ctx.is_software(),
+            CellFinding::Sweep => false,
+            CellFinding::Gpu => true,
+        };
+    let mut p = match span {
+        true => prepare_unswept(grid, s, &req)?,
+        false => prepare(grid, s, &req)?,
+    };
     if let Some(v) = &cell_values {
         p.grid.attr = match s {
             Structure::SCGraph(g) => slot_values(g, v),
@@ -792,16 +822,30 @@ pub fn emit_slices<'c>(
         }
     };
     let range = shown_range(grid, s, property, cell_values.as_deref(), &p.level_values)?;
-    if let Some(c) = k.clip {
-        clip_entries(s, c, &mut p.frame.entries)?;
-    }
-    let cut_cells = p.frame.entries.len() as u64;
     let levels = p.level_values.len() as u32;
     let base = GpuEmitter::new(ctx, p.grid)?;
-    let chunks = emit_chunked(&base, &p.frame, false)?
-        .into_iter()
-        .map(|c| c.0)
-        .collect();
+    let binned = match span {
+        true => span_space(&base, &p.frame.levels)?,
+        false => None,
+    };
+    let (chunks, cut_cells) = match binned {
+        Some(done) => done,
+        None => {
+            let mut frame = match span {
+                // The binning does not fit: the sweep's frame after all.
+                true => prepare(grid, s, &req)?.frame,
+                false => p.frame,
+            };
+            if let Some(c) = k.clip {
+                clip_entries(s, c, &mut frame.entries)?;
+            }
+            let chunks = emit_chunked(&base, &frame, false)?;
+            (
+                chunks.into_iter().map(|c| c.0).collect(),
+                frame.entries.len() as u64,
+            )
+        }
+    };
     Ok(SliceSet {
         chunks,
         spacing,
@@ -818,6 +862,21 @@ pub fn emit_slices<'c>(
         field,
         field_fallback,
     })
+}
+
+/// Every level of `levels` emitted after GPU span-space binning, in one
+/// emitter, with the number of cut cells; `None` when that does not fit (a
+/// grid split into parts, a frame over the device's limits).
+fn span_space<'c>(
+    base: &GpuEmitter<'c>,
+    levels: &[f32],
+) -> Result<Option<(Vec<GpuEmitter<'c>>, u64)>, GpuError> {
+    let mut e = base.fork();
+    match e.run_span(levels, false) {
+        Ok(n) => Ok(Some((vec![e], n as u64))),
+        Err(GpuError::FrameTooLarge { .. } | GpuError::Unsupported { .. }) => Ok(None),
+        Err(err) => Err(err),
+    }
 }
 
 /// Keeps the cut cells inside the IJK box `c` (S-CGraph grids only).

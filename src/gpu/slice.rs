@@ -52,6 +52,25 @@ pub struct Prepared {
 /// Binds the field as [`crate::pipeline::slice`] does, places the levels,
 /// runs the CPU sweep for the active cells and builds the buffers.
 pub fn prepare(grid: &Grid, s: &Structure, req: &SliceRequest) -> Result<Prepared, PipelineError> {
+    prepare_with(grid, s, req, true)
+}
+
+/// As [`prepare`] without the CPU sweep: the frame has its levels and no
+/// entries, for GPU span-space binning ([`GpuEmitter::run_span`]).
+pub fn prepare_unswept(
+    grid: &Grid,
+    s: &Structure,
+    req: &SliceRequest,
+) -> Result<Prepared, PipelineError> {
+    prepare_with(grid, s, req, false)
+}
+
+fn prepare_with(
+    grid: &Grid,
+    s: &Structure,
+    req: &SliceRequest,
+    sweep: bool,
+) -> Result<Prepared, PipelineError> {
     let b = bind(grid, s, req)?;
     let (f, attribute) = (b.field(), b.attribute.as_deref());
     let (axis_slot, offset) = (b.axis_slot, b.world_offset);
@@ -61,7 +80,7 @@ pub fn prepare(grid: &Grid, s: &Structure, req: &SliceRequest) -> Result<Prepare
             &f,
             axis_slot,
             offset,
-            req,
+            (req, sweep),
             attribute,
             GridBuffers::scgraph,
         ),
@@ -70,7 +89,7 @@ pub fn prepare(grid: &Grid, s: &Structure, req: &SliceRequest) -> Result<Prepare
             &f,
             axis_slot,
             offset,
-            req,
+            (req, sweep),
             attribute,
             GridBuffers::cgraph,
         ),
@@ -79,7 +98,7 @@ pub fn prepare(grid: &Grid, s: &Structure, req: &SliceRequest) -> Result<Prepare
             &f,
             axis_slot,
             offset,
-            req,
+            (req, sweep),
             attribute,
             GridBuffers::cgraph,
         ),
@@ -121,13 +140,23 @@ fn finish<G: CellGraph, F: ScalarField>(
     f: &F,
     axis_slot: Option<usize>,
     world_offset: f64,
-    req: &SliceRequest,
+    (req, sweep): (&SliceRequest, bool),
     attribute: Option<&[f32]>,
     build: impl Fn(&G, &F, Option<&[f32]>) -> GridBuffers,
 ) -> Result<Prepared, PipelineError> {
     let (world, levels) = place_levels(live_range(g, f), world_offset, &req.levels)?;
     let t = Instant::now();
-    let (frame, cpu_stats) = sweep_frame(g, f, axis_slot, &levels, req.threads);
+    let (frame, cpu_stats) = match sweep {
+        true => sweep_frame(g, f, axis_slot, &levels, req.threads),
+        false => (
+            Frame {
+                visited: vec![0; levels.len()],
+                levels,
+                entries: Vec::new(),
+            },
+            Vec::new(),
+        ),
+    };
     let sweep_s = t.elapsed().as_secs_f64();
     Ok(Prepared {
         grid: build(g, f, attribute),

@@ -8,7 +8,7 @@ use numpy::ndarray::Array3;
 use pyo3::prelude::*;
 
 use crate::gpu::context::{ContextOptions, GpuContext};
-use crate::gpu::render::{Mode, RenderError, RenderOptions, Renderer, Transfer};
+use crate::gpu::render::{CellFinding, Mode, RenderError, RenderOptions, Renderer, Transfer};
 use crate::structures::StructureChoice;
 
 use super::data::GridData;
@@ -206,6 +206,8 @@ pub fn render<'py>(
         size: a.size,
         mode,
         iso: a.iso,
+        // The same image bits on every run, as the CLI's `render`.
+        cells: CellFinding::Sweep,
     };
     let adapter = adapter_for(&a.device, a.adapter)?;
     let d = data.clone();
