@@ -76,6 +76,7 @@ run() {
   }
   ob --demo
   ob /tmp/f200.grdecl --slices 200
+  ob /tmp/f200.grdecl --slices 200 --cells sweep
   ob /tmp/f200.grdecl --slices 500
   ob /tmp/f200.grdecl --slices 50 --preintegrated
   ob /tmp/f200.grdecl --slices 200 --size 1920x1080
