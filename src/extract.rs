@@ -279,6 +279,13 @@ impl LevelMesh {
     pub(crate) fn reserve_corners(&mut self, n: usize) {
         self.weld.reserve(n, &self.edge_keys);
     }
+    /// The hash map that welds the corners by grid edge (for writers that
+    /// append past the vectors' lengths, such as
+    /// the sweep's `HexWriter`).
+    #[inline(always)]
+    pub(crate) fn edge_map(&mut self) -> &mut EdgeMap {
+        &mut self.weld
+    }
     /// Closes the polygon begun at `start` (from [`LevelMesh::begin_polygon`])
     /// with source cell `slot`.
     #[inline(always)]

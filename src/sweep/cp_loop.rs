@@ -29,7 +29,7 @@
 use super::cp_table::CodeTable;
 use super::cp_weld::{CpWeld, CutCell, RowCell};
 use super::lattice::writer::HexWriter;
-use super::lattice::{LatticeQueues, code8, last_cut_level, pack_active, queue_at_entry, set_bit};
+use super::lattice::{LatticeQueues, code8, pack_active, set_bit};
 use super::{Block, BlockInput, LevelStats, PREFETCH_AHEAD, radix_sort_by_slot, radix_sort_slots};
 use crate::cellgraph::CellGraph;
 use crate::extract::{EmitContext, LevelMesh, code_of, prefetch};
@@ -84,6 +84,8 @@ struct CpSweep<'a, F> {
     len: u32,
     /// Rows of the meta-cells the emitter tables.
     table: CodeTable,
+    /// The levels, then [`LEVEL_WINDOW`] NaNs (see [`next_above`]).
+    padded: Vec<f32>,
 }
 
 /// The active list and its per-level buffers.
@@ -104,21 +106,32 @@ impl Active {
         let out = &mut self.scratch;
         out.clear();
         out.reserve(self.cuts.len() + self.fresh.len());
-        let mut f = self.fresh.iter().copied().peekable();
-        for &a in &self.cuts {
-            if a.last() < k {
-                continue;
+        let fresh = &self.fresh[..];
+        let mut j = 0;
+        // The key of the next fresh cell (none: above every key).
+        let key_at = |j: usize| fresh.get(j).map_or(u64::MAX, |b: &Cut| b.key);
+        let mut next = key_at(0);
+        let dst = out.as_mut_ptr();
+        let mut n = 0;
+        for a in &self.cuts {
+            while next < a.key {
+                // SAFETY: at most `cuts.len() + fresh.len()` records are
+                // kept, and each write goes at `n`, below that (reserved).
+                unsafe { dst.add(n).write(fresh[j]) };
+                n += 1;
+                j += 1;
+                next = key_at(j);
             }
-            while let Some(&b) = f.peek() {
-                if b.key > a.key {
-                    break;
-                }
-                out.push(b);
-                f.next();
-            }
-            out.push(a);
+            // Written whether kept or not (no branch): a dropped record is
+            // overwritten by the next.
+            // SAFETY: as above (`n` counts the records kept so far, and
+            // this one is still to come in that bound).
+            unsafe { dst.add(n).write(*a) };
+            n += (a.last() >= k) as usize;
         }
-        out.extend(f);
+        // SAFETY: the first `n` records were written.
+        unsafe { out.set_len(n) };
+        out.extend_from_slice(&fresh[j..]);
         std::mem::swap(&mut self.cuts, out);
     }
 }
@@ -149,6 +162,11 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
         table: CodeTable::new(g.catalog(), |id| {
             g.meta_counts.get(id).is_some_and(|&n| n > 0)
         }),
+        padded: levels
+            .iter()
+            .copied()
+            .chain([f32::NAN; LEVEL_WINDOW])
+            .collect(),
     };
     let Block {
         stamps,
@@ -198,7 +216,6 @@ impl<F: ScalarField> CpSweep<'_, F> {
         let t = levels[k];
         let LatticeQueues { entering, seen, .. } = q;
         let mut ids = [0u32; MAX_META_VERTICES];
-        let mut nb_ids = [0u32; MAX_META_VERTICES];
         let phi_values = f.values();
         let mut i = 0;
         while i < work.len() {
@@ -223,39 +240,49 @@ impl<F: ScalarField> CpSweep<'_, F> {
             }
             i += 1;
             let (m, nv) = g.cell(c, &mut ids);
-            let mut cut = Cut {
-                meta: m,
-                n: nv as u16,
-                ..Default::default()
-            };
-            let mut hi = f32::NEG_INFINITY;
-            for (l, &v) in ids[..nv].iter().enumerate() {
-                let p = f.phi(v);
-                hi = hi.max(p);
-                if l < CUT_VERTICES {
-                    cut.ids[l] = v;
-                    cut.phi[l] = p;
-                }
-            }
+            let (mut cut, hi) = read_cut(f, m, &ids, nv);
             if t <= hi {
-                cut.key = pack_active(c, last_cut_level(levels, k, hi));
+                // The last level that cuts it: the last at or below hi.
+                let last = next_above(&self.padded, k, hi) - 1;
+                cut.key = pack_active(c, last);
                 fresh.push(cut);
             }
-            g.for_each_neighbour(c, |nb| {
-                let j = nb.wrapping_sub(self.start);
-                if j < self.len && set_bit(seen, j) {
-                    let lo = match self.lows {
-                        Some(lows) => lows[j as usize],
-                        None => {
-                            let (_, nn) = g.cell(nb, &mut nb_ids);
-                            nb_ids[..nn]
-                                .iter()
-                                .fold(f32::INFINITY, |lo, &v| lo.min(f.phi(v)))
+            // The linked neighbours in `for_each_neighbour`'s order,
+            // unrolled: each direction's branches (linked, seen) are
+            // predicted on their own.
+            let links = g.link_bits(c);
+            let [di, dj, dk] = g.deltas;
+            macro_rules! visit {
+                ($bit:expr, $nb:expr) => {
+                    if links & (1 << $bit) != 0 {
+                        let nb: u32 = $nb;
+                        let j = nb.wrapping_sub(self.start);
+                        if j < self.len && set_bit(seen, j) {
+                            let lo = match self.lows {
+                                Some(lows) => lows[j as usize],
+                                None => decoded_lo(g, f, nb),
+                            };
+                            // This step when lo is below level k, else the
+                            // first later level above lo (none past the
+                            // last).
+                            if lo < t {
+                                work.push(nb);
+                            } else {
+                                let l = next_above(&self.padded, k, lo);
+                                if l < levels.len() {
+                                    entering[l].push(nb);
+                                }
+                            }
                         }
-                    };
-                    queue_at_entry(nb, lo, levels, k, work, entering);
-                }
-            });
+                    }
+                };
+            }
+            visit!(0, c - di);
+            visit!(1, c + di);
+            visit!(2, c - dj);
+            visit!(3, c + dj);
+            visit!(4, c - dk);
+            visit!(5, c + dk);
         }
     }
 
@@ -334,22 +361,96 @@ impl<F: ScalarField> CpSweep<'_, F> {
     }
 }
 
+/// The smallest φ of the vertices of cell `nb`, decoded (when the minima
+/// search kept no `lo` per cell).
+#[inline(never)]
+fn decoded_lo<F: ScalarField>(g: &CpGraph, f: &F, nb: u32) -> f32 {
+    let mut ids = [0u32; MAX_META_VERTICES];
+    let (_, n) = g.cell(nb, &mut ids);
+    ids[..n]
+        .iter()
+        .fold(f32::INFINITY, |lo, &v| lo.min(f.phi(v)))
+}
+
+/// Levels [`next_above`] compares at a time, without a branch.
+const LEVEL_WINDOW: usize = 4;
+
+/// The first level index after `k` whose level is above `x` (the level
+/// count when none), for strictly increasing levels given as `padded`:
+/// them, then [`LEVEL_WINDOW`] NaNs (never at or below anything). The
+/// levels at or below `x` are a prefix of each window, so counting them
+/// moves as a loop over the levels would, with one well-predicted branch
+/// per window instead of one per level (a cell spans a few levels, and the
+/// loop's exit mispredicted about once per cell).
+#[inline(always)]
+fn next_above(padded: &[f32], k: usize, x: f32) -> usize {
+    let mut l = k + 1;
+    loop {
+        let w = &padded[l..l + LEVEL_WINDOW];
+        let c: usize = w.iter().map(|&level| (level <= x) as usize).sum();
+        l += c;
+        if c < LEVEL_WINDOW {
+            return l;
+        }
+    }
+}
+
+/// The [`Cut`] record (key 0) of a cell of meta-cell `m` with the `nv`
+/// vertex ids `ids`, and its largest φ. Eight vertices (hexahedra, the
+/// common case) take a fixed-size path that the compiler unrolls.
+#[inline(always)]
+fn read_cut<F: ScalarField>(
+    f: &F,
+    m: u16,
+    ids: &[u32; MAX_META_VERTICES],
+    nv: usize,
+) -> (Cut, f32) {
+    let mut cut = Cut {
+        meta: m,
+        n: nv as u16,
+        ..Default::default()
+    };
+    let mut hi = f32::NEG_INFINITY;
+    if nv == CUT_VERTICES {
+        let mut head = [0u32; CUT_VERTICES];
+        head.copy_from_slice(&ids[..CUT_VERTICES]);
+        cut.ids = head;
+        cut.phi = head.map(|v| f.phi(v));
+        for p in cut.phi {
+            hi = hi.max(p);
+        }
+        return (cut, hi);
+    }
+    for (l, &v) in ids[..nv].iter().enumerate() {
+        let p = f.phi(v);
+        hi = hi.max(p);
+        if l < CUT_VERTICES {
+            cut.ids[l] = v;
+            cut.phi[l] = p;
+        }
+    }
+    (cut, hi)
+}
+
 /// Hints the CPU to fetch the rows the cut cell `ahead` will read: its
 /// vertices' positions, attribute and weld entries. A hexahedron's vertex
 /// `l + 4` follows vertex `l` on the same pillar (its rows mostly in the
 /// same cache lines), so only its first four are fetched.
 #[inline(always)]
 fn prefetch_rows(ahead: &Cut, ctx: &EmitContext, weld: &CpWeld) {
-    let n = if ahead.meta == builtin::HEXAHEDRON {
-        4
-    } else {
-        (ahead.n as usize).min(CUT_VERTICES)
-    };
-    for &v in &ahead.ids[..n] {
+    let fetch = |v: u32| {
         prefetch(ctx.positions, v as usize);
         if let Some(a) = ctx.attribute {
             prefetch(a, v as usize);
         }
         weld.prefetch(v);
+    };
+    if ahead.meta == builtin::HEXAHEDRON {
+        // A fixed count: the loop is unrolled.
+        let [a, b, c, d, ..] = ahead.ids;
+        [a, b, c, d].into_iter().for_each(fetch);
+    } else {
+        let n = (ahead.n as usize).min(CUT_VERTICES);
+        ahead.ids[..n].iter().copied().for_each(fetch);
     }
 }

@@ -27,7 +27,7 @@ pub(super) struct CodeRow {
     /// Cut edges (entries of `ends`).
     pub(super) edges: u8,
     /// Polygons; 0 when the code is emitted the generic way (an ambiguous
-    /// face, or no polygon).
+    /// face, or no polygon). A row with polygons has at least three edges.
     pub(super) polys: u8,
 }
 
@@ -99,6 +99,10 @@ fn row_of(m: &MetaCell, code: usize) -> CodeRow {
         }
         row.sizes[polys] = lp.len() as u8;
         polys += 1;
+    }
+    if row.edges < 3 {
+        // Never for a polygon; the emitter relies on three edges.
+        return CodeRow::default();
     }
     row.polys = polys as u8;
     row

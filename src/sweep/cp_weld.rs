@@ -24,6 +24,11 @@ use crate::metacell::MetaCell;
 const VAL_BITS: u32 = 24;
 const VAL_MASK: u32 = (1 << VAL_BITS) - 1;
 
+/// Room of [`CpWeld::emit_row`]'s per-edge arrays: a power of two at least
+/// [`ROW_EDGES`], so that an edge index is kept in range by a mask (`&`)
+/// instead of a remainder by 12 (about seven instructions per corner).
+const ROW_ROOM: usize = ROW_EDGES.next_power_of_two();
+
 /// The weld table of one sweep block (see the module docs).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct CpWeld {
@@ -166,11 +171,12 @@ pub(crate) struct RowCell<'a> {
 impl CpWeld {
     /// Emits the polygons of a tabled cut cell (`row`, see
     /// [`super::cp_table`]) through `out`: the same polygons, corners and
-    /// vertices as [`CpWeld::emit_cell`], each cut edge's vertex its
-    /// entry's, or new when the entry is empty. Returns false, having
-    /// written nothing, when an edge must be welded by the hash map (its
-    /// entry holds another edge, or two new edges of the cell share one):
-    /// then call [`CpWeld::emit_cell`].
+    /// vertices as [`CpWeld::emit_cell`], edge after edge as it goes: each
+    /// cut edge's vertex its entry's, or new when the entry is empty (the
+    /// edge claims it); an edge whose entry holds another edge is welded by
+    /// the mesh's hash map. Returns false, having written nothing, when
+    /// the level's vertex indices could outgrow the entries: then call
+    /// [`CpWeld::emit_cell`].
     #[inline(always)]
     pub(crate) fn emit_row(
         &mut self,
@@ -180,60 +186,73 @@ impl CpWeld {
         out: &mut HexWriter,
     ) -> bool {
         let RowCell { ids, phi, t, slot } = cell;
-        // Local ids are below 8 (`& 7` lets the compiler drop the checks).
-        let end = |j: usize| {
-            let [la, lb] = row.ends[j];
-            let (la, lb) = (la as usize & 7, lb as usize & 7);
-            if ids[la] < ids[lb] {
-                (ids[la], ids[lb], phi[la], phi[lb])
-            } else {
-                (ids[lb], ids[la], phi[lb], phi[la])
-            }
-        };
-        let n = (row.edges as usize).min(ROW_EDGES);
-        let mut vert = [0u32; ROW_EDGES];
-        let mut at = [0u32; ROW_EDGES];
-        let mut fresh = 0u32;
-        for j in 0..n {
-            let (ga, gb, _, _) = end(j);
-            let i = self.entry(ga, gb);
-            let e = self.entries[i];
-            if e >> VAL_BITS == self.gen_ {
-                let v = e & VAL_MASK;
-                if out.key(v) != (ga as u64) << 32 | gb as u64 {
-                    return false;
-                }
-                vert[j] = v;
-            } else {
-                let mut f = fresh;
-                while f != 0 {
-                    if at[f.trailing_zeros() as usize % ROW_EDGES] == i as u32 {
-                        return false;
-                    }
-                    f &= f - 1;
-                }
-                fresh |= 1 << j;
-                at[j] = i as u32;
-            }
-        }
         if out.vertices() + ROW_EDGES > VAL_MASK as usize {
             return false;
         }
         out.begin_cell();
-        while fresh != 0 {
-            let j = fresh.trailing_zeros() as usize % ROW_EDGES;
-            fresh &= fresh - 1;
-            let (ga, gb, fa, fb) = end(j);
-            let (p, value) = edge_point(ctx, (ga, gb), (fa, fb), t);
-            let v = out.vertex((ga as u64) << 32 | gb as u64, p, value);
-            self.entries[at[j] as usize] = self.gen_ << VAL_BITS | v;
-            vert[j] = v;
+        let n = (row.edges as usize).min(ROW_EDGES);
+        let mut vert = [0u32; ROW_ROOM];
+        // The vertex of cut edge `j`; a macro, so that each unrolled copy
+        // below is a branch of its own for the predictor.
+        macro_rules! edge {
+            ($j:expr) => {{
+                let j: usize = $j;
+                // Local ids are below 8 (`& 7` lets the compiler drop the
+                // checks).
+                let [la, lb] = row.ends[j];
+                let (la, lb) = (la as usize & 7, lb as usize & 7);
+                // The lower id's end first, swapped without a branch (the
+                // order is a coin toss per edge: a branch mispredicts).
+                let swap = ((ids[la] > ids[lb]) as usize).wrapping_neg() & (la ^ lb);
+                let (la, lb) = (la ^ swap, lb ^ swap);
+                let (ga, gb, fa, fb) = (ids[la], ids[lb], phi[la], phi[lb]);
+                let key = (ga as u64) << 32 | gb as u64;
+                let i = self.entry(ga, gb);
+                let e = self.entries[i];
+                vert[j & (ROW_ROOM - 1)] = 'v: {
+                    if e >> VAL_BITS == self.gen_ {
+                        let v = e & VAL_MASK;
+                        if out.key(v) == key {
+                            break 'v v;
+                        }
+                        let (h, new) = out.hashed(key);
+                        if !new {
+                            break 'v h;
+                        }
+                    }
+                    let (p, value) = edge_point(ctx, (ga, gb), (fa, fb), t);
+                    let nv = out.vertex(key, p, value);
+                    if e >> VAL_BITS != self.gen_ {
+                        self.entries[i] = self.gen_ << VAL_BITS | nv;
+                    }
+                    nv
+                };
+            }};
+        }
+        // A row has at least three edges (see `cp_table`): the loop over
+        // them unrolled for the common counts (3 to 6), whose exit branch
+        // mispredicted about once per cell.
+        debug_assert!(n >= 3);
+        edge!(0);
+        edge!(1);
+        edge!(2);
+        if n > 3 {
+            edge!(3);
+            if n > 4 {
+                edge!(4);
+                if n > 5 {
+                    edge!(5);
+                    for j in 6..n {
+                        edge!(j);
+                    }
+                }
+            }
         }
         let mut first = 0;
         for &m in &row.sizes[..row.polys as usize] {
             let m = m as usize;
             let corners = &row.corners[first..first + m];
-            out.polygon(m, |i| vert[corners[i] as usize % ROW_EDGES], slot);
+            out.polygon(m, |i| vert[corners[i] as usize & (ROW_ROOM - 1)], slot);
             first += m;
         }
         true

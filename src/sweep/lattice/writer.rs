@@ -82,6 +82,19 @@ impl<'m> HexWriter<'m> {
         vi as u32
     }
 
+    /// Welds grid edge `key` by the mesh's hash map: its vertex, and
+    /// whether it is new (then append it with [`HexWriter::vertex`] before
+    /// any other vertex: the map already holds the index it will get).
+    #[inline(always)]
+    pub(crate) fn hashed(&mut self, key: u64) -> (u32, bool) {
+        // SAFETY: every key below `nv` was written (the mesh's own, then
+        // this writer's).
+        let keys = unsafe { std::slice::from_raw_parts(self.keys, self.nv) };
+        let map = self.mesh.edge_map();
+        map.reserve(1, keys);
+        map.get_or_insert(key, self.nv as u32, keys)
+    }
+
     /// Vertices in the mesh so far.
     #[inline(always)]
     pub(crate) fn vertices(&self) -> usize {
@@ -106,17 +119,31 @@ impl<'m> HexWriter<'m> {
         debug_assert!((3..=Self::PER_CELL).contains(&m));
         let start = self.ni;
         // SAFETY: room for PER_CELL corners and PER_CELL polygons of this cell
-        // (`begin_cell`); every corner is a vertex index below `nv`, so its
-        // position was written.
+        // (`begin_cell`), and one corner more in all (`reserve_cells`) for
+        // a triangle's fourth; every corner is a vertex index below `nv`,
+        // so its position was written.
         unsafe {
-            for i in 0..m {
-                self.indices.add(start + i).write(corner(i));
-            }
-            let ids = std::slice::from_raw_parts(self.indices.add(start), m);
             let pos = self.positions;
-            let n2 = norm2_of(m, |i| {
-                (*pos.add(*ids.get_unchecked(i) as usize)).map(f64::from)
-            });
+            let at = |i: usize| (*pos.add(*self.indices.add(start + i) as usize)).map(f64::from);
+            let n2 = if m <= 4 {
+                // Triangles and quadrilaterals without a branch on which:
+                // a triangle's fourth corner is its first, and the
+                // quadrilateral's diagonal product of `norm2_of` with
+                // p3 = p0 is the triangle's fan product, bit for bit
+                // (p0 − p1 is exactly −(p1 − p0), and adding it to 0 only
+                // changes the sign of a zero, which the squares drop).
+                let last = if m == 4 { 3 } else { 0 };
+                for i in 0..3 {
+                    self.indices.add(start + i).write(corner(i));
+                }
+                self.indices.add(start + 3).write(corner(last));
+                norm2_of(4, at)
+            } else {
+                for i in 0..m {
+                    self.indices.add(start + i).write(corner(i));
+                }
+                norm2_of(m, at)
+            };
             self.area += 0.5 * n2.sqrt();
             self.ni = start + m;
             self.offsets.add(self.np + 1).write(self.ni as u32);
@@ -155,7 +182,8 @@ fn reserve_cells(mesh: &mut LevelMesh, cells: usize) {
     mesh.positions.reserve(extra);
     mesh.values.reserve(extra);
     mesh.edge_keys.reserve(extra);
-    mesh.indices.reserve(extra);
+    // One more corner: a triangle writes a fourth (see `polygon`).
+    mesh.indices.reserve(extra + 1);
     mesh.offsets.reserve(extra);
     mesh.cells.reserve(extra);
 }
