@@ -93,34 +93,57 @@ struct CpSweep<'a, F> {
 struct Active {
     /// `A`, in slot order.
     cuts: Vec<Cut>,
-    /// Cells that entered this level and are cut by it.
+    /// Cells that entered this level and are cut by it, in the order
+    /// they were read: those of the step's sorted work list, then those
+    /// queued during the step.
     fresh: Vec<Cut>,
+    /// How many of `fresh` come from the sorted work list (so are in slot
+    /// order): most of them (on f50 about one cell in forty is queued
+    /// during its own step).
+    sorted: usize,
+    /// The rest of `fresh`, sorted by slot (see [`Active::merge`]).
+    tail: Vec<Cut>,
     scratch: Vec<Cut>,
 }
 
 impl Active {
     /// `A_k`: the carried cells still cut at level `k`, merged with the
-    /// fresh ones (sorted by slot; a slot is in at most one of the two).
+    /// fresh ones (a slot is in at most one of the two). Only the fresh
+    /// cells past `sorted` are sorted (moved to `tail`); the merge takes
+    /// the sorted part and the tail as two runs.
     fn merge(&mut self, k: usize, start: u32, len: u32) {
-        radix_sort_by_slot(&mut self.fresh, &mut self.scratch, start, len, |c| c.slot());
+        self.tail.clear();
+        self.tail.extend_from_slice(&self.fresh[self.sorted..]);
+        self.fresh.truncate(self.sorted);
+        radix_sort_by_slot(&mut self.tail, &mut self.scratch, start, len, |c| c.slot());
         let out = &mut self.scratch;
         out.clear();
-        out.reserve(self.cuts.len() + self.fresh.len());
-        let fresh = &self.fresh[..];
-        let mut j = 0;
-        // The key of the next fresh cell (none: above every key).
-        let key_at = |j: usize| fresh.get(j).map_or(u64::MAX, |b: &Cut| b.key);
-        let mut next = key_at(0);
+        out.reserve(self.cuts.len() + self.fresh.len() + self.tail.len());
+        let (fresh, tail) = (&self.fresh[..], &self.tail[..]);
+        let (mut j, mut jt) = (0, 0);
+        // The key of a run's next cell (none: above every key).
+        let key_at = |run: &[Cut], j: usize| run.get(j).map_or(u64::MAX, |b: &Cut| b.key);
+        let (mut next, mut next_t) = (key_at(fresh, 0), key_at(tail, 0));
         let dst = out.as_mut_ptr();
         let mut n = 0;
         for a in &self.cuts {
-            while next < a.key {
-                // SAFETY: at most `cuts.len() + fresh.len()` records are
-                // kept, and each write goes at `n`, below that (reserved).
-                unsafe { dst.add(n).write(fresh[j]) };
+            while next.min(next_t) < a.key {
+                // The smaller key of the two runs (the tail is empty at
+                // most levels: then this branch is always taken).
+                if next < next_t {
+                    // SAFETY: at most `cuts.len() + fresh.len() +
+                    // tail.len()` records are kept, and each write goes at
+                    // `n`, below that (reserved).
+                    unsafe { dst.add(n).write(fresh[j]) };
+                    j += 1;
+                    next = key_at(fresh, j);
+                } else {
+                    // SAFETY: as above.
+                    unsafe { dst.add(n).write(tail[jt]) };
+                    jt += 1;
+                    next_t = key_at(tail, jt);
+                }
                 n += 1;
-                j += 1;
-                next = key_at(j);
             }
             // Written whether kept or not (no branch): a dropped record is
             // overwritten by the next.
@@ -131,7 +154,17 @@ impl Active {
         }
         // SAFETY: the first `n` records were written.
         unsafe { out.set_len(n) };
+        while j < fresh.len() && jt < tail.len() {
+            if fresh[j].key < tail[jt].key {
+                out.push(fresh[j]);
+                j += 1;
+            } else {
+                out.push(tail[jt]);
+                jt += 1;
+            }
+        }
         out.extend_from_slice(&fresh[j..]);
+        out.extend_from_slice(&tail[jt..]);
         std::mem::swap(&mut self.cuts, out);
     }
 }
@@ -194,7 +227,7 @@ pub(super) fn sweep_block_cp<F: ScalarField>(
         let mut work = std::mem::take(&mut q.entering[k]);
         radix_sort_slots(&mut work, sort_scratch, sw.start, sw.len);
         active.fresh.clear();
-        sw.enter(k, &mut work, q, &mut active.fresh);
+        active.sorted = sw.enter(k, &mut work, q, &mut active.fresh);
         let entered = work.len();
         work.clear();
         q.entering[k] = work;
@@ -211,14 +244,27 @@ impl<F: ScalarField> CpSweep<'_, F> {
     /// queue at `k` on the way): each cut one becomes a [`Cut`] in
     /// `fresh`; each unseen linked neighbour is queued at its entry level
     /// (its `lo` read from the minima search's when kept, else decoded).
-    fn enter(&self, k: usize, work: &mut Vec<u32>, q: &mut LatticeQueues, fresh: &mut Vec<Cut>) {
+    /// Returns how many of `fresh` come from the work list's first
+    /// (sorted) part, before the cells queued during the step.
+    fn enter(
+        &self,
+        k: usize,
+        work: &mut Vec<u32>,
+        q: &mut LatticeQueues,
+        fresh: &mut Vec<Cut>,
+    ) -> usize {
         let (g, f, levels) = (self.g, self.f, self.levels);
         let t = levels[k];
         let LatticeQueues { entering, seen, .. } = q;
         let mut ids = [0u32; MAX_META_VERTICES];
         let phi_values = f.values();
+        let sorted_work = work.len();
+        let mut sorted = None;
         let mut i = 0;
         while i < work.len() {
+            if i == sorted_work {
+                sorted = Some(fresh.len());
+            }
             let c = work[i];
             // Two-stage look-ahead: the slot's own entries far ahead, then
             // (once they are in cache) what decoding it reads next.
@@ -284,6 +330,7 @@ impl<F: ScalarField> CpSweep<'_, F> {
             visit!(4, c - dk);
             visit!(5, c + dk);
         }
+        sorted.unwrap_or(fresh.len())
     }
 
     /// Emits the polygons of the level `t`'s cut cells, in slot order:
