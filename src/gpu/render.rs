@@ -32,7 +32,7 @@ use super::ijk_field::IjkField;
 use super::pre_pass::{BoundaryMesh, PrePipeline};
 use super::shaders;
 use super::slice::{prepare, prepare_unswept};
-use super::tables::slot_values;
+use super::tables::{Frame, slot_values};
 
 /// Entries of the transfer-function lookup table (`LUT_SIZE` in `wgsl/render.wgsl`).
 pub const LUT_SIZE: usize = 256;
@@ -732,28 +732,7 @@ pub fn emit_slices<'c>(
     k: &SliceKey,
 ) -> Result<SliceSet<'c>, RenderError> {
     let property = &k.property;
-    // A cell property (no point property of that name) colours
-    // each slice polygon flat with its own cell's value.
-    let cell_values: Option<Vec<f64>> = match property {
-        Some(n) if !k.iso && grid.point_property(n).is_none() => grid
-            .cell_property(n)
-            .map(|c| (0..c.len()).map(|i| c.scalar_at(i)).collect()),
-        _ => None,
-    };
-    let req = SliceRequest {
-        field: k.field.clone(),
-        levels: k.levels.clone(),
-        // Cell values replace the per-vertex attribute below: averaging
-        // them to the vertices (a volume per cell) would be thrown away.
-        attribute: match cell_values {
-            Some(_) => None,
-            None => property.clone(),
-        },
-        threads: rayon::current_num_threads(),
-        brute_force: false,
-        collect_mesh: false,
-        sweep: Default::default(),
-    };
+    let (req, cell_values) = slice_request(grid, k);
     let span = k.clip.is_none()
         && match k.cells {
             CellFinding::Auto => !ctx.is_software(),
@@ -824,28 +803,18 @@ pub fn emit_slices<'c>(
     let range = shown_range(grid, s, property, cell_values.as_deref(), &p.level_values)?;
     let levels = p.level_values.len() as u32;
     let base = GpuEmitter::new(ctx, p.grid)?;
-    let binned = match span {
-        true => span_space(&base, &p.frame.levels)?,
-        false => None,
+    let level_values = p.frame.levels.clone();
+    let frame = p.frame;
+    let swept = || match span {
+        // The binning does not fit: the sweep's frame after all.
+        true => Ok(prepare(grid, s, &req)?.frame),
+        false => Ok(frame),
     };
-    let (chunks, cut_cells) = match binned {
-        Some(done) => done,
-        None => {
-            let mut frame = match span {
-                // The binning does not fit: the sweep's frame after all.
-                true => prepare(grid, s, &req)?.frame,
-                false => p.frame,
-            };
-            if let Some(c) = k.clip {
-                clip_entries(s, c, &mut frame.entries)?;
-            }
-            let chunks = emit_chunked(&base, &frame, false)?;
-            (
-                chunks.into_iter().map(|c| c.0).collect(),
-                frame.entries.len() as u64,
-            )
-        }
+    let clip = |f: &mut Frame| match k.clip {
+        Some(c) => clip_entries(s, c, &mut f.entries),
+        None => Ok(()),
     };
+    let (chunks, cut_cells) = emit_frame(&base, (span, &level_values), swept, clip)?;
     Ok(SliceSet {
         chunks,
         spacing,
@@ -862,6 +831,52 @@ pub fn emit_slices<'c>(
         field,
         field_fallback,
     })
+}
+
+/// The request that `k`'s slices sweep, and the cell values that colour
+/// them when the shown property is a cell property (no point property of
+/// that name): then each polygon is flat with its own cell's value, and
+/// the request interpolates no attribute (averaging the cell values to
+/// the vertices, a volume per cell, would be thrown away).
+fn slice_request(grid: &Grid, k: &SliceKey) -> (SliceRequest, Option<Vec<f64>>) {
+    let cell_values: Option<Vec<f64>> = match &k.property {
+        Some(n) if !k.iso && grid.point_property(n).is_none() => grid
+            .cell_property(n)
+            .map(|c| (0..c.len()).map(|i| c.scalar_at(i)).collect()),
+        _ => None,
+    };
+    let req = SliceRequest {
+        field: k.field.clone(),
+        levels: k.levels.clone(),
+        attribute: match cell_values {
+            Some(_) => None,
+            None => k.property.clone(),
+        },
+        threads: rayon::current_num_threads(),
+        brute_force: false,
+        collect_mesh: false,
+        sweep: Default::default(),
+    };
+    (req, cell_values)
+}
+
+/// The slices' emitters and their cut cells: GPU span-space binning of
+/// `levels` when `span`, else (or when the binning does not fit) the CPU
+/// sweep's frame from `swept`, cut down by `clip`.
+fn emit_frame<'c>(
+    base: &GpuEmitter<'c>,
+    (span, levels): (bool, &[f32]),
+    swept: impl FnOnce() -> Result<Frame, RenderError>,
+    clip: impl FnOnce(&mut Frame) -> Result<(), RenderError>,
+) -> Result<(Vec<GpuEmitter<'c>>, u64), RenderError> {
+    if span && let Some(done) = span_space(base, levels)? {
+        return Ok(done);
+    }
+    let mut frame = swept()?;
+    clip(&mut frame)?;
+    let chunks = emit_chunked(base, &frame, false)?;
+    let cut_cells = frame.entries.len() as u64;
+    Ok((chunks.into_iter().map(|c| c.0).collect(), cut_cells))
 }
 
 /// Every level of `levels` emitted after GPU span-space binning, in one
