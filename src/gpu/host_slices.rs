@@ -8,7 +8,7 @@
 
 use crate::grid::Grid;
 use crate::mesh::PolyMesh;
-use crate::pipeline::{SliceRequest, slice};
+use crate::pipeline::slice;
 use crate::structures::Structure;
 
 use super::context::GpuContext;
@@ -194,27 +194,9 @@ pub fn build_host_slices<'c>(
             "IJK clipping needs an IJK (structured) grid".into(),
         ));
     }
-    // A cell property (no point property of that name) colours each
-    // polygon flat with its own cell's value, as on the GPU path.
-    let cell_values: Option<Vec<f64>> = match &k.property {
-        Some(n) if !k.iso && grid.point_property(n).is_none() => grid
-            .cell_property(n)
-            .map(|c| (0..c.len()).map(|i| c.scalar_at(i)).collect()),
-        _ => None,
-    };
-    let req = SliceRequest {
-        field: k.field.clone(),
-        levels: k.levels.clone(),
-        attribute: if cell_values.is_some() {
-            None
-        } else {
-            k.property.clone()
-        },
-        threads: rayon::current_num_threads(),
-        brute_force: false,
-        collect_mesh: true,
-        sweep: Default::default(),
-    };
+    // A cell property colours each polygon flat, as on the GPU path.
+    let (mut req, cell_values) = super::render::slice_request(grid, k);
+    req.collect_mesh = true;
     let r = slice(grid, s, &req, &|_| {})?;
     let levels = r.level_values.len();
     let mesh = r.mesh.unwrap_or_default();

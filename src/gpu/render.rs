@@ -838,7 +838,7 @@ pub fn emit_slices<'c>(
 /// that name): then each polygon is flat with its own cell's value, and
 /// the request interpolates no attribute (averaging the cell values to
 /// the vertices, a volume per cell, would be thrown away).
-fn slice_request(grid: &Grid, k: &SliceKey) -> (SliceRequest, Option<Vec<f64>>) {
+pub(super) fn slice_request(grid: &Grid, k: &SliceKey) -> (SliceRequest, Option<Vec<f64>>) {
     let cell_values: Option<Vec<f64>> = match &k.property {
         Some(n) if !k.iso && grid.point_property(n).is_none() => grid
             .cell_property(n)
