@@ -442,6 +442,23 @@ fn rotated_grid_fills_the_frame() {
     }
 }
 
+/// A small faulted corner-point grid and its IJK layout.
+fn small_faulted() -> (Grid, stratasweep::structures::cpgraph::IjkLayout) {
+    let cp = stratasweep::generate::faulted([14, 11, 7], 3, 4);
+    let dims = cp.dims;
+    let (grid, rep) = cp.into_grid().unwrap();
+    let layout = stratasweep::structures::cpgraph::IjkLayout {
+        dims,
+        source_cell: rep.source_cell,
+    };
+    (grid, layout)
+}
+
+/// Pixels of two RGBA8 images that differ in any channel.
+fn pixels_differing(a: &[u8], b: &[u8]) -> usize {
+    a.chunks(4).zip(b.chunks(4)).filter(|(x, y)| x != y).count()
+}
+
 /// `render` and `view` give corner-point input the CP-Graph (its IJK
 /// layout kept): a faulted deck with a cell property must render the
 /// CGraph's image on it, in volume, slices and iso modes, up to pixels on
@@ -454,13 +471,7 @@ fn a_faulted_grid_renders_alike_on_the_cp_graph_and_the_cgraph() {
     else {
         return;
     };
-    let cp = stratasweep::generate::faulted([14, 11, 7], 3, 4);
-    let dims = cp.dims;
-    let (grid, rep) = cp.into_grid().unwrap();
-    let layout = stratasweep::structures::cpgraph::IjkLayout {
-        dims,
-        source_cell: rep.source_cell,
-    };
+    let (grid, layout) = small_faulted();
     let on_cp = Structure::build_with(&grid, StructureChoice::Auto, Some(&layout)).unwrap();
     assert!(matches!(on_cp, Structure::CpGraph(_)));
     let on_cg = Structure::build(&grid, StructureChoice::CGraph).unwrap();
@@ -484,9 +495,7 @@ fn a_faulted_grid_renders_alike_on_the_cp_graph_and_the_cgraph() {
         let drawn = a.chunks(4).filter(|p| p[3] > 0).count();
         assert!(drawn > 500, "{mode:?}: {drawn} pixels drawn");
         let px = a.len() / 4;
-        let differ = (0..px)
-            .filter(|&i| a[4 * i..][..4] != b[4 * i..][..4])
-            .count();
+        let differ = pixels_differing(&a, &b);
         let sum: u64 = a.iter().zip(&b).map(|(x, y)| x.abs_diff(*y) as u64).sum();
         let mean = sum as f64 / a.len() as f64;
         eprintln!("{mode:?}: {differ} of {px} pixels differ, mean {mean:.4}");
@@ -550,13 +559,7 @@ fn gpu_binned_cells_render_as_the_sweep() {
     let Some(ctx) = gpu_common::gpu("gpu_binned_cells_render_as_the_sweep") else {
         return;
     };
-    let cp = stratasweep::generate::faulted([14, 11, 7], 3, 4);
-    let dims = cp.dims;
-    let (faulted, rep) = cp.into_grid().unwrap();
-    let layout = stratasweep::structures::cpgraph::IjkLayout {
-        dims,
-        source_cell: rep.source_cell,
-    };
+    let (faulted, layout) = small_faulted();
     let lattice = warped([12, 10, 8], 1);
     let cases = [
         (
@@ -604,9 +607,7 @@ fn gpu_binned_cells_render_as_the_sweep() {
             let drawn = a.chunks(4).filter(|p| p[3] > 0).count();
             assert!(drawn > 500, "{name} {mode:?}: {drawn} pixels drawn");
             let px = a.len() / 4;
-            let differ = (0..px)
-                .filter(|&i| a[4 * i..][..4] != b[4 * i..][..4])
-                .count();
+            let differ = pixels_differing(a, b);
             let worst = a
                 .iter()
                 .zip(b)
