@@ -36,7 +36,8 @@ pub(crate) struct BenchArgs {
     /// Structure for the sweep (brute force always runs on the same cells).
     #[arg(long, value_enum, default_value = "auto")]
     pub(crate) structure: StructureArg,
-    /// Spatial blocks in parallel.
+    /// Threads for the whole run: the load, the build and the sweep
+    /// (spatial blocks in parallel).
     #[arg(long, default_value_t = 1)]
     pub(crate) threads: usize,
     /// Timed repetitions (best is reported).
@@ -60,8 +61,8 @@ pub(crate) struct BenchArgs {
     /// GPU adapter name (substring).
     #[arg(long)]
     pub(crate) adapter: Option<String>,
-    /// Corner-point input only: time the parse (one core) and the
-    /// conversion to a zoo grid, then stop.
+    /// Corner-point input only: time the parse, the conversion to a zoo
+    /// grid and the build on --threads threads, then stop.
     #[arg(long)]
     pub(crate) load_only: bool,
     /// With --load-only: stop before building the sweep structure (so that
@@ -107,19 +108,22 @@ pub(crate) fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
     if let Some(devices) = &a.device {
         return cmd_bench_devices(&a, devices, quiet);
     }
+    cli_checks::check_threads(a.threads)?;
+    // One pool for everything timed, so that "--threads 1" means one
+    // thread for the load and the build too, not only for the sweep.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads)
+        .build()?;
     if a.load_only {
-        return bench_load(&a);
+        return pool.install(|| bench_load(&a));
     }
     let field = parse_axis(&a.axis)?;
     cli_checks::check_count(a.count)?;
-    cli_checks::check_threads(a.threads)?;
-    let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet, &Outputs::default())?;
+    let (grid, name, load_s, _, ijk) =
+        pool.install(|| load_with_info(&a.input, quiet, &Outputs::default()))?;
     let t = Instant::now();
-    let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())?;
+    let s = pool.install(|| Structure::build_with(&grid, a.structure.into(), ijk.as_ref()))?;
     let build_s = t.elapsed().as_secs_f64();
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads.max(1))
-        .build()?;
     let mut req = SliceRequest {
         field: field.clone(),
         levels: LevelSpec::Count(a.count),
@@ -200,7 +204,8 @@ pub(crate) fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
     Ok(())
 }
 
-/// `bench --load-only`: GRDECL parse speed (one thread) and conversion time.
+/// `bench --load-only`: parse, conversion and build times on the current
+/// rayon pool (the caller installs one of `--threads` threads).
 pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
     let Some(path) = &a.input.grid else {
         bail!("--load-only needs a corner-point grid file")
@@ -259,6 +264,7 @@ pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
     let load_build_s = parse_s + grid_s + build_s;
     let out = json!({
         "file": path.display().to_string(), "bytes": bytes, "cells": cells,
+        "threads": rayon::current_num_threads(),
         "parse_s": parse_s, "parse_mb_per_s": bytes as f64 / parse_s / 1e6,
         "array_bytes": arrays, "to_grid_s": grid_s, "output_cells": grid.cell_count(),
         "vertices": nv, "bulk_volume": rep.bulk_volume,
@@ -274,12 +280,13 @@ pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         println!(
-            "{}: {} bytes, {} cells; parse {:.3} s = {:.1} MB/s wall (1 thread; {:.1} MB/s per CPU second), arrays {} B, peak RSS after parse {:?} B; to_grid {:.3} s -> {} cells, {} vertices, grid arrays {} B, peak RSS {:?} B",
+            "{}: {} bytes, {} cells; parse {:.3} s = {:.1} MB/s wall ({} thread(s); {:.1} MB/s per CPU second of this thread), arrays {} B, peak RSS after parse {:?} B; to_grid {:.3} s -> {} cells, {} vertices, grid arrays {} B, peak RSS {:?} B",
             path.display(),
             bytes,
             cells,
             parse_s,
             bytes as f64 / parse_s / 1e6,
+            rayon::current_num_threads(),
             parse_cpu_s.map_or(f64::NAN, |c| bytes as f64 / c / 1e6),
             arrays,
             hwm_parse,
