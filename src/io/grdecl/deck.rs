@@ -615,8 +615,7 @@ impl Parser {
         })?;
         self.files.push(path.clone());
         self.stack.push(canon);
-        let len = f.metadata().ok().map(|m| m.len());
-        let mut sub = Lexer::new(Box::new(f), path, len);
+        let mut sub = Lexer::open(f, path);
         let r = self.parse(&mut sub);
         self.stack.pop();
         r

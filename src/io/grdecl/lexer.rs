@@ -1,5 +1,9 @@
 //! The streaming tokenizer over a fixed window: tokens, comments, quotes, `N*v` repeats, line numbers.
 
+use std::sync::Arc;
+
+use memmap2::Mmap;
+
 use super::number::*;
 use super::*;
 
@@ -24,8 +28,17 @@ pub(super) struct Tok {
     pub(super) col0: bool,
 }
 
+/// Where a [`Lexer`]'s bytes come from.
+pub(super) enum Source<'r> {
+    /// A stream, read window by window.
+    Reader(Box<dyn Read + 'r>),
+    /// A memory-mapped file; `at` is the offset of the window's end. The
+    /// parallel path ([`super::parallel`]) reads ahead of the window here.
+    Mapped { map: Arc<Mmap>, at: usize },
+}
+
 pub(super) struct Lexer<'r> {
-    pub(super) r: Box<dyn Read + 'r>,
+    pub(super) src: Source<'r>,
     pub(super) buf: Vec<u8>,
     pub(super) pos: usize,
     pub(super) end: usize,
@@ -61,7 +74,7 @@ impl<'r> Lexer<'r> {
                 .clamp(2 * MAX_TOKEN, WINDOW)
         });
         Lexer {
-            r,
+            src: Source::Reader(r),
             buf: vec![0; size],
             pos: 0,
             end: 0,
@@ -76,6 +89,59 @@ impl<'r> Lexer<'r> {
         }
     }
 
+    /// A lexer over the file `f` named `file`: memory-mapped when it holds
+    /// at least [`MAP_AT_LEAST`] bytes (so that big keywords can be parsed
+    /// in parallel), else read as a stream.
+    pub(super) fn open(f: File, file: PathBuf) -> Lexer<'static> {
+        let len = f.metadata().ok().map(|m| m.len());
+        if len.is_some_and(|n| n >= MAP_AT_LEAST) {
+            // SAFETY: the map is read-only and lives only for this parse. If
+            // another process truncated the file meanwhile, reads past its
+            // new end would fault (SIGBUS): the same race a reading process
+            // always has with a writer (as in `io::vtk_read`).
+            if let Ok(map) = unsafe { Mmap::map(&f) } {
+                let mut lx = Lexer::new(Box::new(io::empty()), file, len);
+                lx.src = Source::Mapped {
+                    map: Arc::new(map),
+                    at: 0,
+                };
+                return lx;
+            }
+        }
+        Lexer::new(Box::new(f), file, len)
+    }
+
+    /// Offset in the input of the next unread byte (`pos`).
+    pub(super) fn offset(&self) -> usize {
+        let at = match &self.src {
+            Source::Mapped { at, .. } => *at,
+            Source::Reader(_) => self.bytes as usize,
+        };
+        at - (self.end - self.pos)
+    }
+
+    /// A mapped input moves on to offset `x` (at least [`Lexer::offset`]),
+    /// with `lines` more lines and `bol` at `x`; the bytes skipped count
+    /// as read.
+    pub(super) fn skip_to(&mut self, x: usize, lines: usize, bol: bool) -> Result<(), GrdeclError> {
+        let here = self.offset();
+        debug_assert!(x >= here && self.pushed.is_none());
+        self.line += lines;
+        self.bol = bol;
+        if let Source::Mapped { at, .. } = &mut self.src
+            && x > *at
+        {
+            self.bytes += (x - *at) as u64;
+            *at = x;
+            self.pos = 0;
+            self.end = 0;
+            self.eof = false;
+            return self.refill();
+        }
+        self.pos += x - here;
+        Ok(())
+    }
+
     pub(super) fn refill(&mut self) -> Result<(), GrdeclError> {
         if self.eof {
             return Ok(());
@@ -83,8 +149,20 @@ impl<'r> Lexer<'r> {
         self.buf.copy_within(self.pos..self.end, 0);
         self.end -= self.pos;
         self.pos = 0;
+        let r = match &mut self.src {
+            Source::Reader(r) => r,
+            Source::Mapped { map, at } => {
+                let n = (self.buf.len() - self.end).min(map.len() - *at);
+                self.buf[self.end..self.end + n].copy_from_slice(&map[*at..*at + n]);
+                *at += n;
+                self.end += n;
+                self.bytes += n as u64;
+                self.eof = *at == map.len();
+                return Ok(());
+            }
+        };
         while self.end < self.buf.len() {
-            match self.r.read(&mut self.buf[self.end..]) {
+            match r.read(&mut self.buf[self.end..]) {
                 Ok(0) => {
                     self.eof = true;
                     break;
@@ -161,53 +239,15 @@ impl<'r> Lexer<'r> {
         } else {
             end.saturating_sub(MAX_TOKEN)
         };
-        let b = &self.buf[..end];
-        let mut p = self.pos;
-        let mut line = self.line;
-        let mut bol = self.bol;
-        while p < limit {
-            let c = b[p];
-            if c <= b' ' {
-                if c == b'\n' {
-                    line += 1;
-                    bol = true;
-                } else {
-                    bol = false;
-                }
-                p += 1;
-                continue;
-            }
-            let Some((mut v, len)) = parse_prefix(&b[p..]) else {
-                break;
-            };
-            let mut q = p + len;
-            let mut count = 1;
-            if q < end && b[q] == b'*' {
-                // `N*v` with N a plain positive integer (as `repeat_count`
-                // takes it) and v a plain number; anything else (`N*`,
-                // errors) is left to the general path.
-                let n = &b[p..q];
-                if n.len() > 12 || !n.iter().all(u8::is_ascii_digit) {
-                    break;
-                }
-                count = n.iter().fold(0usize, |a, &c| a * 10 + (c - b'0') as usize);
-                let Some((w, l)) = parse_prefix(&b[q + 1..]) else {
-                    break;
-                };
-                if count == 0 {
-                    break;
-                }
-                v = w;
-                q += 1 + l;
-            }
-            if q < end && b[q] > b' ' && b[q] != b'/' {
-                break;
-            }
-            sink.push(v, count);
-            bol = false;
-            p = q;
-        }
-        self.pos = p;
+        let (mut line, mut bol) = (self.line, self.bol);
+        self.pos = scan_plain(
+            &self.buf[..end],
+            self.pos,
+            limit,
+            &mut line,
+            &mut bol,
+            |v, n| sink.push(v, n),
+        );
         self.line = line;
         self.bol = bol;
     }
@@ -319,6 +359,64 @@ impl<'r> Lexer<'r> {
             });
         }
     }
+}
+
+/// The fast path over `b` from `p`: plain numbers and `N*v` repeats (`N` a
+/// plain positive integer as `repeat_count` takes it, `v` a plain number)
+/// go to `push(value, count)`, whitespace counts lines (`line`) and tracks
+/// the start of a line (`bol`), until anything else (a default `N*`, a
+/// comment, `/`, a word) or until no token starts before `limit`. Returns
+/// where it stopped. A token may end past `limit`, never past `b`'s end.
+#[inline(always)]
+pub(super) fn scan_plain(
+    b: &[u8],
+    mut p: usize,
+    limit: usize,
+    line: &mut usize,
+    bol: &mut bool,
+    mut push: impl FnMut(f64, usize),
+) -> usize {
+    let end = b.len();
+    while p < limit {
+        let c = b[p];
+        if c <= b' ' {
+            if c == b'\n' {
+                *line += 1;
+                *bol = true;
+            } else {
+                *bol = false;
+            }
+            p += 1;
+            continue;
+        }
+        let Some((mut v, len)) = parse_prefix(&b[p..]) else {
+            break;
+        };
+        let mut q = p + len;
+        let mut count = 1;
+        if q < end && b[q] == b'*' {
+            let n = &b[p..q];
+            if n.len() > 12 || !n.iter().all(u8::is_ascii_digit) {
+                break;
+            }
+            count = n.iter().fold(0usize, |a, &c| a * 10 + (c - b'0') as usize);
+            let Some((w, l)) = parse_prefix(&b[q + 1..]) else {
+                break;
+            };
+            if count == 0 {
+                break;
+            }
+            v = w;
+            q += 1 + l;
+        }
+        if q < end && b[q] > b' ' && b[q] != b'/' {
+            break;
+        }
+        push(v, count);
+        *bol = false;
+        p = q;
+    }
+    p
 }
 
 /// Whether `t` can be a keyword: up to 8 letters, digits, `_`, `-` or `+`,

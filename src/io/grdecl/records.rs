@@ -33,7 +33,13 @@ pub(super) fn read_values(
         expected,
         found: 0,
     };
+    // Rounds of the parallel path that stopped early (comments between
+    // the values, say): after a few, the serial path reads the rest.
+    let mut early = 0;
     loop {
+        if early < 3 && super::parallel::values(lx, &mut sink)? {
+            early += 1;
+        }
         lx.fast_values(&mut sink);
         let t = lx.next()?;
         match t.kind {
