@@ -555,10 +555,12 @@ pub fn origin_of(points: &[[f64; 3]]) -> [f64; 3] {
     [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]))
 }
 
-/// `points` as f32 relative to `o` (see [`Grid::rebased_positions`]).
+/// `points` as f32 relative to `o` (see [`Grid::rebased_positions`]), in
+/// parallel (each point on its own, so the same bits on any thread count).
 pub fn rebased(points: &[[f64; 3]], o: [f64; 3]) -> Vec<[f32; 3]> {
+    use rayon::prelude::*;
     let mut out = crate::mem::huge_vec(points.len());
-    out.extend(points.iter().map(|p| {
+    out.par_extend(points.par_iter().map(|p| {
         [
             (p[0] - o[0]) as f32,
             (p[1] - o[1]) as f32,

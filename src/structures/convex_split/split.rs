@@ -380,7 +380,7 @@ struct PlanContext<'a> {
     cells: &'a Cells,
     points: &'a [P3],
     split: &'a [bool],
-    is_hidden: &'a dyn Fn(usize) -> bool,
+    is_hidden: &'a (dyn Fn(usize) -> bool + Sync),
 }
 
 impl PlanContext<'_> {
@@ -414,13 +414,13 @@ impl PlanContext<'_> {
                 }
             }
         }
-        // Bad faces (non-planar or non-convex).
-        let mut pts: Vec<P3> = Vec::new();
+        // Bad faces (non-planar or non-convex), each on its own.
         let bad: Vec<bool> = (0..loops.len())
-            .map(|i| {
+            .into_par_iter()
+            .map_init(Vec::new, |pts: &mut Vec<P3>, i| {
                 pts.clear();
                 pts.extend(loops.get(i).iter().map(|&v| pos(v)));
-                face_is_bad(&pts)
+                face_is_bad(pts)
             })
             .collect();
         let shared = self.shared_with_unsplit(&loops, &bad, &table.split_uses);
@@ -482,22 +482,35 @@ impl PlanContext<'_> {
             bits.get(v as usize / 64)
                 .is_some_and(|w| w >> (v % 64) & 1 == 1)
         };
-        let mut shared = vec![false; loops.len()];
-        for c in 0..self.cells.len() {
-            let ids = self.cells.cell(c);
-            if !(ids.iter().any(|&v| is_marked(v)) && live(c)) {
-                continue;
-            }
-            for &v in ids.iter().filter(|&&v| is_marked(v)) {
-                let mut f = head[v as usize];
-                while f != NONE {
-                    let i = f as usize;
-                    if !shared[i] && loops.get(i).iter().all(|x| ids.contains(x)) {
-                        shared[i] = true;
+        // Chunks of cells in parallel list the faces they find shared (a
+        // set: the order of the chunks does not matter).
+        const CELLS: usize = 1 << 14;
+        let found: Vec<Vec<u32>> = (0..self.cells.len().div_ceil(CELLS))
+            .into_par_iter()
+            .map(|b| {
+                let mut out = Vec::new();
+                for c in b * CELLS..self.cells.len().min((b + 1) * CELLS) {
+                    let ids = self.cells.cell(c);
+                    if !(ids.iter().any(|&v| is_marked(v)) && live(c)) {
+                        continue;
                     }
-                    f = next[i];
+                    for &v in ids.iter().filter(|&&v| is_marked(v)) {
+                        let mut f = head[v as usize];
+                        while f != NONE {
+                            let i = f as usize;
+                            if loops.get(i).iter().all(|x| ids.contains(x)) {
+                                out.push(f);
+                            }
+                            f = next[i];
+                        }
+                    }
                 }
-            }
+                out
+            })
+            .collect();
+        let mut shared = vec![false; loops.len()];
+        for i in found.into_iter().flatten() {
+            shared[i as usize] = true;
         }
         shared
     }
