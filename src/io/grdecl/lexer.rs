@@ -90,11 +90,13 @@ impl<'r> Lexer<'r> {
     }
 
     /// A lexer over the file `f` named `file`: memory-mapped when it holds
-    /// at least [`MAP_AT_LEAST`] bytes (so that big keywords can be parsed
-    /// in parallel), else read as a stream.
+    /// at least [`MAP_AT_LEAST`] bytes and more than one thread can parse
+    /// its big keywords, else read as a stream (one thread reads a stream
+    /// faster than it faults in a map's pages: f200, 207 MB, 0.44 s against
+    /// 0.46 s).
     pub(super) fn open(f: File, file: PathBuf) -> Lexer<'static> {
         let len = f.metadata().ok().map(|m| m.len());
-        if len.is_some_and(|n| n >= MAP_AT_LEAST) {
+        if len.is_some_and(|n| n >= MAP_AT_LEAST) && rayon::current_num_threads() > 1 {
             // SAFETY: the map is read-only and lives only for this parse. If
             // another process truncated the file meanwhile, reads past its
             // new end would fault (SIGBUS): the same race a reading process
