@@ -15,6 +15,7 @@
 //! comment or a quoted string (neither spans a line here); a file with no
 //! line break near a cut point is left to the serial path.
 
+use memmap2::{Mmap, UncheckedAdvice};
 use rayon::prelude::*;
 
 use super::lexer::{Lexer, Sink, Source, scan_plain};
@@ -126,6 +127,23 @@ fn append(out: &mut Vec<f64>, bufs: &[Vec<f64>], counts: &[usize]) {
     unsafe { out.set_len(out.len() + total) };
 }
 
+/// Drops the pages of `map` between `from` and `to` (rounded down to a
+/// page; once they span 32 MiB) from this process's memory, so that the file read so far stops
+/// counting in its resident set (the page cache keeps them; a read there
+/// would fault them in again, the same bytes). Returns the new start.
+fn release(map: &Mmap, from: usize, to: usize) -> usize {
+    let to = to & !4095;
+    // In steps of 32 MiB: each call costs the other threads a TLB flush.
+    if to >= from + (32 << 20) {
+        // SAFETY: the map is a read-only map of a file: MADV_DONTNEED
+        // discards no data (a later read finds the file's bytes again),
+        // and nothing in it is read before the lexer's offset any more.
+        let _ = unsafe { map.unchecked_advise_range(UncheckedAdvice::DontNeed, from, to - from) };
+        return to;
+    }
+    from
+}
+
 /// Reads values into `sink` in parallel rounds while `lx` reads a mapped
 /// file at a plain token boundary, more than one thread is available and
 /// many values are still expected. Returns whether a round stopped early
@@ -139,6 +157,7 @@ pub(super) fn values(lx: &mut Lexer, sink: &mut Sink) -> Result<bool, GrdeclErro
     };
     let b: &[u8] = &map;
     let mut bufs: Vec<Vec<f64>> = Vec::new();
+    let mut released = 0;
     while lx.pushed.is_none() && !lx.in_comment {
         let room = sink.expected.saturating_sub(sink.found);
         let start = lx.offset();
@@ -179,6 +198,7 @@ pub(super) fn values(lx: &mut Lexer, sink: &mut Sink) -> Result<bool, GrdeclErro
         }
         append(sink.out, &bufs, &counts);
         lx.skip_to(at, lines, bol)?;
+        released = release(&map, released, lx.offset());
         if early {
             return Ok(true);
         }
