@@ -257,6 +257,13 @@ fn corner_point_generate_info_and_slice() {
     ]);
     assert!(e.contains("--at cells needs a cell property"), "{e}");
     run_ok(&["bench", gs, "--load-only"]);
+    // --threads bounds the load and the build (they once ran on every
+    // core whatever it said).
+    for t in ["1", "3"] {
+        let out = run_ok(&["bench", gs, "--load-only", "--threads", t, "--json"]);
+        let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+        assert_eq!(j["threads"].to_string(), t, "{out}");
+    }
     // A bad GRDECL names file, line and keyword.
     let b = tmp("bad.grdecl");
     std::fs::write(&b, "SPECGRID\n 1 1 1 /\nZCORN\n 7*1 /\n").unwrap();
