@@ -16,8 +16,8 @@ use stratasweep::generate;
 use stratasweep::grid::Grid;
 use stratasweep::io;
 use stratasweep::pipeline::LevelSpec;
-use stratasweep::structures::StructureChoice;
 use stratasweep::structures::cpgraph::IjkLayout;
+use stratasweep::structures::{Structure, StructureChoice};
 use stratasweep::sweep::SweepOptions;
 
 /// Cells per axis of the built-in demo grid (`--demo`).
@@ -131,6 +131,22 @@ pub(crate) fn load_with_info(
     grid.validate()
         .with_context(|| format!("invalid grid {name}"))?;
     Ok((grid, name, t.elapsed().as_secs_f64(), info, ijk))
+}
+
+/// Builds the sweep structure of the loaded grid `name` (a spinner meanwhile:
+/// a multi-million-cell corner-point grid takes a second or more).
+pub(crate) fn build_structure(
+    grid: &Grid,
+    choice: StructureChoice,
+    ijk: Option<&IjkLayout>,
+    name: &str,
+    quiet: bool,
+) -> Result<Structure> {
+    let sp = spinner(quiet, format!("building the sweep structure of {name}"));
+    let s = Structure::build_with(grid, choice, ijk)
+        .with_context(|| format!("cannot build a structure for {name}"));
+    sp.finish_and_clear();
+    s
 }
 
 /// The sweep's A/B knobs, which only the CLI reads from the environment:

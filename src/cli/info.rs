@@ -3,11 +3,9 @@
 use super::bench::*;
 use super::checks::Outputs;
 use super::common::*;
-use anyhow::Context;
 use anyhow::Result;
 use clap::Args;
 use std::time::Instant;
-use stratasweep::structures::Structure;
 
 #[derive(Args)]
 pub(crate) struct InfoArgs {
@@ -26,8 +24,7 @@ pub(crate) fn cmd_info(a: InfoArgs) -> Result<()> {
     let (grid, name, load_s, cp, ijk) = load_with_info(&a.input, true, &Outputs::default())?;
     let cpu1 = process_cpu_ns();
     let t = Instant::now();
-    let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())
-        .with_context(|| format!("cannot build a structure for {name}"))?;
+    let s = build_structure(&grid, a.structure.into(), ijk.as_ref(), &name, true)?;
     let build_s = t.elapsed().as_secs_f64();
     let cpu2 = process_cpu_ns();
     let cpu_s = |a: Option<u64>, b: Option<u64>| match (a, b) {

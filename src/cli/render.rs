@@ -13,7 +13,6 @@ use std::time::Instant;
 use stratasweep::gpu::render::Mode;
 use stratasweep::gpu::render::Renderer;
 use stratasweep::io::guard::Named;
-use stratasweep::structures::Structure;
 use stratasweep::structures::StructureChoice;
 
 /// `stratasweep render`.
@@ -60,8 +59,7 @@ pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
     // corner-point graph, as `slice` does (faster to build and sweep than
     // the CGraph, the same slices), and pre-integrated slabs march its
     // cells in index space.
-    let s = Structure::build_with(&grid, StructureChoice::Auto, ijk.as_ref())
-        .with_context(|| format!("cannot build a structure for {name}"))?;
+    let s = build_structure(&grid, StructureChoice::Auto, ijk.as_ref(), &name, quiet)?;
     let iso = if o.mode == Mode::Iso { &o.iso[..] } else { &[] };
     for v in super::render_checks::check_before(&grid, o.property.as_deref(), iso)? {
         eprintln!("warning: --iso {v} is outside the property's range: it draws nothing");

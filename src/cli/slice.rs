@@ -75,8 +75,7 @@ pub(crate) fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     };
     let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
     let t = Instant::now();
-    let s = Structure::build_with(&grid, a.structure.into(), ijk.as_ref())
-        .with_context(|| format!("cannot build a structure for {name}"))?;
+    let s = build_structure(&grid, a.structure.into(), ijk.as_ref(), &name, quiet)?;
     let build_s = t.elapsed().as_secs_f64();
     let nlev = match &levels {
         LevelSpec::Count(k) => *k,

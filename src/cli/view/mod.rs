@@ -21,10 +21,10 @@ use stratasweep::gpu::render::{
 };
 use stratasweep::gpu::scene::Scene;
 use stratasweep::grid::Grid;
-use stratasweep::structures::{Structure, StructureChoice};
+use stratasweep::structures::StructureChoice;
 
 use super::scene_args::SceneArgs;
-use super::{GridArg, load_with_info};
+use super::{GridArg, build_structure, load_with_info};
 use app::{App, Script, Timeline};
 use overlay::{LEGEND_SIZE, Legend, Overlay, paint_legend, read_rgba8};
 
@@ -103,8 +103,7 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
     let z_scale = a.scene.z_scale(&grid, quiet);
     // As `render`: the corner-point graph (IJK lattice) for corner-point
     // input, so the panel's pre-integration switch gets the index-space path.
-    let s = Structure::build_with(&grid, StructureChoice::Auto, ijk.as_ref())
-        .with_context(|| format!("cannot build a structure for {name}"))?;
+    let s = build_structure(&grid, StructureChoice::Auto, ijk.as_ref(), &name, quiet)?;
     let event_loop = match a.headless {
         true => None,
         false => Some(EventLoop::new().context("cannot start the window event loop")?),
