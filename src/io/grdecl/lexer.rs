@@ -68,13 +68,18 @@ impl<'r> Lexer<'r> {
     /// that a small file gets a window of its size rather than [`WINDOW`]
     /// zeroed bytes (decks include many small files).
     pub(super) fn new(r: Box<dyn Read + 'r>, file: PathBuf, len: Option<u64>) -> Self {
+        Lexer::over(Source::Reader(r), file, len)
+    }
+
+    /// [`Lexer::new`] over any source.
+    fn over(src: Source<'r>, file: PathBuf, len: Option<u64>) -> Self {
         let size = len.map_or(WINDOW, |n| {
             usize::try_from(n.saturating_add(1))
                 .unwrap_or(WINDOW)
                 .clamp(2 * MAX_TOKEN, WINDOW)
         });
         Lexer {
-            src: Source::Reader(r),
+            src,
             buf: vec![0; size],
             pos: 0,
             end: 0,
@@ -102,12 +107,8 @@ impl<'r> Lexer<'r> {
             // new end would fault (SIGBUS): the same race a reading process
             // always has with a writer (as in `io::vtk_read`).
             if let Ok(map) = unsafe { Mmap::map(&f) } {
-                let mut lx = Lexer::new(Box::new(io::empty()), file, len);
-                lx.src = Source::Mapped {
-                    map: Arc::new(map),
-                    at: 0,
-                };
-                return lx;
+                let map = Arc::new(map);
+                return Lexer::over(Source::Mapped { map, at: 0 }, file, len);
             }
         }
         Lexer::new(Box::new(f), file, len)

@@ -75,7 +75,7 @@ fn cut(b: &[u8], start: usize, len: usize, parts: usize) -> Option<Vec<(usize, u
 }
 
 /// Runs the fast path over `b[a..e]` (a chunk cut at line starts) into
-/// `values` (cleared first), keeping at most `room` values.
+/// `buf` (cleared first), keeping at most `room` values.
 fn scan_chunk(
     b: &[u8],
     (a, e): (usize, usize),
@@ -128,9 +128,10 @@ fn append(out: &mut Vec<f64>, bufs: &[Vec<f64>], counts: &[usize]) {
 }
 
 /// Drops the pages of `map` between `from` and `to` (rounded down to a
-/// page; once they span 32 MiB) from this process's memory, so that the file read so far stops
-/// counting in its resident set (the page cache keeps them; a read there
-/// would fault them in again, the same bytes). Returns the new start.
+/// page; once they span 32 MiB) from this process's memory, so that the
+/// file read so far stops counting in its resident set (the page cache
+/// keeps them; a read there would fault them in again, the same bytes).
+/// Returns the new start.
 fn release(map: &Mmap, from: usize, to: usize) -> usize {
     let to = to & !4095;
     // In steps of 32 MiB: each call costs the other threads a TLB flush.
@@ -228,7 +229,7 @@ mod tests {
     }
 
     /// A comparable image of a read: every array's bits, or the error.
-    fn image(r: Result<super::super::GrdeclDeck, GrdeclError>) -> Result<Vec<u64>, String> {
+    fn image(r: Result<GrdeclDeck, GrdeclError>) -> Result<Vec<u64>, String> {
         let d = r.map_err(|e| e.to_string())?;
         let g = &d.grid;
         let mut v: Vec<u64> = g.dims.iter().map(|&n| n as u64).collect();
@@ -322,7 +323,6 @@ mod tests {
         let (a, e) = zcorn_range(&t);
         let tight = format!("{}{}/{}", &t[..a], t[a..e].trim_end(), &t[e + 1..]);
         assert!(same_on_threads(&tight, "tight").0.is_ok());
-        let _ = a;
     }
 
     #[test]
