@@ -263,6 +263,13 @@ fn corner_point_generate_info_and_slice() {
         let out = run_ok(&["bench", gs, "--load-only", "--threads", t, "--json"]);
         let j: serde_json::Value = serde_json::from_str(&out).unwrap();
         assert_eq!(j["threads"].to_string(), t, "{out}");
+        // The build's stages, in order, fit inside the build's time.
+        let st = j["build_stages"].as_object().expect("build_stages");
+        let names: Vec<&str> = st.keys().map(|k| k.as_str()).collect();
+        assert_eq!(names, ["graph_s", "split_s", "validate_s"], "{out}");
+        let sum: f64 = st.values().map(|v| v.as_f64().unwrap()).sum();
+        let build = j["build_s"].as_f64().unwrap();
+        assert!(sum > 0.0 && sum <= build, "{sum} against {build}: {out}");
     }
     // A bad GRDECL names file, line and keyword.
     let b = tmp("bad.grdecl");

@@ -244,6 +244,7 @@ pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
     let out_arrays = grid_array_bytes(&grid) + rep.source_cell.len() * 4;
     let peak = peak_rss_bytes();
     let t = Instant::now();
+    let mut stages: Vec<(&'static str, f64)> = Vec::new();
     let s = if a.skip_build {
         None
     } else {
@@ -251,11 +252,12 @@ pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
             dims: cells_dims,
             source_cell: rep.source_cell.clone(),
         };
-        Some(Structure::build_with(
-            &grid,
-            StructureChoice::Auto,
-            Some(&ijk),
-        )?)
+        let mut last = Instant::now();
+        let mut stage = |name: &'static str| {
+            stages.push((name, last.elapsed().as_secs_f64()));
+            last = Instant::now();
+        };
+        Some(Structure::build_cpgraph(&grid, &ijk, &mut stage)?)
     };
     let build_s = t.elapsed().as_secs_f64();
     let structure_bytes = s.as_ref().map_or(0, |s| memory_json(s, &grid).1);
@@ -272,7 +274,7 @@ pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
         "peak_rss_after_parse": hwm_parse, "peak_rss_after_to_grid": peak,
         "grid_array_bytes": out_arrays,
         "peak_rss_over_grid_arrays": peak.map(|p| p as f64 / out_arrays as f64),
-        "structure": structure, "build_s": build_s,
+        "structure": structure, "build_s": build_s, "build_stages": stages.iter().map(|(k, v)| (format!("{k}_s"), json!(v))).collect::<serde_json::Map<_, _>>(),
         "load_build_us_per_vertex": load_build_s * 1e6 / nv as f64,
         "structure_bytes_per_cell": structure_bytes as f64 / grid.cell_count() as f64,
     });
@@ -296,10 +298,15 @@ pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
             out_arrays,
             peak
         );
+        let parts: Vec<String> = stages
+            .iter()
+            .map(|(k, v)| format!("{k} {v:.3} s"))
+            .collect();
         println!(
-            "  build {} {:.3} s; load + build {:.3} s = {:.3} µs/vertex; structure {:.1} B/cell",
+            "  build {} {:.3} s ({}); load + build {:.3} s = {:.3} µs/vertex; structure {:.1} B/cell",
             structure,
             build_s,
+            parts.join(", "),
             load_build_s,
             load_build_s * 1e6 / nv as f64,
             structure_bytes as f64 / grid.cell_count() as f64

@@ -83,6 +83,26 @@ impl Structure {
         Self::build_with(grid, choice, None)
     }
 
+    /// The corner-point graph of `grid` (cells from the IJK box `layout`),
+    /// calling `stage` after each step of the build with its name:
+    /// `"validate"`, `"split"` (the non-convex cells' convex pieces),
+    /// `"graph"`.
+    pub fn build_cpgraph(
+        grid: &Grid,
+        layout: &IjkLayout,
+        stage: &mut dyn FnMut(&'static str),
+    ) -> Result<Self, BuildError> {
+        grid.validate()?;
+        stage("validate");
+        // The pieces only: the graph reads the other cells from `grid`.
+        let hidden = grid.hidden_cells();
+        let split = split_non_convex_pieces(grid, hidden.as_deref())?;
+        stage("split");
+        let g = CpGraph::build(grid, hidden.as_deref(), split, layout)?;
+        stage("graph");
+        Ok(Structure::CpGraph(Box::new(g)))
+    }
+
     /// [`Structure::build`] for a grid whose cells come from an IJK box
     /// (corner-point input, `layout`): `auto` (and the brute force) then
     /// take the corner-point graph.
@@ -91,7 +111,6 @@ impl Structure {
         choice: StructureChoice,
         layout: Option<&IjkLayout>,
     ) -> Result<Self, BuildError> {
-        grid.validate()?;
         let cp = match (choice, layout) {
             (StructureChoice::CpGraph, None) => {
                 return Err(BuildError::Unsupported(
@@ -105,16 +124,9 @@ impl Structure {
             _ => None,
         };
         if let Some(layout) = cp {
-            // The pieces only: the graph reads the other cells from `grid`.
-            let hidden = grid.hidden_cells();
-            let split = split_non_convex_pieces(grid, hidden.as_deref())?;
-            return Ok(Structure::CpGraph(Box::new(CpGraph::build(
-                grid,
-                hidden.as_deref(),
-                split,
-                layout,
-            )?)));
+            return Self::build_cpgraph(grid, layout, &mut |_| {});
         }
+        grid.validate()?;
         let hidden = grid.hidden_cells();
         let structured = matches!(grid.topology, Topology::Structured { .. });
         let ciel = |g: &Grid, h: Option<&[bool]>| -> Result<Ciel, BuildError> {
