@@ -28,6 +28,19 @@ fn req(field: FieldSpec, k: usize, threads: usize, mesh: bool) -> SliceRequest {
     }
 }
 
+/// `grid` in reservoir coordinates (UTM, depth below sea level) without
+/// properties: the slices then carry the level's world value.
+fn far_and_bare(mut grid: Grid) -> Grid {
+    grid.point_data.clear();
+    grid.cell_data.clear();
+    for p in &mut grid.points {
+        p[0] += 456_510.0;
+        p[1] += 5_926_880.0;
+        p[2] -= 1_700.0;
+    }
+    grid
+}
+
 fn cases() -> Vec<(String, Grid, FieldSpec, usize)> {
     let w = warped([11, 9, 8], 7);
     let z = zoo(400, 3);
@@ -53,9 +66,22 @@ fn cases() -> Vec<(String, Grid, FieldSpec, usize)> {
             FieldSpec::Normal([1.0, 2.0, 3.0]),
             13,
         ),
-        ("warped iso".into(), w, prop.clone(), 17),
+        ("warped iso".into(), w.clone(), prop.clone(), 17),
         ("zoo x".into(), z.clone(), axis(0), 8),
-        ("zoo iso".into(), z, prop, 15),
+        (
+            "far bare warped y".into(),
+            far_and_bare(w.clone()),
+            axis(1),
+            7,
+        ),
+        ("far bare zoo x".into(), far_and_bare(z.clone()), axis(0), 8),
+        (
+            "far bare zoo oblique".into(),
+            far_and_bare(z.clone()),
+            FieldSpec::Normal([1.0, 2.0, 3.0]),
+            6,
+        ),
+        ("zoo iso".into(), z.clone(), prop, 15),
     ]
 }
 
@@ -80,6 +106,32 @@ fn cpu_triangles(
         }
     }
     (out, r.stats)
+}
+
+/// Without a property the vertices carry their level's world value (to
+/// f32 rounding), not the structure's local one.
+#[test]
+fn vertices_carry_the_world_level_without_a_property() {
+    let mut checked = 0;
+    for (name, grid, field, k) in cases() {
+        if !grid.point_data.is_empty() {
+            continue;
+        }
+        let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+        let r = slice(&grid, &s, &req(field, k, 2, true), &|_| {}).unwrap();
+        let m = r.mesh.unwrap();
+        assert_eq!(m.property_name, "level_value", "{name}");
+        for p in 0..m.polygon_count() {
+            let want = r.level_values[m.poly_level[p] as usize];
+            for &v in &m.poly_indices[m.poly_offsets[p] as usize..m.poly_offsets[p + 1] as usize] {
+                let got = m.values[v as usize] as f64;
+                let tol = 4.0 * f32::EPSILON as f64 * want.abs().max(1.0);
+                assert!((got - want).abs() <= tol, "{name}: {got} for level {want}");
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 1000, "{checked} corners checked");
 }
 
 #[test]

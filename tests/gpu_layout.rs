@@ -79,7 +79,7 @@ fn rust_layouts() -> Vec<Layout> {
                 triangle_capacity,
                 live_count,
                 has_gradient,
-                _pad2
+                level_offset
             ]
         ),
         layout!(

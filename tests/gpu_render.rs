@@ -630,3 +630,71 @@ fn gpu_binned_cells_render_as_the_sweep() {
         }
     }
 }
+
+/// `grid` fitted to a reservoir's size (10 × 12 km, 400 m thick), without
+/// its properties, centred on the origin or in reservoir coordinates (UTM
+/// easting and northing, depth below sea level).
+fn reservoir_sized(mut grid: Grid, far: bool) -> Grid {
+    grid.point_data.clear();
+    grid.cell_data.clear();
+    let (lo, hi) = grid.bounds();
+    let (size, at) = (
+        [10_000.0, 12_000.0, 400.0],
+        [456_510.0, 5_926_880.0, -1_900.0],
+    );
+    for p in &mut grid.points {
+        for c in 0..3 {
+            let unit = (p[c] - lo[c]) / (hi[c] - lo[c]) - 0.5;
+            p[c] = unit * size[c] + if far { at[c] } else { 0.0 };
+        }
+    }
+    grid
+}
+
+/// With no property the slices show their position along the axis, with
+/// the colormap over the world range: a grid in reservoir coordinates must
+/// render as the same grid at the origin. (The slices once carried their
+/// local position against the world range, so such a grid drew nothing
+/// when sliced along x or y and one flat colour along z.)
+#[test]
+fn a_grid_without_properties_far_from_the_origin_renders_as_at_the_origin() {
+    let Some(ctx) =
+        gpu_common::gpu("a_grid_without_properties_far_from_the_origin_renders_as_at_the_origin")
+    else {
+        return;
+    };
+    let near = reservoir_sized(warped([10, 9, 8], 5), false);
+    let far = reservoir_sized(warped([10, 9, 8], 5), true);
+    let mut r = Renderer::new(ctx).unwrap();
+    for view in [[-1.0, -0.3, -0.2], [0.2, -1.0, -0.3], [0.2, 0.1, -1.0]] {
+        let o = RenderOptions {
+            property: None,
+            slices: 60,
+            view_dir: view,
+            size: (64, 64),
+            background: Some([0.0; 4]),
+            ..Default::default()
+        };
+        let mut imgs = Vec::new();
+        for g in [&near, &far] {
+            let s = Structure::build(g, StructureChoice::Auto).unwrap();
+            imgs.push(r.render(g, &s, &o).unwrap().rgba8());
+        }
+        let drawn = imgs[0].chunks(4).filter(|p| p[3] > 0).count();
+        assert!(
+            drawn > 500,
+            "view {view:?}: {drawn} pixels drawn at the origin"
+        );
+        let worst = imgs[0]
+            .iter()
+            .zip(&imgs[1])
+            .map(|(a, b)| a.abs_diff(*b))
+            .max()
+            .unwrap();
+        eprintln!("view {view:?}: {drawn} pixels drawn, largest difference {worst} levels");
+        assert!(
+            worst <= 2,
+            "view {view:?}: the far grid differs by {worst} levels"
+        );
+    }
+}

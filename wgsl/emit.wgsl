@@ -32,7 +32,7 @@ fn edge_point(mi: MetaInfo, e: u32, t: f32, cell_value: f32) -> Corner {
     let s = (t - fa) / (fb - fa);
     let pa = grid[ga].xyz;
     let pb = grid[gb].xyz;
-    var value = t;
+    var value = t + params.level_offset;
     if params.has_attribute == ATTR_VERTEX {
         value = attr[ga] + s * (attr[gb] - attr[ga]);
     } else if params.has_attribute == ATTR_CELL {

@@ -180,7 +180,7 @@ impl Transfer {
 /// What to render.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
-    /// Property shown (default: the grid's first point property).
+    /// Property shown (default: the grid's first point property, else its first cell property, else the slice position along the axis).
     pub property: Option<String>,
     /// Slices along the chosen axis (volume and slices modes).
     pub slices: usize,

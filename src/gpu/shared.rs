@@ -44,11 +44,13 @@ pub struct EmitParams {
     /// 1 when the `grad` buffer holds a gradient per vertex: the emit pass
     /// then interpolates it along the cut edge into `out_normals`.
     pub has_gradient: u32,
-    /// Padding.
-    pub _pad2: u32,
+    /// [`ATTR_NONE`]: added to the local level to write its world value
+    /// (see [`crate::pipeline::level_value`]).
+    pub level_offset: f32,
 }
 
-/// [`EmitParams::has_attribute`]: no attribute, write the level value.
+/// [`EmitParams::has_attribute`]: no attribute, write the level value
+/// (the local level plus [`EmitParams::level_offset`]).
 pub const ATTR_NONE: u32 = 0;
 /// [`EmitParams::has_attribute`]: one value per vertex, interpolated.
 pub const ATTR_VERTEX: u32 = 1;

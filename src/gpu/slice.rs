@@ -10,7 +10,7 @@ use thiserror::Error;
 use crate::field::ScalarField;
 use crate::grid::Grid;
 use crate::pipeline::{PipelineError, SliceRequest, SliceResult, Timings};
-use crate::pipeline::{bind, live_range, place_levels};
+use crate::pipeline::{bind, level_value, live_range, place_levels};
 use crate::structures::Structure;
 use crate::sweep::{CellGraph, LevelStats};
 
@@ -158,8 +158,14 @@ fn finish<G: CellGraph, F: ScalarField>(
         ),
     };
     let sweep_s = t.elapsed().as_secs_f64();
+    let mut grid = build(g, f, attribute);
+    if attribute.is_none() {
+        // The level's world value on its vertices, as the CPU's
+        // (`pipeline::level_value`).
+        grid.level_offset = level_value(0.0, world_offset);
+    }
     Ok(Prepared {
-        grid: build(g, f, attribute),
+        grid,
         frame,
         level_values: world,
         attribute_name: String::new(),

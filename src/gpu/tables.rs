@@ -100,6 +100,9 @@ pub struct GridBuffers {
     /// Per vertex attribute, or per slot when [`Self::attr_per_cell`]
     /// (empty: write the level value).
     pub attr: Vec<f32>,
+    /// Without `attr`: the level's world value less its local one, as
+    /// f32 (see [`crate::pipeline::level_value`]).
+    pub level_offset: f32,
     /// `attr` holds one value per slot (a cell property shown flat per
     /// polygon) rather than one per vertex.
     pub attr_per_cell: bool,
@@ -319,6 +322,7 @@ pub fn emit_params(
         hex_offsets_hi: [o[4], o[5], o[6], o[7]],
         tables: g.sections,
         triangle_capacity: capacity,
+        level_offset: g.level_offset,
         ..Default::default()
     }
 }

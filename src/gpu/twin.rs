@@ -133,7 +133,7 @@ impl Twin<'_> {
                 a[ga as usize] + s * (a[gb as usize] - a[ga as usize])
             }
             ATTR_CELL => cell_value,
-            _ => t,
+            _ => t + self.p.level_offset,
         };
         let mut n = [0f32; 4];
         if self.p.has_gradient == 1 {

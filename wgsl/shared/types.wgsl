@@ -27,7 +27,7 @@ struct EmitParams {
     triangle_capacity: u32,
     live_count: u32,
     has_gradient: u32,
-    _pad2: u32,
+    level_offset: f32,
 }
 
 struct MetaInfo {
