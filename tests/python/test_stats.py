@@ -75,3 +75,17 @@ def test_grid_properties():
     assert len(b) == 6 and b[0] < b[1] and b[2] < b[3] and b[4] < b[5]
     info = grid.info()
     assert info["cells"] == 720 and info["structure"] == "scgraph"
+
+
+def test_values_without_a_property_are_world_levels(data_dir):
+    import numpy as np
+
+    # Reek's EGRID has no property and UTM coordinates: each polygon's
+    # vertices carry its level's world value (f32), not a local position.
+    grid = stratasweep.load(data_dir / "reek" / "2_R001_REEK-0.EGRID")
+    s = grid.slice(axis="x", count=7)
+    assert s.attribute == "level_value"
+    want = np.repeat(s.level_values[s.level], np.diff(s.offsets))
+    got = s.values[s.connectivity]
+    assert want.min() > 4.5e5
+    np.testing.assert_allclose(got, want, rtol=4 * np.finfo(np.float32).eps)
