@@ -698,3 +698,34 @@ fn a_grid_without_properties_far_from_the_origin_renders_as_at_the_origin() {
         );
     }
 }
+
+/// Without `--property` the renderer shows the first property that varies
+/// (a constant one would draw one colour: SPE10's PORO), else the first
+/// one, else none (the slice position). No GPU needed.
+#[test]
+fn the_default_property_is_the_first_that_varies() {
+    use stratasweep::gpu::render::default_property;
+    let mut g = warped([3, 3, 3], 1);
+    g.point_data.clear();
+    assert_eq!(default_property(&g), None);
+    let cells = g.cell_count();
+    let mut varying: Vec<f64> = (0..cells).map(|c| c as f64).collect();
+    varying[0] = f64::NAN;
+    g.cell_data = vec![
+        Property::scalar("PORO", vec![0.2; cells]),
+        Property::scalar(
+            "NAN_THEN_ONE",
+            [f64::NAN].into_iter().chain(vec![1.0; cells - 1]).collect(),
+        ),
+        Property::scalar("PERMX", varying),
+    ];
+    assert_eq!(default_property(&g).as_deref(), Some("PERMX"));
+    g.point_data = vec![Property::scalar("one", vec![1.0; g.points.len()])];
+    assert_eq!(default_property(&g).as_deref(), Some("PERMX"));
+    g.cell_data.truncate(2);
+    assert_eq!(
+        default_property(&g).as_deref(),
+        Some("one"),
+        "all constant: the first"
+    );
+}

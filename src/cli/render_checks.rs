@@ -3,16 +3,15 @@
 //! which nothing was drawn (a warning naming the likely cause).
 
 use anyhow::{Result, bail};
-use stratasweep::gpu::render::{Image, Transfer};
+use stratasweep::gpu::render::{Image, Transfer, default_property};
 use stratasweep::grid::Grid;
 
-/// The property `render` shows: `--property`, else the first point
-/// property, else the first cell property (as the renderer picks it).
+/// The property `render` shows and its finite range: `--property`, else
+/// the renderer's [`default_property`].
 fn shown_property(grid: &Grid, name: Option<&str>) -> Option<(String, (f64, f64))> {
     let name = name
         .map(str::to_string)
-        .or_else(|| grid.point_data.first().map(|p| p.name.clone()))
-        .or_else(|| grid.cell_data.first().map(|p| p.name.clone()))?;
+        .or_else(|| default_property(grid))?;
     let p = grid
         .point_property(&name)
         .or_else(|| grid.cell_property(&name))?;
@@ -34,6 +33,15 @@ pub fn check_before(grid: &Grid, property: Option<&str>, iso: &[f64]) -> Result<
     let Some((name, (lo, hi))) = shown_property(grid, property) else {
         return Ok(Vec::new()); // the renderer names the missing property
     };
+    if property.is_none() {
+        let first = grid.point_data.iter().chain(&grid.cell_data).next();
+        if let Some(first) = first.filter(|p| p.name != name) {
+            eprintln!(
+                "note: showing '{name}', the first property that is not constant ('{}' is; --property to choose)",
+                first.name
+            );
+        }
+    }
     if lo > hi {
         bail!("property '{name}' has no finite value: nothing to draw");
     }

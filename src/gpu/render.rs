@@ -180,7 +180,8 @@ impl Transfer {
 /// What to render.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
-    /// Property shown (default: the grid's first point property, else its first cell property, else the slice position along the axis).
+    /// Property shown (default: [`default_property`]; without properties the
+    /// slice position along the axis).
     pub property: Option<String>,
     /// Slices along the chosen axis (volume and slices modes).
     pub slices: usize,
@@ -374,13 +375,39 @@ pub fn slicing_axis(d: Vec3) -> usize {
         .unwrap_or(2)
 }
 
-/// The property shown by `o` on `grid`: the named one, else the first point
-/// property, else the first cell property.
+/// The property shown by `o` on `grid`: the named one, else
+/// [`default_property`].
 pub fn shown_property(grid: &Grid, o: &RenderOptions) -> Option<String> {
-    o.property
-        .clone()
-        .or_else(|| grid.point_data.first().map(|p| p.name.clone()))
-        .or_else(|| grid.cell_data.first().map(|p| p.name.clone()))
+    o.property.clone().or_else(|| default_property(grid))
+}
+
+/// The property shown when none is named: the first point property, else
+/// the first cell property, that takes two different finite values (a
+/// constant one draws every slice in one colour: SPE10's PORO is 0.2
+/// everywhere); when every property is constant, the first of them; none
+/// without properties (the slices then show their position).
+pub fn default_property(grid: &Grid) -> Option<String> {
+    let all = || grid.point_data.iter().chain(&grid.cell_data);
+    all()
+        .find(|p| varies(p))
+        .or_else(|| all().next())
+        .map(|p| p.name.clone())
+}
+
+/// Whether `p` takes two different finite values.
+fn varies(p: &crate::grid::Property) -> bool {
+    let mut first = None;
+    for i in 0..p.len() {
+        let v = p.scalar_at(i);
+        if v.is_finite() {
+            match first {
+                None => first = Some(v),
+                Some(f) if f != v => return true,
+                Some(_) => {}
+            }
+        }
+    }
+    false
 }
 
 /// The slices `o` needs along `axis` (or its isosurfaces).
