@@ -260,6 +260,10 @@ pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
         Some(Structure::build_cpgraph(&grid, &ijk, &mut stage)?)
     };
     let build_s = t.elapsed().as_secs_f64();
+    let stage_times: serde_json::Map<_, _> = stages
+        .iter()
+        .map(|(k, v)| (format!("{k}_s"), json!(v)))
+        .collect();
     let structure_bytes = s.as_ref().map_or(0, |s| memory_json(s, &grid).1);
     let structure = s.as_ref().map_or("none", |s| s.name());
     let nv = grid.points.len();
@@ -274,7 +278,7 @@ pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
         "peak_rss_after_parse": hwm_parse, "peak_rss_after_to_grid": peak,
         "grid_array_bytes": out_arrays,
         "peak_rss_over_grid_arrays": peak.map(|p| p as f64 / out_arrays as f64),
-        "structure": structure, "build_s": build_s, "build_stages": stages.iter().map(|(k, v)| (format!("{k}_s"), json!(v))).collect::<serde_json::Map<_, _>>(),
+        "structure": structure, "build_s": build_s, "build_stages": stage_times,
         "load_build_us_per_vertex": load_build_s * 1e6 / nv as f64,
         "structure_bytes_per_cell": structure_bytes as f64 / grid.cell_count() as f64,
     });

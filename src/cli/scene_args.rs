@@ -45,7 +45,7 @@ pub enum CellsArg {
 /// Options shared by `render` and `view`.
 #[derive(Args, Clone, Debug)]
 pub struct SceneArgs {
-    /// Property to show (default: the first point property, else the first cell property, else the slice position along the axis).
+    /// Property to show (default: the first that is not constant, point properties before cell properties; without properties, the slice position along the axis).
     #[arg(long)]
     pub property: Option<String>,
     /// Slices along the axis most parallel to the view direction.

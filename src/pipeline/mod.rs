@@ -287,8 +287,9 @@ pub fn slice(
 /// The value written on the vertices of local level `t` when no attribute
 /// is interpolated: its world value, in f32 (`world_offset` from
 /// [`Binding::world_offset`]; a UTM northing of 5.9e6 is kept to 0.5, a
-/// depth of 2e3 to 1e-4; the exact f64 level is the polygons' own). The GPU's emit pass adds the same f32
-/// (`EmitParams::level_offset`), so CPU and GPU values agree bit for bit.
+/// depth of 2e3 to 1e-4; the exact f64 level is the polygons' own). The
+/// GPU's emit pass adds the same f32 (`EmitParams::level_offset`), so CPU
+/// and GPU values agree bit for bit.
 #[inline]
 pub fn level_value(t: f32, world_offset: f64) -> f32 {
     t + world_offset as f32
