@@ -87,10 +87,13 @@ pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
     stratasweep::io::atomic::write_bytes(&a.output, &img.png()?)
         .with_context(|| format!("cannot write {}", a.output.display()))?;
     if !quiet {
+        let what = match o.mode {
+            Mode::Iso => format!("{} isovalue(s)", o.iso.len()),
+            _ => format!("{} slices", o.slices),
+        };
         eprintln!(
-            "{name}: {:?} mode, {} slices, {}x{} in {:.3} s ({} compute dispatches); wrote {}",
+            "{name}: {:?} mode, {what}, {}x{} in {:.3} s ({} compute dispatches); wrote {}",
             a.scene.mode,
-            o.slices,
             o.size.0,
             o.size.1,
             secs,
