@@ -729,3 +729,30 @@ fn the_default_property_is_the_first_that_varies() {
         "all constant: the first"
     );
 }
+
+/// A constant property is refused by the library, as the CLI refuses it,
+/// unless a transfer function's points colour it (volume and slices); no
+/// isosurface lies inside a constant's range.
+#[test]
+fn a_constant_property_is_refused_without_a_transfer_function() {
+    let Some(ctx) = gpu_common::gpu("a_constant_property_is_refused_without_a_transfer_function")
+    else {
+        return;
+    };
+    let grid = box_grid();
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let mut r = Renderer::new(ctx).unwrap();
+    let mut o = opts("one", flat(0.3), [0.2, 0.1, -1.0], 16);
+    assert!(
+        r.render(&grid, &s, &o).is_ok(),
+        "a transfer function colours it"
+    );
+    o.transfer = None;
+    let e = r.render(&grid, &s, &o).unwrap_err().to_string();
+    assert!(e.contains("property 'one' is constant (1)"), "{e}");
+    o.transfer = Some(flat(0.3));
+    o.mode = Mode::Iso;
+    o.iso = vec![1.0];
+    let e = r.render(&grid, &s, &o).unwrap_err().to_string();
+    assert!(e.contains("is constant"), "{e}");
+}

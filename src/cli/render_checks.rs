@@ -1,39 +1,28 @@
-//! `render`'s checks against blank images: a constant property, isovalues
-//! outside the property's range (refused before rendering), and an image in
-//! which nothing was drawn (a warning naming the likely cause).
+//! `render`'s checks against blank images: the library's (a constant
+//! property), isovalues outside the property's range (refused before
+//! rendering), and an image in which nothing was drawn (a warning naming
+//! the likely cause).
 
 use anyhow::{Result, bail};
-use stratasweep::gpu::render::{Image, Transfer, default_property};
+use stratasweep::gpu::render::{
+    Image, Mode, RenderOptions, Transfer, check_shown_property, property_range, shown_property,
+};
 use stratasweep::grid::Grid;
 
-/// The property `render` shows and its finite range: `--property`, else
-/// the renderer's [`default_property`].
-fn shown_property(grid: &Grid, name: Option<&str>) -> Option<(String, (f64, f64))> {
-    let name = name
-        .map(str::to_string)
-        .or_else(|| default_property(grid))?;
-    let p = grid
-        .point_property(&name)
-        .or_else(|| grid.cell_property(&name))?;
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for i in 0..p.len() {
-        let v = p.scalar_at(i);
-        if v.is_finite() {
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
-    }
-    Some((name, (lo, hi)))
-}
-
-/// Refuses a render that can only be blank: a constant (or all-NaN)
-/// property, or isovalues that all lie outside the property's range.
-/// Returns the isovalues outside the range (each one draws nothing).
-pub fn check_before(grid: &Grid, property: Option<&str>, iso: &[f64]) -> Result<Vec<f64>> {
-    let Some((name, (lo, hi))) = shown_property(grid, property) else {
+/// Refuses a render that can only be blank ([`check_shown_property`]: a
+/// property without a finite value, or a constant one without a transfer
+/// function), and one whose isovalues all lie outside the property's
+/// range. Notes a default property chosen past constant ones. Returns the
+/// isovalues outside the range (each one draws nothing).
+pub fn check_before(grid: &Grid, o: &RenderOptions) -> Result<Vec<f64>> {
+    check_shown_property(grid, o)?;
+    let Some(name) = shown_property(grid, o) else {
+        return Ok(Vec::new());
+    };
+    let Some((lo, hi)) = property_range(grid, &name) else {
         return Ok(Vec::new()); // the renderer names the missing property
     };
-    if property.is_none() {
+    if o.property.is_none() {
         let first = grid.point_data.iter().chain(&grid.cell_data).next();
         if let Some(first) = first.filter(|p| p.name != name) {
             eprintln!(
@@ -42,14 +31,7 @@ pub fn check_before(grid: &Grid, property: Option<&str>, iso: &[f64]) -> Result<
             );
         }
     }
-    if lo > hi {
-        bail!("property '{name}' has no finite value: nothing to draw");
-    }
-    if lo == hi {
-        bail!(
-            "property '{name}' is constant ({lo}) over the grid: nothing to map to colours or contour (slice refuses it too)"
-        );
-    }
+    let iso = if o.mode == Mode::Iso { &o.iso[..] } else { &[] };
     let outside: Vec<f64> = iso
         .iter()
         .copied()

@@ -13,8 +13,8 @@ use crate::structures::Structure;
 use super::draw::FrameSetup;
 use super::host_slices::build_slices;
 use super::render::{
-    GridStamp, Image, Mode, RenderError, RenderOptions, Renderer, slice_key, slicing_axis,
-    transfer_for, unit_distance,
+    GridStamp, Image, Mode, RenderError, RenderOptions, Renderer, check_shown_property, slice_key,
+    slicing_axis, transfer_for, unit_distance,
 };
 use super::scene::fit_camera;
 
@@ -68,6 +68,7 @@ impl Renderer<'_> {
             self.clear_cache();
             self.stamp = Some(stamp);
         }
+        check_shown_property(grid, o)?;
         let axis = slicing_axis(d);
         let mut k = slice_key(grid, o, axis)?;
         if self.preintegrated && o.mode == Mode::Volume {

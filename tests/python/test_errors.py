@@ -155,3 +155,23 @@ def test_control_bytes_in_messages_are_escaped_as_the_cli_escapes_them(tmp_path,
     assert "a\\u{7}b" in r.stderr and "\x07" not in r.stderr, r.stderr
     # The same message text as the CLI's error line.
     assert msg in r.stderr, (msg, r.stderr)
+
+
+def test_a_constant_property_is_refused_as_the_cli_refuses_it():
+    # One colour over a range of zero width draws nothing: ValueError, not
+    # a blank image (a transfer function's own points still colour it).
+    grid = stratasweep.from_arrays(
+        [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]],
+        [4, 0, 1, 2, 3],
+        [10],
+        point_data={"flat": [2.5, 2.5, 2.5, 2.5], "ramp": [0.0, 1.0, 2.0, 3.0]},
+    )
+    with pytest.raises(ValueError, match=r"property 'flat' is constant \(2\.5\)"):
+        grid.render(property="flat", size=(16, 16))
+    flat = {"points": [{"value": 0, "color": [1, 0, 0], "opacity": 1},
+                       {"value": 5, "color": [1, 0, 0], "opacity": 1}]}
+    img = grid.render(property="flat", transfer=flat, size=(16, 16))
+    assert (img[..., 3] > 0).any()
+    with pytest.raises(ValueError, match="is constant"):
+        grid.render(property="flat", transfer=flat, mode="iso", iso=[2.5], size=(16, 16))
+    assert grid.render(size=(16, 16)) is not None  # the default skips 'flat'
