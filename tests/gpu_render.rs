@@ -704,7 +704,7 @@ fn a_grid_without_properties_far_from_the_origin_renders_as_at_the_origin() {
 /// one, else none (the slice position). No GPU needed.
 #[test]
 fn the_default_property_is_the_first_that_varies() {
-    use stratasweep::gpu::render::default_property;
+    use stratasweep::gpu::shown::default_property;
     let mut g = warped([3, 3, 3], 1);
     g.point_data.clear();
     assert_eq!(default_property(&g), None);

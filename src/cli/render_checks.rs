@@ -4,9 +4,8 @@
 //! the likely cause).
 
 use anyhow::{Result, bail};
-use stratasweep::gpu::render::{
-    Image, Mode, RenderOptions, Transfer, check_shown_property, property_range, shown_property,
-};
+use stratasweep::gpu::render::{Image, Mode, RenderOptions, Transfer};
+use stratasweep::gpu::shown::{check_shown_property, property_range, shown_property};
 use stratasweep::grid::Grid;
 
 /// Refuses a render that can only be blank ([`check_shown_property`]: a

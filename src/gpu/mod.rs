@@ -27,6 +27,7 @@ pub mod render;
 pub mod scene;
 pub mod shaders;
 pub mod shared;
+pub mod shown;
 pub mod slice;
 pub mod tables;
 pub mod twin;

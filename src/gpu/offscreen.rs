@@ -13,10 +13,11 @@ use crate::structures::Structure;
 use super::draw::FrameSetup;
 use super::host_slices::build_slices;
 use super::render::{
-    GridStamp, Image, Mode, RenderError, RenderOptions, Renderer, check_shown_property, slice_key,
-    slicing_axis, transfer_for, unit_distance,
+    GridStamp, Image, Mode, RenderError, RenderOptions, Renderer, slice_key, slicing_axis,
+    transfer_for, unit_distance,
 };
 use super::scene::fit_camera;
+use super::shown::check_shown_property;
 
 impl Renderer<'_> {
     /// Renders `grid` (with its built structure `s`).

@@ -31,6 +31,7 @@ use super::gradient::vertex_gradients;
 use super::ijk_field::IjkField;
 use super::pre_pass::{BoundaryMesh, PrePipeline};
 use super::shaders;
+use super::shown::shown_property;
 use super::slice::{prepare, prepare_unswept};
 use super::tables::{Frame, slot_values};
 
@@ -180,8 +181,8 @@ impl Transfer {
 /// What to render.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
-    /// Property shown (default: [`default_property`]; without properties the
-    /// slice position along the axis).
+    /// Property shown (default: [`super::shown::default_property`]; without
+    /// properties the slice position along the axis).
     pub property: Option<String>,
     /// Slices along the chosen axis (volume and slices modes).
     pub slices: usize,
@@ -373,83 +374,6 @@ pub fn slicing_axis(d: Vec3) -> usize {
     (0..3)
         .max_by(|&a, &b| d[a].abs().total_cmp(&d[b].abs()))
         .unwrap_or(2)
-}
-
-/// The property shown by `o` on `grid`: the named one, else
-/// [`default_property`].
-pub fn shown_property(grid: &Grid, o: &RenderOptions) -> Option<String> {
-    o.property.clone().or_else(|| default_property(grid))
-}
-
-/// The property shown when none is named: the first point property, else
-/// the first cell property, that takes two different finite values (a
-/// constant one draws every slice in one colour: SPE10's PORO is 0.2
-/// everywhere); when every property is constant, the first of them; none
-/// without properties (the slices then show their position).
-pub fn default_property(grid: &Grid) -> Option<String> {
-    let all = || grid.point_data.iter().chain(&grid.cell_data);
-    all()
-        .find(|p| varies(p))
-        .or_else(|| all().next())
-        .map(|p| p.name.clone())
-}
-
-/// The finite value range of property `name` on `grid` (point property,
-/// else cell property): `lo > hi` when it has no finite value; `None`
-/// when the grid has no property of that name.
-pub fn property_range(grid: &Grid, name: &str) -> Option<(f64, f64)> {
-    let p = grid
-        .point_property(name)
-        .or_else(|| grid.cell_property(name))?;
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for i in 0..p.len() {
-        let v = p.scalar_at(i);
-        if v.is_finite() {
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
-    }
-    Some((lo, hi))
-}
-
-/// Refuses options that can only give a blank image: a shown property
-/// without a finite value, or a constant one that is contoured (no level
-/// lies inside its range) or coloured by a colormap (which spans the
-/// range; a transfer function's own points still colour it).
-pub fn check_shown_property(grid: &Grid, o: &RenderOptions) -> Result<(), RenderError> {
-    let Some(name) = shown_property(grid, o) else {
-        return Ok(());
-    };
-    let Some((lo, hi)) = property_range(grid, &name) else {
-        return Ok(()); // the slicing names the missing property
-    };
-    if lo > hi {
-        return Err(RenderError::Options(format!(
-            "property '{name}' has no finite value: nothing to draw"
-        )));
-    }
-    if lo == hi && (o.mode == Mode::Iso || o.transfer.is_none()) {
-        return Err(RenderError::Options(format!(
-            "property '{name}' is constant ({lo}) over the grid: nothing to map to colours or contour (slice refuses it too)"
-        )));
-    }
-    Ok(())
-}
-
-/// Whether `p` takes two different finite values.
-fn varies(p: &crate::grid::Property) -> bool {
-    let mut first = None;
-    for i in 0..p.len() {
-        let v = p.scalar_at(i);
-        if v.is_finite() {
-            match first {
-                None => first = Some(v),
-                Some(f) if f != v => return true,
-                Some(_) => {}
-            }
-        }
-    }
-    false
 }
 
 /// The slices `o` needs along `axis` (or its isosurfaces).
