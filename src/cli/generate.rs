@@ -12,6 +12,7 @@ use std::time::Instant;
 use stratasweep::generate;
 use stratasweep::grid::Grid;
 use stratasweep::io;
+use stratasweep::io::guard::{Named, check_outputs};
 
 #[derive(Subcommand)]
 pub(crate) enum GenCmd {
@@ -103,7 +104,31 @@ pub(crate) fn write_grid(path: &Path, grid: &Grid, want_ext: &str, quiet: bool) 
     Ok(())
 }
 
+/// Before anything is generated: refuses `-o` (and, for an EGRID, the
+/// INIT written beside it) when it exists and is not a regular file.
+fn check_output(g: &GenCmd) -> Result<()> {
+    let out = match g {
+        GenCmd::Warped { output, .. }
+        | GenCmd::Voronoi { output, .. }
+        | GenCmd::Faulted { output, .. }
+        | GenCmd::Zoo { output, .. } => output,
+    };
+    let mut outputs = vec![Named::new("-o", out)];
+    if matches!(g, GenCmd::Faulted { .. })
+        && out
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("egrid"))
+    {
+        outputs.push(Named::new(
+            "the INIT written beside -o",
+            super::write::init_beside(out),
+        ));
+    }
+    Ok(check_outputs(&outputs, &[])?)
+}
+
 pub(crate) fn cmd_generate(g: GenCmd, quiet: bool) -> Result<()> {
+    check_output(&g)?;
     match g {
         GenCmd::Warped { dims, seed, output } => {
             let d = parse_dims(&dims)?;

@@ -60,6 +60,7 @@ pub fn main() {
     restore_default_sigpipe();
     tune_allocator();
     quiet_headless_vulkan_layer();
+    remove_temporaries_on_signals();
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
         // Messages may quote file content: never send raw control bytes.
@@ -77,6 +78,48 @@ fn restore_default_sigpipe() {
     // SIG_DFL is a valid disposition for SIGPIPE.
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+/// On SIGINT, SIGTERM or SIGHUP: removes the temporary files of the
+/// outputs being written (`io::atomic::remove_temporaries`: the
+/// destinations stay as they were), then ends the process by the same
+/// signal, as its default action would (a shell sees 128 + the signal, and
+/// a script looping over runs stops on Ctrl-C). A signal that was ignored
+/// when the process started (`nohup`, a background job) stays ignored. The
+/// signal is taken by a thread of its own (signal-hook's iterator), so the
+/// clean-up runs outside any asynchronous signal handler.
+fn remove_temporaries_on_signals() {
+    #[cfg(unix)]
+    {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        let wanted: Vec<i32> = [SIGINT, SIGTERM, SIGHUP]
+            .into_iter()
+            .filter(|&s| !ignored_at_start(s))
+            .collect();
+        let Ok(mut signals) = signal_hook::iterator::Signals::new(&wanted) else {
+            return;
+        };
+        let spawned = std::thread::Builder::new()
+            .name("signals".into())
+            .spawn(move || {
+                if let Some(sig) = signals.forever().next() {
+                    io::atomic::remove_temporaries();
+                    let _ = signal_hook::low_level::emulate_default_handler(sig);
+                    std::process::exit(128 + sig);
+                }
+            });
+        drop(spawned);
+    }
+}
+
+/// Whether `sig`'s disposition is "ignore" (inherited across exec).
+#[cfg(unix)]
+fn ignored_at_start(sig: i32) -> bool {
+    // SAFETY: a query (null new action) into a zeroed sigaction.
+    unsafe {
+        let mut old: libc::sigaction = std::mem::zeroed();
+        libc::sigaction(sig, std::ptr::null(), &mut old) == 0 && old.sa_sigaction == libc::SIG_IGN
     }
 }
 

@@ -1,6 +1,7 @@
 //! The CLI's own writes, all atomic (`io::atomic`): statistics JSON and
 //! `generate faulted` in the format its extension names.
 
+use std::io::Write;
 use std::path::Path;
 
 use anyhow::{Context, Result};
@@ -10,6 +11,16 @@ use stratasweep::io::{self, atomic};
 
 /// Extensions `generate faulted -o` writes.
 pub const CORNERPOINT_EXTS: &[&str] = &["grdecl", "inc", "vtu", "egrid"];
+
+/// The INIT file `generate faulted -o X.egrid` writes beside `X.egrid`
+/// (upper case beside `.EGRID`).
+pub fn init_beside(path: &Path) -> std::path::PathBuf {
+    path.with_extension(if path.extension().is_some_and(|e| e == "EGRID") {
+        "INIT"
+    } else {
+        "init"
+    })
+}
 
 /// Writes `v` as pretty JSON to `path` atomically.
 pub fn write_json(path: &Path, v: &Value) -> Result<()> {
@@ -31,16 +42,27 @@ pub fn write_cornerpoint(path: &Path, ext: &str, g: CornerPointGrid) -> Result<V
             Ok(vec![path.display().to_string()])
         }
         "egrid" => {
-            let init = path.with_extension(if path.extension().is_some_and(|e| e == "EGRID") {
-                "INIT"
+            let init = init_beside(path);
+            // Both files are written in full before either replaces
+            // anything: a failure leaves the old pair as it was.
+            let mut egrid = atomic::AtomicFile::create(path).with_context(ctx)?;
+            io::egrid_write::write_egrid(&mut egrid, &g)
+                .and_then(|_| egrid.flush())
+                .with_context(ctx)?;
+            let init_ctx = || format!("cannot write {}", init.display());
+            let init_file = if g.properties.is_empty() {
+                None
             } else {
-                "init"
-            });
-            atomic::write_with(path, |w| io::egrid_write::write_egrid(w, &g)).with_context(ctx)?;
+                let mut f = atomic::AtomicFile::create(&init).with_context(init_ctx)?;
+                io::egrid_write::write_init(&mut f, &g)
+                    .and_then(|_| f.flush())
+                    .with_context(init_ctx)?;
+                Some(f)
+            };
+            egrid.commit().with_context(ctx)?;
             let mut out = vec![path.display().to_string()];
-            if !g.properties.is_empty() {
-                atomic::write_with(&init, |w| io::egrid_write::write_init(w, &g).map(|_| ()))
-                    .with_context(|| format!("cannot write {}", init.display()))?;
+            if let Some(f) = init_file {
+                f.commit().with_context(init_ctx)?;
                 out.push(init.display().to_string());
             }
             Ok(out)

@@ -2,23 +2,71 @@
 //! in the destination's folder and renames it into place once the whole file
 //! is written, so that an interrupted or failed run never leaves half a file
 //! where a good one was (the old file, if any, stays as it was).
+//!
+//! - A destination that exists and is not a regular file (a directory, a
+//!   named pipe, a device node, a socket, or a symbolic link to one) is
+//!   refused before anything is written: a rename would replace the node
+//!   with a plain file ([`not_a_regular_file`]).
+//! - A temporary file is removed whenever it is not committed: an error
+//!   while writing, flushing (a full disk, a file size limit) or renaming,
+//!   a panic, or a drop.
+//! - Every live temporary file is listed in a process-wide registry, so
+//!   that a program interrupted by a signal can remove them before it ends
+//!   ([`remove_temporaries`]). The library installs no signal handler: the
+//!   program decides (the CLI does, for SIGINT, SIGTERM and SIGHUP).
 
+use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, MutexGuard};
 
-/// Distinguishes the temporary files of one process.
-static SEQ: AtomicU64 = AtomicU64::new(0);
+/// The live temporary files of this process, by sequence number, and
+/// whether the process is ending (no new temporary file is created then).
+struct Registry {
+    next: u64,
+    live: BTreeMap<u64, PathBuf>,
+    ending: bool,
+}
+
+static REGISTRY: Mutex<Registry> = Mutex::new(Registry {
+    next: 0,
+    live: BTreeMap::new(),
+    ending: false,
+});
+
+/// The registry, even after a panic while it was held (its data stays
+/// consistent: every change is one insert or remove).
+fn registry() -> MutexGuard<'static, Registry> {
+    REGISTRY.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Removes every temporary file this process is writing and makes any
+/// later [`AtomicFile::create`] fail: for a program about to end on a
+/// signal (call it from a thread that receives signals, not from an
+/// asynchronous signal handler). Destinations are left as they were.
+/// Returns how many temporary files were removed.
+pub fn remove_temporaries() -> usize {
+    let mut r = registry();
+    r.ending = true;
+    let live = std::mem::take(&mut r.live);
+    live.values()
+        .filter(|p| std::fs::remove_file(p).is_ok())
+        .count()
+}
 
 /// A file being written: bytes go to a temporary sibling of the destination;
 /// [`AtomicFile::commit`] renames it into place. Dropped without a commit,
-/// the temporary file is removed and the destination is left untouched.
+/// or when the commit fails, the temporary file is removed and the
+/// destination is left untouched.
 #[derive(Debug)]
 pub struct AtomicFile {
     tmp: PathBuf,
     dest: PathBuf,
+    /// The key of `tmp` in the registry.
+    seq: u64,
     w: Option<BufWriter<File>>,
+    committed: bool,
 }
 
 /// The path a write to `path` really replaces: the target of a symbolic
@@ -30,11 +78,79 @@ fn resolve(path: &Path) -> PathBuf {
     }
 }
 
+/// What an existing `path` is, in words, when it is not a regular file
+/// (symbolic links followed): "a directory", "a named pipe (FIFO)",
+/// "a character device", "a block device", "a socket", each with
+/// "a symbolic link to TARGET, " in front when `path` is a link. `None`
+/// when `path` is a regular file or does not exist (a dangling link
+/// included: the write creates its target).
+pub fn not_a_regular_file(path: &Path) -> Option<String> {
+    let m = std::fs::metadata(path).ok()?;
+    let t = m.file_type();
+    if t.is_file() {
+        return None;
+    }
+    let what = if t.is_dir() {
+        "a directory"
+    } else {
+        special_kind(&t)
+    };
+    let link = std::fs::symlink_metadata(path).is_ok_and(|l| l.file_type().is_symlink());
+    Some(if link {
+        let target = std::fs::canonicalize(path).unwrap_or_else(|_| path.into());
+        format!("a symbolic link to {}, {what}", target.display())
+    } else {
+        what.to_string()
+    })
+}
+
+#[cfg(unix)]
+fn special_kind(t: &std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if t.is_fifo() {
+        "a named pipe (FIFO)"
+    } else if t.is_char_device() {
+        "a character device"
+    } else if t.is_block_device() {
+        "a block device"
+    } else if t.is_socket() {
+        "a socket"
+    } else {
+        "not a regular file"
+    }
+}
+
+#[cfg(not(unix))]
+fn special_kind(_: &std::fs::FileType) -> &'static str {
+    "not a regular file"
+}
+
+/// The error for a destination that is not a regular file, naming it.
+fn refuse(path: &Path, what: &str) -> io::Error {
+    let kind = if what == "a directory" {
+        io::ErrorKind::IsADirectory
+    } else {
+        io::ErrorKind::InvalidInput
+    };
+    io::Error::new(
+        kind,
+        format!(
+            "{} is {what}, not a regular file: refusing to replace it; nothing was written",
+            path.display()
+        ),
+    )
+}
+
 impl AtomicFile {
     /// Opens a temporary file beside `dest` (same folder, hidden name with
-    /// the process id), buffered by 1 MiB.
+    /// the process id), buffered by 1 MiB. Refuses a `dest` that exists and
+    /// is not a regular file ([`not_a_regular_file`]), naming it.
     pub fn create(dest: impl AsRef<Path>) -> io::Result<Self> {
-        let dest = resolve(dest.as_ref());
+        let given = dest.as_ref();
+        if let Some(what) = not_a_regular_file(given) {
+            return Err(refuse(given, &what));
+        }
+        let dest = resolve(given);
         let name = dest
             .file_name()
             .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "the path names no file"))?;
@@ -42,22 +158,30 @@ impl AtomicFile {
             Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        if dest.is_dir() {
+        // Created and registered under the lock: a signal-driven
+        // `remove_temporaries` sees every temporary file that exists.
+        let mut r = registry();
+        if r.ending {
             return Err(io::Error::new(
-                io::ErrorKind::IsADirectory,
-                "it is a directory",
+                io::ErrorKind::Interrupted,
+                "the program is ending on a signal",
             ));
         }
-        let seq = SEQ.fetch_add(1, Ordering::Relaxed);
+        let seq = r.next;
         let mut tmp_name = std::ffi::OsString::from(".");
         tmp_name.push(name);
         tmp_name.push(format!(".{}.{seq}.tmp", std::process::id()));
         let tmp = dir.join(tmp_name);
         let f = File::create(&tmp)?;
+        r.next += 1;
+        r.live.insert(seq, tmp.clone());
+        drop(r);
         Ok(AtomicFile {
             tmp,
             dest,
+            seq,
             w: Some(BufWriter::with_capacity(1 << 20, f)),
+            committed: false,
         })
     }
 
@@ -66,7 +190,14 @@ impl AtomicFile {
         &self.dest
     }
 
-    /// Flushes, then renames the temporary file onto the destination.
+    /// The temporary file the bytes go to until the commit.
+    pub fn temporary(&self) -> &Path {
+        &self.tmp
+    }
+
+    /// Flushes, then renames the temporary file onto the destination. On
+    /// an error the temporary file is removed and the destination is left
+    /// as it was.
     pub fn commit(mut self) -> io::Result<()> {
         let w = self.w.take().expect("not yet committed");
         let f = w.into_inner().map_err(|e| e.into_error())?;
@@ -75,7 +206,17 @@ impl AtomicFile {
             let _ = f.set_permissions(m.permissions());
         }
         drop(f);
-        std::fs::rename(&self.tmp, &self.dest)
+        let mut r = registry();
+        if r.ending {
+            return Err(io::Error::new(
+                io::ErrorKind::Interrupted,
+                "the program is ending on a signal",
+            ));
+        }
+        std::fs::rename(&self.tmp, &self.dest)?;
+        r.live.remove(&self.seq);
+        self.committed = true;
+        Ok(())
     }
 }
 
@@ -95,14 +236,23 @@ impl Write for AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        if self.w.take().is_some() {
+        if self.committed {
+            return;
+        }
+        // Discard what is still buffered: a BufWriter flushes on drop.
+        if let Some(w) = self.w.take() {
+            drop(w.into_parts());
+        }
+        let mut r = registry();
+        if r.live.remove(&self.seq).is_some() {
             let _ = std::fs::remove_file(&self.tmp);
         }
     }
 }
 
 /// Writes `dest` atomically: `body` writes the whole content, then the
-/// file is renamed into place. On any error nothing replaces `dest`.
+/// file is renamed into place. On any error nothing replaces `dest` and no
+/// temporary file is left.
 pub fn write_with(
     dest: impl AsRef<Path>,
     body: impl FnOnce(&mut AtomicFile) -> io::Result<()>,
@@ -115,4 +265,52 @@ pub fn write_with(
 /// Writes `bytes` to `dest` atomically.
 pub fn write_bytes(dest: impl AsRef<Path>, bytes: &[u8]) -> io::Result<()> {
     write_with(dest, |w| w.write_all(bytes))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!(
+            "stratasweep-atomic-{}-{name}",
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn names(d: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn a_failed_rename_removes_the_temporary_file() {
+        let d = dir("rename");
+        let dest = d.join("out.bin");
+        let mut f = AtomicFile::create(&dest).unwrap();
+        f.write_all(b"new").unwrap();
+        // A directory appears at the destination: the rename fails.
+        std::fs::create_dir(&dest).unwrap();
+        std::fs::write(dest.join("inside"), b"x").unwrap();
+        assert!(f.commit().is_err());
+        assert_eq!(names(&d), ["out.bin"]);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn a_directory_is_refused_by_name() {
+        let d = dir("is-dir");
+        let e = AtomicFile::create(&d).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::IsADirectory);
+        assert!(e.to_string().contains(&d.display().to_string()), "{e}");
+        assert!(e.to_string().contains("a directory"), "{e}");
+        std::fs::remove_dir_all(&d).unwrap();
+    }
 }

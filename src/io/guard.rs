@@ -1,6 +1,9 @@
 //! Output paths checked against input paths before anything is written:
 //! an output must never name an input file (the grid, an INCLUDE, the INIT
-//! beside an EGRID, a transfer function) nor another output. Paths are
+//! beside an EGRID, a transfer function) nor another output, nor an
+//! existing node that is not a regular file (a directory, a named pipe, a
+//! device, a socket, or a symbolic link to one), which the rename of an
+//! atomic write would replace with a plain file. Paths are
 //! compared as files, not strings: symbolic links, `./` and `..`
 //! spellings and hard links of the same file all count as the same file.
 //! Labels (`"-o"`, `"--stats"`, `"the grid"`) come from the caller.
@@ -28,9 +31,23 @@ impl Named {
     }
 }
 
-/// Two paths that must differ name the same file.
+/// An output path that must not be written: it names an input, another
+/// output, or something that is not a regular file.
 #[derive(Debug, Error)]
 pub enum Clash {
+    /// An output exists and is not a regular file.
+    #[error(
+        "refusing to write {label} {}: it is {what}, not a regular file, and writing would replace it; nothing was written",
+        path.display()
+    )]
+    NotAFile {
+        /// The output's label.
+        label: String,
+        /// The output path as given.
+        path: PathBuf,
+        /// What it is (`atomic::not_a_regular_file`).
+        what: String,
+    },
     /// An output names an input file.
     #[error(
         "refusing to write {out_label} {}: it is {in_label} ({}), an input that would be destroyed; nothing was written",
@@ -106,9 +123,20 @@ fn same(a: &FileId, b: &FileId) -> bool {
     }
 }
 
-/// Refuses an output that names an input or another output (first clash
-/// found, outputs in the order given).
+/// Refuses an output that exists and is not a regular file, then one that
+/// names an input or another output (first clash found, outputs in the
+/// order given).
 pub fn check_outputs(outputs: &[Named], inputs: &[Named]) -> Result<(), Clash> {
+    if let Some((o, what)) = outputs
+        .iter()
+        .find_map(|o| super::atomic::not_a_regular_file(&o.path).map(|w| (o, w)))
+    {
+        return Err(Clash::NotAFile {
+            label: o.label.clone(),
+            path: o.path.clone(),
+            what,
+        });
+    }
     let ins: Vec<FileId> = inputs.iter().map(|n| file_id(&n.path)).collect();
     let outs: Vec<FileId> = outputs.iter().map(|n| file_id(&n.path)).collect();
     for (o, oid) in outputs.iter().zip(&outs) {

@@ -369,7 +369,8 @@ impl App {
     /// as a PNG, composited over the background as `render` does.
     pub fn screenshot(&self, path: &PathBuf) -> Result<()> {
         let img = self.scene.read_target()?;
-        std::fs::write(path, img.png()?).with_context(|| format!("cannot write {}", path.display()))
+        let ctx = || format!("cannot write {}", path.display());
+        stratasweep::io::atomic::write_bytes(path, &img.png().with_context(ctx)?).with_context(ctx)
     }
 
     fn key(&mut self, el: &ActiveEventLoop, key: &Key) -> Result<()> {
@@ -470,15 +471,18 @@ fn offscreen(
     })
 }
 
-/// Writes straight RGBA bytes as a PNG.
+/// Writes straight RGBA bytes as a PNG, atomically (`io::atomic`): on
+/// any failure the file at `path`, if any, stays as it was.
 pub fn write_png(path: &PathBuf, size: (u32, u32), rgba: &[u8]) -> Result<()> {
-    let f =
-        std::fs::File::create(path).with_context(|| format!("cannot write {}", path.display()))?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(f), size.0, size.1);
+    let ctx = || format!("cannot write {}", path.display());
+    let mut png = Vec::new();
+    let mut enc = png::Encoder::new(&mut png, size.0, size.1);
     enc.set_color(png::ColorType::Rgba);
     enc.set_depth(png::BitDepth::Eight);
-    enc.write_header()?.write_image_data(rgba)?;
-    Ok(())
+    let mut w = enc.write_header().with_context(ctx)?;
+    w.write_image_data(rgba).with_context(ctx)?;
+    w.finish().with_context(ctx)?;
+    stratasweep::io::atomic::write_bytes(path, &png).with_context(ctx)
 }
 
 impl ApplicationHandler for App {
