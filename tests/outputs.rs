@@ -61,6 +61,8 @@ impl Dir {
                 .into_bytes()
             } else if t.is_fifo() {
                 b"fifo".to_vec()
+            } else if t.is_dir() {
+                b"folder".to_vec()
             } else {
                 std::fs::read(e.path()).unwrap()
             };
@@ -351,6 +353,30 @@ fn class1_library_writers_refuse_a_named_pipe() {
     let e = stratasweep::io::atomic::write_bytes(&p, b"x").unwrap_err();
     assert!(e.to_string().contains("not a regular file"), "{e}");
     assert!(std::fs::symlink_metadata(&p).unwrap().file_type().is_fifo());
+    assert_eq!(d.snapshot().len(), 1);
+}
+
+#[test]
+fn class3_a_failed_commit_removes_the_temporary_file() {
+    use std::io::Write;
+    let d = Dir::new("rename");
+    let dest = d.p("out.bin");
+    let mut f = stratasweep::io::atomic::AtomicFile::create(&dest).unwrap();
+    f.write_all(b"new").unwrap();
+    assert!(f.temporary().exists());
+    // A folder appears at the destination: the rename fails.
+    std::fs::create_dir(&dest).unwrap();
+    std::fs::write(dest.join("inside"), b"x").unwrap();
+    assert!(f.commit().is_err());
+    assert_eq!(
+        d.snapshot().into_keys().collect::<Vec<_>>(),
+        ["out.bin"],
+        "the temporary file is gone"
+    );
+    // A folder is refused before anything is created, by what it is.
+    let e = stratasweep::io::atomic::AtomicFile::create(&dest).unwrap_err();
+    assert_eq!(e.kind(), std::io::ErrorKind::IsADirectory);
+    assert!(e.to_string().contains("it is a directory"), "{e}");
     assert_eq!(d.snapshot().len(), 1);
 }
 

@@ -37,7 +37,7 @@ impl Named {
 pub enum Clash {
     /// An output exists and is not a regular file.
     #[error(
-        "refusing to write {label} {}: it is {what}, not a regular file, and writing would replace it; nothing was written",
+        "refusing to write {label} {}: it is {what}, not a regular file; nothing was written",
         path.display()
     )]
     NotAFile {
