@@ -101,12 +101,12 @@ pub struct SceneArgs {
     pub cells: Option<CellsArg>,
 }
 
-/// `--size WxH`, each side at most [`crate::cli::checks::MAX_IMAGE_SIDE`].
+/// `--size WxH`, each side at most [`stratasweep::limits::MAX_IMAGE_SIDE`].
 pub fn parse_size(s: &str) -> Result<(u32, u32)> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .with_context(|| format!("--size '{s}': expected WxH, e.g. 800x600"))?;
-    let max = crate::cli::checks::MAX_IMAGE_SIDE;
+    let max = stratasweep::limits::MAX_IMAGE_SIDE;
     let side = |x: &str| {
         x.trim()
             .parse::<u64>()
