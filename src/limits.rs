@@ -128,12 +128,15 @@ impl LimitError {
         } = self;
         let unit = arg.unit();
         if value.parse::<f64>().is_ok_and(|v| v < *min as f64) {
-            return format!("{name} {value} is below the minimum of {min}");
+            return format!("{name} must be at least {min} (got {value})");
         }
         match arg {
             Arg::Values => format!(
                 "{name} gives {value} levels, more than the limit of {max} {unit}: take fewer levels (a larger step)"
             ),
+            Arg::Slices | Arg::Size => {
+                format!("{name} {value} is outside {min}..={max} (the limit of {unit})")
+            }
             _ => format!("{name} {value} is more than the limit of {max} {unit}"),
         }
     }
@@ -238,11 +241,9 @@ mod tests {
         assert!(m.starts_with("threads 100000"), "{m}");
         assert!(m.contains(&max_threads().to_string()), "{m}");
         assert_eq!(check_threads(0).unwrap_err().arg, Arg::Threads);
-        assert!(
-            check_threads(-1)
-                .unwrap_err()
-                .to_string()
-                .contains("minimum of 1")
+        assert_eq!(
+            check_threads(-1).unwrap_err().to_string(),
+            "threads must be at least 1 (got -1)"
         );
         assert_eq!(check_threads(1).unwrap(), 1);
         assert!(
@@ -269,7 +270,7 @@ mod tests {
         assert!(check_image_side(0).is_err() && check_image_side(8193).is_err());
         assert!(check_frames(u32::MAX).is_err() && check_frames(1).is_ok());
         let e = check_repeats(0).unwrap_err();
-        assert_eq!(e.named("--repeat"), "--repeat 0 is below the minimum of 1");
+        assert_eq!(e.named("--repeat"), "--repeat must be at least 1 (got 0)");
     }
 
     #[test]
