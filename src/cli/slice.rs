@@ -69,8 +69,12 @@ fn flag_words(w: &str, values: Option<&str>) -> String {
         Some((head, levels)) => {
             let (a, b) = levels.split_once("..").unwrap_or((levels, levels));
             match step {
-                Some(st) => format!("{head}did you mean --values {a}:{b}:{}?", st.trim()),
-                None => format!("{head}did you mean the levels {levels}?"),
+                Some(st) => format!(
+                    "{}: did you mean --values {a}:{b}:{}?",
+                    head.trim_end(),
+                    st.trim()
+                ),
+                None => format!("{}: did you mean the levels {levels}?", head.trim_end()),
             }
         }
         None => w.to_string(),
