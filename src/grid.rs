@@ -330,14 +330,16 @@ impl Grid {
         rebased(&self.points, self.origin())
     }
 
-    /// Looks up a point property by name.
+    /// Looks up a point property by name: the property of that exact
+    /// name, else the only one whose name differs in case alone (Eclipse
+    /// keywords are upper case; `poro` finds `PORO`).
     pub fn point_property(&self, name: &str) -> Option<&Property> {
-        self.point_data.iter().find(|p| p.name == name)
+        find_property(&self.point_data, name)
     }
 
-    /// Looks up a cell property by name.
+    /// Looks up a cell property by name (as [`Grid::point_property`]).
     pub fn cell_property(&self, name: &str) -> Option<&Property> {
-        self.cell_data.iter().find(|p| p.name == name)
+        find_property(&self.cell_data, name)
     }
 
     /// Per-cell hidden flags from VTK's `vtkGhostType` (bit 32), if present.
@@ -568,6 +570,15 @@ pub fn rebased(points: &[[f64; 3]], o: [f64; 3]) -> Vec<[f32; 3]> {
         ]
     }));
     out
+}
+
+/// The property named `name`, else the only one named so up to case.
+fn find_property<'a>(props: &'a [Property], name: &str) -> Option<&'a Property> {
+    props.iter().find(|p| p.name == name).or_else(|| {
+        let mut same = props.iter().filter(|p| p.name.eq_ignore_ascii_case(name));
+        let first = same.next()?;
+        same.next().is_none().then_some(first)
+    })
 }
 
 #[cfg(test)]

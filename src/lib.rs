@@ -6,6 +6,7 @@
 #![allow(clippy::needless_range_loop, clippy::type_complexity)]
 
 pub mod bruteforce;
+pub mod cancel;
 pub mod cellgraph;
 pub mod cornerpoint;
 
@@ -15,6 +16,7 @@ pub mod generate;
 pub mod gpu;
 pub mod grid;
 pub mod io;
+pub mod limits;
 pub mod mem;
 pub mod mesh;
 pub mod metacell;

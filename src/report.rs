@@ -118,7 +118,7 @@ pub fn stats_json(
     json!({
         "file": file,
         "structure": s.name(),
-        "field": format!("{field:?}"),
+        "field": crate::pipeline::field_name(field),
         "attribute": r.attribute_name,
         "vertices": grid.points.len(),
         "cells": grid.cell_count(),

@@ -320,3 +320,137 @@ fn closed_stdout_is_not_a_panic() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "stderr: {err}");
 }
+
+/// `args` run without `--quiet`: (success, stdout, stderr).
+fn run_loud(args: &[&str]) -> (bool, String, String) {
+    let o = bin().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).to_string(),
+        err,
+    )
+}
+
+#[test]
+fn depths_as_z_values_warn_and_name_the_values_that_cut() {
+    let g = tmp("depth.grdecl");
+    let gs = g.to_str().unwrap();
+    run_ok(&[
+        "generate", "faulted", "--dims", "20,15,8", "--faults", "2", "--seed", "4", "-o", gs,
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&run_ok(&["info", "--json", gs])).unwrap();
+    let (zlo, zhi) = (
+        v["bounds"]["min"][2].as_f64().unwrap(),
+        v["bounds"]["max"][2].as_f64().unwrap(),
+    );
+    assert!(zhi < 0.0, "the generated reservoir lies below z = 0");
+    // Depths inside the reservoir, as a reservoir engineer gives them.
+    let (d0, d1) = ((-zhi).ceil(), (-zlo).floor());
+    let step = ((d1 - d0) / 4.0).floor();
+    let values = format!("{d0}:{}:{step}", d0 + 4.0 * step);
+    let out = tmp("depth.ply");
+    let stats = tmp("depth.json");
+    let (ok, _, err) = run_loud(&[
+        "slice",
+        gs,
+        "--axis",
+        "z",
+        "--values",
+        &values,
+        "-o",
+        out.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let w = err
+        .lines()
+        .find(|l| l.contains("outside z's range"))
+        .unwrap_or_else(|| {
+            panic!("no warning for levels outside z's range: {err}");
+        });
+    assert!(w.contains("all 5 levels"), "{w}");
+    assert!(w.contains("lie outside z's range"), "{w}");
+    assert!(w.contains("z is minus depth"), "{w}");
+    let hint = format!(
+        "did you mean --values {}:{}:{step}?",
+        -(d0 + 4.0 * step),
+        -d0
+    );
+    assert!(w.contains(&hint), "{w} (expected {hint})");
+    let st = json(&stats);
+    assert_eq!(st["totals"]["polygons"], 0);
+    assert_eq!(st["field"], "z", "the field is named, not a Debug struct");
+    // The suggested values cut every level, without a warning.
+    let neg = format!("{}:{}:{step}", -(d0 + 4.0 * step), -d0);
+    let (ok, _, err) = run_loud(&[
+        "slice",
+        gs,
+        "--axis",
+        "z",
+        &format!("--values={neg}"),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert!(ok && !err.contains("outside z's range"), "{err}");
+    let st = json(&stats);
+    assert!(
+        st["slices"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|s| s["polygons"].as_u64() > Some(0))
+    );
+    // Property names: any case, and a suggestion on a miss.
+    run_ok(&["slice", gs, "--property", "poro", "--count", "3"]);
+    let e = run_err(&["slice", gs, "--property", "PORRO", "--count", "3"]);
+    assert!(
+        e.contains("no property named 'PORRO': did you mean 'PORO'?"),
+        "{e}"
+    );
+    // bench --load-only prints no Rust Option and no infinite rate.
+    let (ok, out, err) = run_loud(&["bench", gs, "--load-only"]);
+    assert!(ok, "{err}");
+    assert!(!out.contains("Some(") && !out.contains("inf"), "{out}");
+}
+
+#[test]
+fn repeats_frames_and_clip_boxes_are_checked_with_their_option_named() {
+    let e = run_err(&["bench", "--demo", "--repeat", "0"]);
+    assert!(e.contains("--repeat must be at least 1 (got 0)"), "{e}");
+    let e = run_err(&["bench", "--demo", "--repeat", "1000000"]);
+    assert!(
+        e.contains("--repeat 1000000 is more than the limit of 1000"),
+        "{e}"
+    );
+    let head = ["view", "--demo", "--headless"];
+    let e = run_err(&[&head[..], &["--frames", "4000000000"]].concat());
+    assert!(
+        e.contains("--frames 4000000000 is more than the limit of 10000"),
+        "{e}"
+    );
+    let e = run_err(&[&head[..], &["--orbit-bench", "100000"]].concat());
+    assert!(
+        e.contains("--orbit-bench 100000 is more than the limit"),
+        "{e}"
+    );
+    let frames = [&head[..], &["--frames", "1", "--ijk-clip"]].concat();
+    for (clip, text) in [
+        (
+            "0:a,0:4,0:4",
+            "--ijk-clip '0:a,0:4,0:4': the I range '0:a': 'a' is not a cell index",
+        ),
+        ("0:4,0:4", "--ijk-clip '0:4,0:4': 2 range(s) given"),
+        ("0:4,5:5,0:4", "the J range 5:5 is empty"),
+        ("0:4,0-4,0:4", "the J range '0-4' has no ':'"),
+        (
+            "100:120,0:4,0:4",
+            "--ijk-clip 100:120,0:4,0:4: the box lies outside the grid, whose cells are I 0:64, J 0:64, K 0:64",
+        ),
+    ] {
+        let e = run_err(&[&frames[..], &[clip]].concat());
+        assert!(e.contains(text), "{clip}: {e}");
+    }
+}

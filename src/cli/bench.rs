@@ -71,6 +71,23 @@ pub(crate) struct BenchArgs {
     pub(crate) skip_build: bool,
 }
 
+/// `x / s` when finite: a run too fast for the clock (0 s) has no rate
+/// (null in JSON, "n/a" in text), not "inf".
+pub(crate) fn ratio(x: f64, s: f64) -> Option<f64> {
+    let r = x / s;
+    r.is_finite().then_some(r)
+}
+
+/// A rate for text, with `prec` decimals, or "n/a".
+pub(crate) fn show(v: Option<f64>, prec: usize) -> String {
+    v.map_or_else(|| "n/a".into(), |v| format!("{v:.prec$}"))
+}
+
+/// A byte count for text, or "unknown" where the system does not say.
+fn bytes_or_unknown(b: Option<u64>) -> String {
+    b.map_or_else(|| "unknown".into(), |b| format!("{b} B"))
+}
+
 /// One timed run: (best seconds, result of the last run).
 pub(crate) fn timed(
     repeat: usize,
@@ -87,6 +104,7 @@ pub(crate) fn timed(
 }
 
 pub(crate) fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
+    stratasweep::limits::check_repeats(a.repeat).map_err(cli_checks::flag("--repeat"))?;
     if let Some(sizes) = &a.law {
         for &n in sizes {
             if n == 0 || n > 1024 {
@@ -155,11 +173,11 @@ pub(crate) fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
         "vertices": grid.points.len(), "cells": grid.cell_count(), "cut_cells": cut, "minima": sr.minima,
         "load_s": load_s, "build_s": build_s, "field_s": sr.timings.field, "minima_s": sr.timings.minima,
         "sweep_s": sweep_s,
-        "sweep_cut_cells_per_s": cut as f64 / sweep_s,
-        "sweep_ns_per_cut_cell": sweep_s * 1e9 / cut as f64,
+        "sweep_cut_cells_per_s": ratio(cut as f64, sweep_s),
+        "sweep_ns_per_cut_cell": ratio(sweep_s * 1e9, cut as f64),
         "brute_force_s": brute,
-        "brute_force_cut_cells_per_s": brute.map(|b| cut as f64 / b),
-        "speedup_vs_brute_force": brute.map(|b| b / sweep_s),
+        "brute_force_cut_cells_per_s": brute.and_then(|b| ratio(cut as f64, b)),
+        "speedup_vs_brute_force": brute.and_then(|b| ratio(b, sweep_s)),
         "memory_bytes": mem,
         "bytes_per_vertex": total as f64 / grid.points.len() as f64,
     });
@@ -181,18 +199,18 @@ pub(crate) fn cmd_bench(a: BenchArgs, quiet: bool) -> Result<()> {
             build_s, sr.timings.field, sr.timings.minima
         );
         println!(
-            "  sweep       {:.4} s  {:>8.2} M cut cells/s  {:>7.1} ns/cut cell (best of {})",
+            "  sweep       {:.4} s  {:>8} M cut cells/s  {:>7} ns/cut cell (best of {})",
             sweep_s,
-            cut as f64 / sweep_s / 1e6,
-            sweep_s * 1e9 / cut as f64,
+            show(ratio(cut as f64 / 1e6, sweep_s), 2),
+            show(ratio(sweep_s * 1e9, cut as f64), 1),
             a.repeat
         );
         if let Some(b) = brute {
             println!(
-                "  brute force {:.4} s  {:>8.2} M cut cells/s  sweep is {:.1}x faster",
+                "  brute force {:.4} s  {:>8} M cut cells/s  sweep is {}x faster",
                 b,
-                cut as f64 / b / 1e6,
-                b / sweep_s
+                show(ratio(cut as f64 / 1e6, b), 2),
+                show(ratio(b, sweep_s), 1)
             );
         }
         println!(
@@ -271,10 +289,10 @@ pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
     let out = json!({
         "file": path.display().to_string(), "bytes": bytes, "cells": cells,
         "threads": rayon::current_num_threads(),
-        "parse_s": parse_s, "parse_mb_per_s": bytes as f64 / parse_s / 1e6,
+        "parse_s": parse_s, "parse_mb_per_s": ratio(bytes as f64 / 1e6, parse_s),
         "array_bytes": arrays, "to_grid_s": grid_s, "output_cells": grid.cell_count(),
         "vertices": nv, "bulk_volume": rep.bulk_volume,
-        "parse_cpu_s": parse_cpu_s, "parse_mb_per_cpu_s": parse_cpu_s.map(|c| bytes as f64 / c / 1e6),
+        "parse_cpu_s": parse_cpu_s, "parse_mb_per_cpu_s": parse_cpu_s.and_then(|c| ratio(bytes as f64 / 1e6, c)),
         "peak_rss_after_parse": hwm_parse, "peak_rss_after_to_grid": peak,
         "grid_array_bytes": out_arrays,
         "peak_rss_over_grid_arrays": peak.map(|p| p as f64 / out_arrays as f64),
@@ -286,21 +304,21 @@ pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         println!(
-            "{}: {} bytes, {} cells; parse {:.3} s = {:.1} MB/s wall ({} thread(s); {:.1} MB/s per CPU second of this thread), arrays {} B, peak RSS after parse {:?} B; to_grid {:.3} s -> {} cells, {} vertices, grid arrays {} B, peak RSS {:?} B",
+            "{}: {} bytes, {} cells; parse {:.3} s = {} MB/s wall ({} thread(s); {} MB/s per CPU second of this thread), arrays {} B, peak RSS after parse {}; to_grid {:.3} s -> {} cells, {} vertices, grid arrays {} B, peak RSS {}",
             path.display(),
             bytes,
             cells,
             parse_s,
-            bytes as f64 / parse_s / 1e6,
+            show(ratio(bytes as f64 / 1e6, parse_s), 1),
             rayon::current_num_threads(),
-            parse_cpu_s.map_or(f64::NAN, |c| bytes as f64 / c / 1e6),
+            show(parse_cpu_s.and_then(|c| ratio(bytes as f64 / 1e6, c)), 1),
             arrays,
-            hwm_parse,
+            bytes_or_unknown(hwm_parse),
             grid_s,
             grid.cell_count(),
             nv,
             out_arrays,
-            peak
+            bytes_or_unknown(peak)
         );
         let parts: Vec<String> = stages
             .iter()
@@ -521,7 +539,7 @@ impl Frame<'_> {
             rows.push(
                 json!({"path": format!("CPU sweep + CPU emission, {threads} thread(s)"),
                 "cut_cells": cut, "triangles": tris, "ms_per_frame": best * 1e3,
-                "cut_cells_per_s": cut as f64 / best, "triangles_per_s": tris as f64 / best}),
+                "cut_cells_per_s": ratio(cut as f64, best), "triangles_per_s": ratio(tris as f64, best)}),
             );
             if self.all == 1 {
                 break;
@@ -575,7 +593,7 @@ impl Frame<'_> {
         rows.push(
             json!({"path": "GPU emission alone (upload + count/scan + emit)",
             "cut_cells": cut, "triangles": tris, "ms_per_frame": gpu_s * 1e3,
-            "cut_cells_per_s": cut as f64 / gpu_s, "triangles_per_s": tris as f64 / gpu_s}),
+            "cut_cells_per_s": ratio(cut as f64, gpu_s), "triangles_per_s": ratio(tris as f64, gpu_s)}),
         );
         Ok(rows)
     }
@@ -589,12 +607,12 @@ fn print_device_rows(rows: &[serde_json::Value]) {
     );
     for r in rows {
         println!(
-            "  {:<48} {:>12.3} {:>12} {:>14.2} {:>14.2}",
+            "  {:<48} {:>12.3} {:>12} {:>14} {:>14}",
             r["path"].as_str().unwrap_or(""),
             r["ms_per_frame"].as_f64().unwrap_or(0.0),
             r["cut_cells"],
-            r["cut_cells_per_s"].as_f64().unwrap_or(0.0) / 1e6,
-            r["triangles_per_s"].as_f64().unwrap_or(0.0) / 1e6
+            show(r["cut_cells_per_s"].as_f64().map(|v| v / 1e6), 2),
+            show(r["triangles_per_s"].as_f64().map(|v| v / 1e6), 2)
         );
         if let Some(sw) = r.get("sweep_ms") {
             println!(

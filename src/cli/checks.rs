@@ -1,55 +1,29 @@
 //! The CLI's checks on its arguments, made before any file is read or
-//! written: documented limits on levels, threads, render slices and image
-//! sizes (each error names the flag and the limit), output extensions, and
-//! output paths against input paths (`io::guard`).
+//! written: the library's limits ([`stratasweep::limits`]: levels,
+//! threads, render slices, image sizes, frames, repeats) with each error
+//! naming the flag, output extensions, and output paths against input
+//! paths (`io::guard`).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Result, bail};
 use stratasweep::io::guard::{Named, check_outputs, known_inputs};
+use stratasweep::limits::{self, LimitError};
 
-/// Most levels one `slice` or `bench` run sweeps (`--count`, `--values`).
-/// Measured: 100 000 levels of an 8-cell grid take 0.6 s and 200 MB
-/// (per-level statistics); 1 000 000 take 4.8 s and 1.9 GB.
-pub const MAX_LEVELS: usize = 100_000;
-
-/// Most slices of one `render` (`--slices`): more than an image has pixels
-/// along any side only repeats work.
-pub const MAX_RENDER_SLICES: usize = 8192;
-
-/// Largest image side of `render --size` (wgpu's default texture limit).
-pub const MAX_IMAGE_SIDE: u32 = 8192;
-
-/// Most worker threads (`--threads`): 8 per core, and at least 64. Each
-/// thread costs a stack and a spatial block; a million of them took more
-/// than a minute on an 8-cell grid before this limit.
-pub fn max_threads() -> usize {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    (8 * cores).max(64)
+/// The library's limit error with the argument called by its flag.
+pub fn flag(name: &str) -> impl Fn(LimitError) -> anyhow::Error + '_ {
+    move |e| anyhow::anyhow!(e.named(name))
 }
 
-/// Refuses 0 or more than [`max_threads`] threads.
+/// Refuses 0 or more than [`limits::max_threads`] threads (`--threads`).
 pub fn check_threads(n: usize) -> Result<()> {
-    let max = max_threads();
-    if n == 0 {
-        bail!("--threads must be at least 1");
-    }
-    if n > max {
-        bail!(
-            "--threads {n} is more than the limit of {max} (8 per core on this machine, at least 64)"
-        );
-    }
+    limits::check_threads(n).map_err(flag("--threads"))?;
     Ok(())
 }
 
-/// Refuses a level count of 0 or over [`MAX_LEVELS`].
+/// Refuses a level count of 0 or over [`limits::MAX_LEVELS`] (`--count`).
 pub fn check_count(k: usize) -> Result<()> {
-    if k == 0 {
-        bail!("--count must be at least 1");
-    }
-    if k > MAX_LEVELS {
-        bail!("--count {k} is more than the limit of {MAX_LEVELS} levels per run");
-    }
+    limits::check_count(k).map_err(flag("--count"))?;
     Ok(())
 }
 
@@ -64,16 +38,7 @@ pub fn values_levels(s: &str) -> Result<Vec<f64>> {
         bail!("--values '{s}': expected FROM:TO:STEP, finite, with FROM <= TO and STEP > 0");
     }
     let n = stratasweep::field::range_level_count(p[0], p[1], p[2]);
-    if n.is_nan() || n > MAX_LEVELS as f64 {
-        bail!(
-            "--values '{s}' gives {} levels, more than the limit of {MAX_LEVELS} levels per run: take a larger STEP",
-            if n.is_finite() {
-                format!("{n:.0}")
-            } else {
-                "too many".into()
-            }
-        );
-    }
+    limits::check_values(n).map_err(|e| anyhow::anyhow!(e.named(&format!("--values '{s}'"))))?;
     let v = stratasweep::field::levels_by_range(p[0], p[1], p[2]);
     // FROM + k·STEP rounds to the same f64 when STEP is below FROM's ulp.
     if let Some(w) = v.windows(2).find(|w| w[1] <= w[0]) {
@@ -86,11 +51,10 @@ pub fn values_levels(s: &str) -> Result<Vec<f64>> {
     Ok(v)
 }
 
-/// Refuses more than [`MAX_RENDER_SLICES`] or zero render slices.
+/// Refuses more than [`limits::MAX_RENDER_SLICES`] or zero render slices
+/// (`--slices`).
 pub fn check_slices(n: usize) -> Result<()> {
-    if n == 0 || n > MAX_RENDER_SLICES {
-        bail!("--slices {n} is outside 1..={MAX_RENDER_SLICES} (the limit of slices per render)");
-    }
+    limits::check_slices(n).map_err(flag("--slices"))?;
     Ok(())
 }
 

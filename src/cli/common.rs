@@ -158,6 +158,7 @@ pub(crate) fn sweep_options_from_env() -> SweepOptions {
         patch_width: std::env::var("STRATASWEEP_PATCH_WIDTH")
             .ok()
             .and_then(|w| w.parse().ok()),
+        ..Default::default()
     }
 }
 

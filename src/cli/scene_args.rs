@@ -101,12 +101,12 @@ pub struct SceneArgs {
     pub cells: Option<CellsArg>,
 }
 
-/// `--size WxH`, each side at most [`crate::cli::checks::MAX_IMAGE_SIDE`].
+/// `--size WxH`, each side at most [`stratasweep::limits::MAX_IMAGE_SIDE`].
 pub fn parse_size(s: &str) -> Result<(u32, u32)> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .with_context(|| format!("--size '{s}': expected WxH, e.g. 800x600"))?;
-    let max = crate::cli::checks::MAX_IMAGE_SIDE;
+    let max = stratasweep::limits::MAX_IMAGE_SIDE;
     let side = |x: &str| {
         x.trim()
             .parse::<u64>()
@@ -164,6 +164,8 @@ impl SceneArgs {
         if mode == Mode::Iso && self.iso.is_empty() {
             bail!("--mode iso needs --iso VALUES (comma-separated)");
         }
+        stratasweep::limits::check_isovalues(self.iso.len())
+            .map_err(crate::cli::checks::flag("--iso"))?;
         if let Some(z) = self.z_scale
             && !(z.is_finite() && z > 0.0)
         {
@@ -208,4 +210,57 @@ impl SceneArgs {
         }
         z
     }
+}
+
+/// `--ijk-clip I0:I1,J0:J1,K0:K1` → cell index ranges `lo..hi` per axis;
+/// every error names the option and the part that is wrong.
+pub fn parse_clip(s: &str) -> Result<[[usize; 2]; 3]> {
+    let form = "expected I0:I1,J0:J1,K0:K1 (cell index ranges, I0 < I1, e.g. 0:10,0:20,2:5)";
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        bail!("--ijk-clip '{s}': {} range(s) given; {form}", parts.len());
+    }
+    let mut out = [[0usize; 2]; 3];
+    for (a, p) in parts.iter().enumerate() {
+        let axis = ["I", "J", "K"][a];
+        let Some((lo, hi)) = p.split_once(':') else {
+            bail!("--ijk-clip '{s}': the {axis} range '{p}' has no ':'; {form}");
+        };
+        let num = |x: &str| {
+            x.trim().parse::<usize>().map_err(|_| {
+                anyhow::anyhow!(
+                    "--ijk-clip '{s}': the {axis} range '{p}': '{x}' is not a cell index (a whole number from 0); {form}"
+                )
+            })
+        };
+        let (lo, hi) = (num(lo)?, num(hi)?);
+        if lo >= hi {
+            bail!("--ijk-clip '{s}': the {axis} range {lo}:{hi} is empty; {form}");
+        }
+        out[a] = [lo, hi];
+    }
+    Ok(out)
+}
+
+/// Refuses an `--ijk-clip` box that keeps no cell of `grid` (a blank
+/// frame otherwise), naming the grid's cell ranges; a box that is not on
+/// an IJK grid is refused by the renderer.
+pub fn check_clip(clip: &[[usize; 2]; 3], grid: &Grid) -> Result<()> {
+    let stratasweep::grid::Topology::Structured { dims } = &grid.topology else {
+        return Ok(());
+    };
+    let cells = dims.map(|d| d.saturating_sub(1));
+    if let Some(a) = (0..3).find(|&a| clip[a][0] >= cells[a]) {
+        bail!(
+            "--ijk-clip {}: the box lies outside the grid, whose cells are I 0:{}, J 0:{}, K 0:{} (the {} range starts at {}, past the last cell {})",
+            clip.map(|r| format!("{}:{}", r[0], r[1])).join(","),
+            cells[0],
+            cells[1],
+            cells[2],
+            ["I", "J", "K"][a],
+            clip[a][0],
+            cells[a].saturating_sub(1)
+        );
+    }
+    Ok(())
 }

@@ -61,6 +61,26 @@ pub(crate) enum AtArg {
     Cells,
 }
 
+/// A pipeline warning in the CLI's words: the levels it suggests become
+/// `--values FROM:TO:STEP` with the step of `values` (as given).
+fn flag_words(w: &str, values: Option<&str>) -> String {
+    let step = values.and_then(|v| v.rsplit(':').next().filter(|_| v.matches(':').count() == 2));
+    match w.rsplit_once("take the levels ") {
+        Some((head, levels)) => {
+            let (a, b) = levels.split_once("..").unwrap_or((levels, levels));
+            match step {
+                Some(st) => format!(
+                    "{}: did you mean --values {a}:{b}:{}?",
+                    head.trim_end(),
+                    st.trim()
+                ),
+                None => format!("{}: did you mean the levels {levels}?", head.trim_end()),
+            }
+        }
+        None => w.to_string(),
+    }
+}
+
 pub(crate) fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     let field = field_spec(&a.field)?;
     let levels = level_spec(&a.levels)?;
@@ -128,6 +148,12 @@ pub(crate) fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
             .with_context(|| format!("cannot slice {name}"))?,
     };
     pb.finish_and_clear();
+    for w in &r.warnings {
+        eprintln!(
+            "warning: {}",
+            io::checks::escape_control(&flag_words(w, a.levels.values.as_deref()))
+        );
+    }
     let stats = stats_json(&r, &s, &grid, load_s, build_s, &name, &field);
     if let Some(out) = &a.output {
         let mesh = r.mesh.as_ref().expect("collected");

@@ -8,6 +8,7 @@
 use glam::Vec3;
 
 use crate::grid::Grid;
+use crate::pipeline::PipelineError;
 use crate::structures::Structure;
 
 use super::draw::FrameSetup;
@@ -75,7 +76,9 @@ impl Renderer<'_> {
         if self.preintegrated && o.mode == Mode::Volume {
             k = k.with_attr_gradient();
         }
+        let stop = |c: &crate::cancel::Cancel| c.check().map_err(PipelineError::from);
         if !self.cache.contains_key(&k.key) {
+            stop(&self.cancel)?;
             let set = build_slices(self.ctx, grid, s, &k)?;
             self.insert(&k.key, set);
         }
@@ -91,6 +94,7 @@ impl Renderer<'_> {
             lod: 1,
             preintegrated: self.preintegrated,
         };
+        stop(&self.cancel)?;
         self.draw_image(c, &transfer, &frame, o.size, o.background)
     }
 }

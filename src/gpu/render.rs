@@ -442,6 +442,8 @@ pub struct Renderer<'c> {
     pub(super) stamp: Option<GridStamp>,
     /// Compute dispatches of evicted cache entries.
     evicted_dispatches: u64,
+    /// Checked by [`Renderer::render`] before slicing and before drawing.
+    pub cancel: crate::cancel::Cancel,
 }
 
 /// A cheap identity of a (grid, structure) pair: their addresses, sizes
@@ -576,6 +578,7 @@ impl<'c> Renderer<'c> {
             cache: HashMap::new(),
             stamp: None,
             evicted_dispatches: 0,
+            cancel: Default::default(),
         })
     }
 

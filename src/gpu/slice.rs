@@ -10,7 +10,7 @@ use thiserror::Error;
 use crate::field::ScalarField;
 use crate::grid::Grid;
 use crate::pipeline::{PipelineError, SliceRequest, SliceResult, Timings};
-use crate::pipeline::{bind, level_value, live_range, place_levels};
+use crate::pipeline::{bind, level_value, level_warnings, live_range, place_levels};
 use crate::structures::Structure;
 use crate::sweep::{CellGraph, LevelStats};
 
@@ -37,6 +37,8 @@ pub struct Prepared {
     pub frame: Frame,
     /// World level values.
     pub level_values: Vec<f64>,
+    /// Levels outside the field's range ([`level_warnings`]).
+    pub warnings: Vec<String>,
     /// Name of the interpolated attribute.
     pub attribute_name: String,
     /// The CPU sweep's own per-level statistics (cells and visits; it
@@ -144,7 +146,9 @@ fn finish<G: CellGraph, F: ScalarField>(
     attribute: Option<&[f32]>,
     build: impl Fn(&G, &F, Option<&[f32]>) -> GridBuffers,
 ) -> Result<Prepared, PipelineError> {
-    let (world, levels) = place_levels(live_range(g, f), world_offset, &req.levels)?;
+    let range = live_range(g, f);
+    let (world, levels) = place_levels(range, world_offset, &req.levels)?;
+    let warnings = level_warnings(&req.field, range, world_offset, &world, &levels);
     let t = Instant::now();
     let (frame, cpu_stats) = match sweep {
         true => sweep_frame(g, f, axis_slot, &levels, req.threads),
@@ -168,6 +172,7 @@ fn finish<G: CellGraph, F: ScalarField>(
         grid,
         frame,
         level_values: world,
+        warnings: warnings.into_iter().collect(),
         attribute_name: String::new(),
         cpu_stats,
         sweep_s,
@@ -235,6 +240,7 @@ pub fn slice_on(
                 ..Default::default()
             },
             attribute_name: p.attribute_name,
+            warnings: p.warnings,
         },
         timings,
     ))

@@ -7,10 +7,14 @@ use std::time::Instant;
 use thiserror::Error;
 
 mod canonical;
+mod levels;
+
+pub use levels::{field_name, level_warnings};
 
 use canonical::{LevelCopy, canonical_mesh};
 
 use crate::bruteforce::brute_force;
+use crate::cancel::{Interrupted, catch_interrupt, stop_if_cancelled};
 use crate::extract::{EmitContext, LevelMesh};
 use crate::field::{
     AxisField, FieldSpec, LevelError, PlaneField, ScalarField, VertexField, levels_by_count,
@@ -37,16 +41,22 @@ pub enum PipelineError {
     Levels(#[from] LevelError),
     /// A named property that does not exist.
     #[error(
-        "no property named '{name}' (point properties: {points:?}; cell properties: {cells:?})"
+        "no property named '{name}'{} (point properties: {points:?}; cell properties: {cells:?})",
+        suggestion.as_ref().map(|s| format!(": did you mean '{s}'?")).unwrap_or_default()
     )]
     NoSuchProperty {
         /// Requested name.
         name: String,
+        /// The closest property name, when one is close.
+        suggestion: Option<String>,
         /// Available point properties.
         points: Vec<String>,
         /// Available cell properties.
         cells: Vec<String>,
     },
+    /// The run's cancellation token was set.
+    #[error("the slicing run was interrupted")]
+    Interrupted(#[from] Interrupted),
     /// The field is constant over the grid: no level can cut it.
     #[error("the field is constant ({0}) over the live cells: nothing to slice")]
     ConstantField(f64),
@@ -123,6 +133,8 @@ pub struct SliceResult {
     pub timings: Timings,
     /// Name of the interpolated attribute.
     pub attribute_name: String,
+    /// What the caller should be told (levels outside the field's range).
+    pub warnings: Vec<String>,
 }
 
 /// Resolves a point property by name, averaging a cell property to the
@@ -152,11 +164,29 @@ pub fn vertex_property(grid: &Grid, s: &Structure, name: &str) -> Result<Vec<f32
             },
         });
     }
-    Err(PipelineError::NoSuchProperty {
+    Err(no_such_property(grid, name))
+}
+
+/// The error for a property name the grid does not have, with the closest
+/// name as a suggestion (names are matched without regard to case first:
+/// see [`Grid::point_property`]).
+pub fn no_such_property(grid: &Grid, name: &str) -> PipelineError {
+    let points: Vec<String> = grid.point_data.iter().map(|p| p.name.clone()).collect();
+    let cells: Vec<String> = grid.cell_data.iter().map(|p| p.name.clone()).collect();
+    let lower = name.to_lowercase();
+    let suggestion = points
+        .iter()
+        .chain(&cells)
+        .map(|c| (strsim::normalized_levenshtein(&lower, &c.to_lowercase()), c))
+        .filter(|(score, _)| *score >= 0.5)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, c)| c.clone());
+    PipelineError::NoSuchProperty {
         name: name.to_string(),
-        points: grid.point_data.iter().map(|p| p.name.clone()).collect(),
-        cells: grid.cell_data.iter().map(|p| p.name.clone()).collect(),
-    })
+        suggestion,
+        points,
+        cells,
+    }
 }
 
 /// Per-vertex values of a request: the interpolated attribute's name (the
@@ -435,7 +465,7 @@ impl<G: CellGraph> Runner for G {
     fn sweep(&self, job: &Job, gather: &Gather, timings: &mut Timings) -> Swept {
         let k = job.levels.len();
         let mut sw = Sweeper::new(self, job.req.threads.max(1));
-        sw.options = job.req.sweep;
+        sw.options = job.req.sweep.clone();
         let t = Instant::now();
         let minima = sw.prepare_minima(job.f, job.axis_slot);
         timings.minima = t.elapsed().as_secs_f64();
@@ -532,7 +562,11 @@ fn run(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SliceResult, PipelineError> {
     let f = &bound.field();
-    let (world, levels) = place_levels(r.live_range(f), bound.world_offset, &req.levels)?;
+    let range = r.live_range(f);
+    let (world, levels) = place_levels(range, bound.world_offset, &req.levels)?;
+    let warnings = level_warnings(&req.field, range, bound.world_offset, &world, &levels)
+        .into_iter()
+        .collect();
     let ctx = EmitContext {
         positions: r.positions(),
         attribute: bound.attribute.as_deref(),
@@ -557,6 +591,8 @@ fn run(
             cut_pieces(mesh, m, |s| r.source(s), &mut p.cut[i]);
         }
         progress(1);
+        // Every sweep and the brute force come here after each level.
+        stop_if_cancelled(&req.sweep.cancel);
     };
     let job = Job {
         f,
@@ -565,26 +601,29 @@ fn run(
         req,
         axis_slot: bound.axis_slot,
     };
-    let swept = if req.brute_force {
-        let t = Instant::now();
-        let mut part = new_part(0..k);
-        let mut mesh = LevelMesh::default();
-        r.brute_force(&job, &mut mesh, &mut |lv, m, st| {
-            on_level(&mut part, lv, m, st)
-        });
-        timings.sweep = t.elapsed().as_secs_f64();
-        Swept {
-            parts: vec![part],
-            minima: 0,
-            state_bytes: mesh.capacity_bytes(),
+    req.sweep.cancel.check()?;
+    let swept = catch_interrupt(|| {
+        if req.brute_force {
+            let t = Instant::now();
+            let mut part = new_part(0..k);
+            let mut mesh = LevelMesh::default();
+            r.brute_force(&job, &mut mesh, &mut |lv, m, st| {
+                on_level(&mut part, lv, m, st)
+            });
+            timings.sweep = t.elapsed().as_secs_f64();
+            Swept {
+                parts: vec![part],
+                minima: 0,
+                state_bytes: mesh.capacity_bytes(),
+            }
+        } else {
+            let gather = Gather {
+                new_part: &new_part,
+                on_level: &on_level,
+            };
+            r.sweep(&job, &gather, &mut timings)
         }
-    } else {
-        let gather = Gather {
-            new_part: &new_part,
-            on_level: &on_level,
-        };
-        r.sweep(&job, &gather, &mut timings)
-    };
+    })?;
     let mut stats = vec![LevelStats::default(); k];
     let mut cut: Vec<Vec<(u32, u32)>> = vec![Vec::new(); k];
     for p in &swept.parts {
@@ -612,5 +651,6 @@ fn run(
         sweep_state_bytes: swept.state_bytes,
         timings,
         attribute_name: String::new(),
+        warnings,
     })
 }

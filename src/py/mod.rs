@@ -8,6 +8,7 @@ mod arrays;
 mod data;
 mod errors;
 mod grid;
+mod interrupt;
 mod render;
 mod slices;
 mod slicing;

@@ -13,6 +13,9 @@ use crate::structures::StructureChoice;
 
 use super::data::GridData;
 use super::errors::{gpu_error, guard, invalid, runtime, value_error};
+use super::interrupt::{interruptible, limit_error};
+use crate::cancel::Cancel;
+use crate::limits;
 
 /// An adapter as wgpu lists it.
 pub struct AdapterInfo {
@@ -42,7 +45,7 @@ pub struct RenderArgs<'a, 'py> {
     /// Property shown.
     pub property: Option<String>,
     /// Slice count.
-    pub slices: usize,
+    pub slices: i64,
     /// View direction.
     pub view_dir: [f64; 3],
     /// Up vector.
@@ -56,7 +59,7 @@ pub struct RenderArgs<'a, 'py> {
     /// `(r, g, b, a)` in [0, 1] or `"transparent"`.
     pub background: Option<&'a Bound<'py, PyAny>>,
     /// `(width, height)`.
-    pub size: (u32, u32),
+    pub size: (i64, i64),
     /// `volume`, `slices` or `iso`.
     pub mode: String,
     /// Isovalues.
@@ -186,16 +189,16 @@ pub fn render<'py>(
             )));
         }
     };
-    let (w, h) = a.size;
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        return Err(invalid(format!(
-            "size {:?}: each side must be 1..=16384",
-            a.size
-        )));
-    }
+    // The library's limits, as the CLI's `--slices`, `--size` and `--iso`.
+    let slices = limits::check_slices(a.slices).map_err(limit_error)?;
+    let (w, h) = (
+        limits::check_image_side(a.size.0).map_err(limit_error)?,
+        limits::check_image_side(a.size.1).map_err(limit_error)?,
+    );
+    limits::check_isovalues(a.iso.len()).map_err(limit_error)?;
     let opts = RenderOptions {
         property: a.property,
-        slices: a.slices,
+        slices,
         view_dir: a.view_dir,
         up: a.up,
         perspective,
@@ -203,7 +206,7 @@ pub fn render<'py>(
         colormap,
         unit_distance: a.unit_distance,
         background,
-        size: a.size,
+        size: (w, h),
         mode,
         iso: a.iso,
         // The same image bits on every run, as the CLI's `render`.
@@ -211,7 +214,10 @@ pub fn render<'py>(
     };
     let adapter = adapter_for(&a.device, a.adapter)?;
     let d = data.clone();
-    let rgba = py.detach(move || {
+    // Ctrl-C stops the render between its slicing and its drawing.
+    let cancel = Cancel::new();
+    let token = cancel.clone();
+    let rgba = interruptible(py, &cancel, move || {
         guard(|| {
             let b = d.structure(StructureChoice::Auto)?;
             let ctx = GpuContext::new(&ContextOptions {
@@ -221,6 +227,7 @@ pub fn render<'py>(
             })
             .map_err(|e| gpu_error(&e))?;
             let mut r = Renderer::new(&ctx).map_err(render_error)?;
+            r.cancel = token;
             let img = r
                 .render(&d.grid, &b.structure, &opts)
                 .map_err(render_error)?;

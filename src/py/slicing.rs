@@ -9,15 +9,19 @@ use std::sync::Arc;
 
 use pyo3::prelude::*;
 
+use crate::cancel::Cancel;
 use crate::field::FieldSpec;
 use crate::gpu::context::{ContextOptions, GpuContext, GpuError};
 use crate::gpu::slice::{Emitter, GpuSliceError, slice_on};
+use crate::limits;
 use crate::pipeline::{LevelSpec, SliceRequest, SliceResult, slice as sweep};
 use crate::report::{flatten_by_cell, stats_json};
 use crate::structures::{Structure, StructureChoice};
+use crate::sweep::SweepOptions;
 
 use super::data::GridData;
 use super::errors::{gpu_error, guard, invalid, runtime, value_error};
+use super::interrupt::{interruptible, limit_error, warn_all};
 use super::slices::{PySlices, SliceData};
 
 /// The arguments of `Grid.slice`, as Python gave them.
@@ -37,7 +41,7 @@ pub struct SliceArgs {
     /// `vertices` or `cells`.
     pub at: String,
     /// Worker threads (default 1).
-    pub threads: Option<usize>,
+    pub threads: Option<i64>,
     /// Structure choice name.
     pub structure: String,
     /// Whether to gather the welded polygons.
@@ -167,22 +171,15 @@ fn field_of(
     }
 }
 
-/// The levels of `slice()`: exactly one of count or values.
+/// The levels of `slice()`: exactly one of count or values, within the
+/// library's limits (as the CLI's `--count` and `--values`).
 fn levels_of(count: Option<i64>, values: Option<Vec<f64>>) -> PyResult<LevelSpec> {
     match (count, values) {
-        (Some(k), None) => {
-            if k < 1 {
-                return Err(invalid("count must be at least 1"));
-            }
-            Ok(LevelSpec::Count(k as usize))
-        }
+        (Some(k), None) => Ok(LevelSpec::Count(
+            limits::check_count(k).map_err(limit_error)?,
+        )),
         (None, Some(v)) => {
-            if v.len() > 10_000_000 {
-                return Err(invalid(format!(
-                    "values has {} levels; that is too many",
-                    v.len()
-                )));
-            }
+            limits::check_values(v.len() as f64).map_err(limit_error)?;
             // Empty, non-finite and non-increasing values are refused by
             // the pipeline with the level's index.
             Ok(LevelSpec::Values(v))
@@ -213,13 +210,11 @@ pub fn slice(py: Python<'_>, d: &Arc<GridData>, a: SliceArgs) -> PyResult<PySlic
     let field = field_of(a.axis.as_deref(), a.normal, a.property.as_deref())?;
     let levels = levels_of(a.count, a.values)?;
     let choice = structure_choice(&a.structure)?;
-    let threads = a.threads.unwrap_or(1);
-    if threads == 0 {
-        return Err(invalid("threads must be at least 1"));
-    }
+    let threads = limits::check_threads(a.threads.unwrap_or(1)).map_err(limit_error)?;
     let flat = flat_values(d, &a.at, a.attribute.as_deref().or(a.property.as_deref()))?;
     let mesh = a.mesh;
     let device = device_of(&a.device, mesh, choice)?;
+    let cancel = Cancel::new();
     let adapter = a.adapter;
     let req = SliceRequest {
         field: field.clone(),
@@ -228,10 +223,13 @@ pub fn slice(py: Python<'_>, d: &Arc<GridData>, a: SliceArgs) -> PyResult<PySlic
         threads,
         brute_force: choice == StructureChoice::BruteForce,
         collect_mesh: mesh,
-        sweep: Default::default(),
+        sweep: SweepOptions {
+            cancel: cancel.clone(),
+            ..Default::default()
+        },
     };
     let d = d.clone();
-    let out = py.detach(move || {
+    let out = interruptible(py, &cancel, move || {
         guard(|| {
             let b = d.structure(choice)?;
             let pool = rayon::ThreadPoolBuilder::new()
@@ -245,6 +243,7 @@ pub fn slice(py: Python<'_>, d: &Arc<GridData>, a: SliceArgs) -> PyResult<PySlic
                     .install(|| sweep(&d.grid, &b.structure, &req, &noop))
                     .map_err(|e| invalid(format!("cannot slice {}: {e}", d.name)))?,
             };
+            let warnings = r.warnings.clone();
             let stats = stats_json(
                 &r,
                 &b.structure,
@@ -258,12 +257,14 @@ pub fn slice(py: Python<'_>, d: &Arc<GridData>, a: SliceArgs) -> PyResult<PySlic
             if let Some(vals) = &flat {
                 m = flatten_by_cell(&m, vals);
             }
-            Ok(SliceData {
+            let data = SliceData {
                 mesh: m,
                 stats,
                 has_mesh: mesh,
-            })
+            };
+            Ok((data, warnings))
         })
     })?;
-    Ok(PySlices::new(out))
+    warn_all(py, &out.1)?;
+    Ok(PySlices::new(out.0))
 }

@@ -153,15 +153,19 @@ impl Block {
     }
 }
 
-/// Choices of the sweep's lattice loops, for A/B benchmarks; the defaults
-/// pick by themselves. The output does not depend on them.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Choices of the sweep's lattice loops, for A/B benchmarks (the defaults
+/// pick by themselves; the output does not depend on them), and the run's
+/// cancellation token.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct SweepOptions {
     /// Run the per-cell lattice loop instead of the chunked one.
     pub per_cell_loop: bool,
     /// Force the chunked loop's patch width (8, 16, 32 or 64; other values
     /// are ignored) instead of choosing it from φ.
     pub patch_width: Option<u32>,
+    /// Checked after every level by [`crate::pipeline::slice`], which
+    /// then stops with `Interrupted` (the default token never cancels).
+    pub cancel: crate::cancel::Cancel,
 }
 
 /// Runs sweeps over a [`CellGraph`], split into spatial blocks (one per thread).
@@ -247,7 +251,7 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
     {
         let g = self.graph;
         let slot = axis_slot.unwrap_or(0);
-        let options = self.options;
+        let options = &self.options;
         self.blocks
             .par_iter_mut()
             .map(|b| {
@@ -260,7 +264,7 @@ impl<'g, G: CellGraph> Sweeper<'g, G> {
                         minima
                     }
                 };
-                b.options = options;
+                b.options = options.clone();
                 let lows = match b.lows.take() {
                     Some((s, l)) if s == slot => Some(l),
                     _ => None,

@@ -82,9 +82,16 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
     if !a.headless {
         require_display()?;
     }
-    if a.frames == Some(0) || a.orbit_bench == Some(0) {
-        bail!("--frames and --orbit-bench need at least 1");
-    }
+    use stratasweep::limits::check_frames;
+    let flag = crate::cli::checks::flag;
+    a.frames
+        .map(check_frames)
+        .transpose()
+        .map_err(flag("--frames"))?;
+    a.orbit_bench
+        .map(check_frames)
+        .transpose()
+        .map_err(flag("--orbit-bench"))?;
     crate::cli::checks::check_slices(a.scene.slices)?;
     let outputs = crate::cli::checks::Outputs::default()
         .add("--screenshot", a.screenshot.as_deref())
@@ -98,8 +105,15 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         }
     }
     let o = a.scene.options()?;
-    let clip = a.ijk_clip.as_deref().map(parse_clip).transpose()?;
+    let clip = a
+        .ijk_clip
+        .as_deref()
+        .map(super::scene_args::parse_clip)
+        .transpose()?;
     let (grid, name, _, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
+    if let Some(c) = &clip {
+        super::scene_args::check_clip(c, &grid)?;
+    }
     let z_scale = a.scene.z_scale(&grid, quiet);
     // As `render`: the corner-point graph (IJK lattice) for corner-point
     // input, so the panel's pre-integration switch gets the index-space path.
@@ -168,23 +182,6 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         eprintln!("wrote {}", p.display());
     }
     Ok(())
-}
-
-/// `I0:I1,J0:J1,K0:K1` → cell index ranges.
-fn parse_clip(s: &str) -> Result<[[usize; 2]; 3]> {
-    let bad = || anyhow::anyhow!("--ijk-clip '{s}': expected I0:I1,J0:J1,K0:K1 with I0 < I1 etc.");
-    let r: Vec<[usize; 2]> = s
-        .split(',')
-        .map(|p| {
-            let (a, b) = p.split_once(':').ok_or_else(bad)?;
-            let (a, b): (usize, usize) = (a.trim().parse()?, b.trim().parse()?);
-            if a >= b {
-                return Err(bad());
-            }
-            Ok([a, b])
-        })
-        .collect::<Result<_>>()?;
-    r.try_into().map_err(|_| bad())
 }
 
 /// The p-th percentile (nearest rank) of `v`.

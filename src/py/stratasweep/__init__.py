@@ -13,7 +13,21 @@ and grids, ``RuntimeError`` for GPU faults.
 
 from __future__ import annotations
 
+import os as _os
+import sys as _sys
+
 import numpy as _np
+
+# As the CLI does (src/cli/mod.rs): without a desktop session (no
+# XDG_RUNTIME_DIR: servers, containers, CI) Mesa's Vulkan device-selection
+# layer connects to Wayland only to reorder the adapter list, which the
+# renderer sorts itself, and prints "XDG_RUNTIME_DIR is invalid or not set"
+# twice per render. Turned off unless the user configured it; set before
+# the native module (and any Vulkan instance) exists.
+if _sys.platform.startswith("linux") and not any(
+    k in _os.environ for k in ("XDG_RUNTIME_DIR", "NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT")
+):
+    _os.environ["NODEVICE_SELECT"] = "1"
 
 from . import _native
 from ._native import Grid, Slices, adapters, load

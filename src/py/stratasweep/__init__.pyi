@@ -94,7 +94,12 @@ class Grid:
         ``gpu`` the CPU sweep finds the cut cells and the GPU (any adapter,
         ``adapter`` a name substring) emits them, statistics only (needs
         ``mesh=False``); ``auto`` the GPU when an adapter exists and the
-        request allows it, else the CPU."""
+        request allows it, else the CPU. The CLI's limits apply (at most
+        100,000 levels; 1 to 8 threads per core, at least 64): beyond them
+        ``ValueError`` names the argument and the limit. Levels outside the
+        field's range cut nothing and raise a ``UserWarning`` (world z is
+        minus depth: depths are negative z levels). Ctrl-C stops the sweep
+        at its next level and raises ``KeyboardInterrupt``."""
     def render(
         self,
         property: Optional[str] = None,
@@ -113,7 +118,9 @@ class Grid:
     ) -> npt.NDArray[np.uint8]:
         """Volume-renders (or draws isosurfaces) into ``(H, W, 4)`` RGBA.
         ``device``: ``auto`` any adapter (GPUs first), ``gpu`` hardware
-        only, ``cpu`` a software rasteriser (Mesa llvmpipe) only."""
+        only, ``cpu`` a software rasteriser (Mesa llvmpipe) only. Limits as
+        the CLI's: 1 to 8192 slices, isovalues and pixels per image side.
+        Ctrl-C stops the render before its slicing or its drawing."""
     def save(self, path: _Path) -> None:
         """Writes ``.vts`` (curvilinear) or ``.vtu`` (unstructured)."""
 
