@@ -760,8 +760,8 @@ pub fn emit_slices<'c>(
             Ok((f, ijk)) => {
                 if let Structure::CpGraph(g) = s {
                     // Corner-point grids: the outer surface of the graph.
-                    cp_boundary =
-                        BoundaryMesh::from_triangles(&ctx.device, &g.boundary_triangles(&ijk));
+                    let t = super::boundary::graph_boundary_triangles(g.as_ref(), &ijk);
+                    cp_boundary = BoundaryMesh::from_triangles(&ctx.device, &t);
                 }
                 p.grid.grad = ijk;
                 (Some(f), None)

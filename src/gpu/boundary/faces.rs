@@ -145,7 +145,8 @@ pub(super) fn toggle_cell_faces(
 /// Adds the faces of a typed cell: `faces` are outward loops of local
 /// vertex numbers, `ids` the cell's global ids in local order.
 pub(super) fn toggle_local<F: AsRef<[u8]>>(faces: &[F], ids: &[u32], open: &mut OpenFaces) {
-    let mut face = [0u32; 8];
+    // A face has at most as many vertices as its cell (meta-cells: 12).
+    let mut face = [0u32; crate::metacell::MAX_META_VERTICES];
     for f in faces {
         let f = f.as_ref();
         for (slot, &v) in face.iter_mut().zip(f) {

@@ -12,6 +12,11 @@
 //!   outward face tables; a polyhedron's faces are first turned outward
 //!   (files list them either way round).
 //!
+//! * Corner-point graphs ([`graph_boundary_triangles`]): the same matching
+//!   over the graph's own live cells (hexahedra, collapsed cells and the
+//!   convex pieces of split cells, with their meta-cells' outward faces),
+//!   each corner carrying its vertex's lattice node `(i, j, k)`.
+//!
 //! Corner-point faults: cells across a fault share no vertex, so a fault
 //! face is never matched and is kept **whole**, also where the other side
 //! covers it. The surface then holds the true outer surface plus pieces
@@ -29,7 +34,9 @@ mod tests;
 
 use rayon::prelude::*;
 
+use crate::cellgraph::CellGraph;
 use crate::grid::{Grid, Topology, hex_corner_offsets};
+use crate::metacell::MAX_META_VERTICES;
 use faces::OpenFaces;
 
 /// Cells per run matched on one thread.
@@ -123,6 +130,65 @@ pub fn boundary_triangles_in(grid: &Grid, clip: Option<IjkBox>) -> Option<Vec<[f
         [x[0], x[1], x[2], n[0] as f32, n[1] as f32, n[2] as f32]
     };
     Some(s.triangles.iter().flatten().map(|&v| corner(v)).collect())
+}
+
+/// The outer surface of a cell graph's live cells as a triangle soup in the
+/// graph's rebased frame: each corner its position, then `ijk` of its
+/// vertex (a fan centre: the mean of its face's). Every live cell counts,
+/// whatever its meta-cell (hexahedra, collapsed cells, convex pieces), so
+/// the surface is closed as a chain: a collapsed cell on the outside
+/// leaves no hole through which a ray would leave unseen. Faces across a
+/// fault (no shared vertex) and a hexahedron's face against the triangles
+/// of a split neighbour stay, inside the grid (see the module notes).
+pub fn graph_boundary_triangles<G: CellGraph>(g: &G, ijk: &[[f32; 4]]) -> Vec<[f32; 6]> {
+    let mut open = OpenFaces::default();
+    let mut ids = [0u32; MAX_META_VERTICES];
+    for slot in 0..g.slot_count() as u32 {
+        if g.is_live(slot) {
+            let (m, n) = g.cell(slot, &mut ids);
+            faces::toggle_local(&g.catalog().get(m).faces, &ids[..n], &mut open);
+        }
+    }
+    let loops = open.loops();
+    let (pos, node) = (g.positions(), |v: u32| ijk[v as usize]);
+    let mut used = Vec::new();
+    let mut map = vec![u32::MAX; pos.len()];
+    let local: Vec<Vec<u32>> = loops
+        .iter()
+        .map(|f| {
+            f.iter()
+                .map(|&v| {
+                    if map[v as usize] == u32::MAX {
+                        map[v as usize] = used.len() as u32;
+                        used.push(v);
+                    }
+                    map[v as usize]
+                })
+                .collect()
+        })
+        .collect();
+    let refs: Vec<&[u32]> = local.iter().map(|f| f.as_slice()).collect();
+    let mut points: Vec<[f64; 3]> = used
+        .iter()
+        .map(|&v| pos[v as usize].map(f64::from))
+        .collect();
+    let mut nodes: Vec<[f64; 3]> = used
+        .iter()
+        .map(|&v| {
+            let n = node(v);
+            [n[0], n[1], n[2]].map(f64::from)
+        })
+        .collect();
+    let triangles = faces::triangulate(&refs, &mut points);
+    faces::triangulate(&refs, &mut nodes);
+    triangles
+        .iter()
+        .flatten()
+        .map(|&v| {
+            let (p, n) = (points[v as usize], nodes[v as usize]);
+            [p[0], p[1], p[2], n[0], n[1], n[2]].map(|x| x as f32)
+        })
+        .collect()
 }
 
 /// The index coordinates of the grid points `used` (structured grids;

@@ -2,7 +2,7 @@ use std::collections::HashMap;
 
 use super::*;
 use crate::grid::{Cells, Property, vtk_type};
-use crate::metacell::Catalog;
+use crate::metacell::{Catalog, MAX_META_VERTICES};
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
@@ -413,4 +413,175 @@ fn polyhedron_faces_listed_either_way_round_are_turned_outward() {
     assert_eq!(assert_closed(&s), 2);
     assert!(rel(volume(&s, [0.0; 3]), 27.0) < 1e-12);
     assert_eq!(s, outer_surface(&hexes));
+}
+
+/// A triangle soup (position, ijk) welded by exact position into a
+/// [`Surface`] in the world frame (`origin` added back), with its `ijk`.
+fn welded(soup: &[[f32; 6]], origin: [f64; 3]) -> Surface {
+    let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+    let mut s = Surface::default();
+    for t in soup.chunks(3) {
+        let tri: Vec<u32> = t
+            .iter()
+            .map(|c| {
+                let key = [c[0].to_bits(), c[1].to_bits(), c[2].to_bits()];
+                *ids.entry(key).or_insert_with(|| {
+                    s.points.push([0, 1, 2].map(|a| c[a] as f64 + origin[a]));
+                    s.ijk.push([c[3], c[4], c[5]].map(f64::from));
+                    s.points.len() as u32 - 1
+                })
+            })
+            .collect();
+        if tri[0] != tri[1] && tri[1] != tri[2] && tri[0] != tri[2] {
+            s.triangles.push([tri[0], tri[1], tri[2]]);
+        }
+    }
+    s
+}
+
+/// The CP-Graph of a corner-point grid (which must have collapsed cells).
+fn cp_graph(cp: &crate::cornerpoint::CornerPointGrid) -> crate::structures::cpgraph::CpGraph {
+    let (grid, rep) = cp.to_grid().expect("converts");
+    assert!(rep.collapsed > 0, "the test wants collapsed cells");
+    let layout = crate::structures::cpgraph::IjkLayout {
+        dims: cp.dims,
+        source_cell: rep.source_cell,
+    };
+    let s = crate::structures::Structure::build_with(
+        &grid,
+        crate::structures::StructureChoice::CpGraph,
+        Some(&layout),
+    )
+    .expect("builds");
+    let crate::structures::Structure::CpGraph(g) = s else {
+        panic!("not a CP-Graph");
+    };
+    *g
+}
+
+/// Per live cell of `g` (world frame): its signed volume by its
+/// meta-cell, and its faces fanned around their vertex means, each cell
+/// alone (the brute-force twin of the outer surface).
+fn graph_cells(g: &crate::structures::cpgraph::CpGraph) -> (f64, Vec<[[f64; 3]; 3]>) {
+    let (mut volume, mut tris) = (0.0, Vec::new());
+    let mut ids = [0u32; MAX_META_VERTICES];
+    let world = |v: u32| [0, 1, 2].map(|a| g.positions[v as usize][a] as f64 + g.origin[a]);
+    for slot in 0..g.slot_count() as u32 {
+        if !g.is_live(slot) {
+            continue;
+        }
+        let (m, n) = g.cell(slot, &mut ids);
+        let meta = g.catalog.get(m);
+        volume += meta.signed_volume(&|v: usize| world(ids[v]));
+        let mut open = OpenFaces::default();
+        faces::toggle_local(&meta.faces, &ids[..n], &mut open);
+        let mut pts: Vec<[f64; 3]> = (0..g.positions.len() as u32).map(world).collect();
+        for t in faces::triangulate(&open.loops(), &mut pts) {
+            tris.push(t.map(|v| pts[v as usize]));
+        }
+    }
+    (volume, tris)
+}
+
+#[test]
+fn a_corner_point_graph_with_collapsed_cells_is_bounded_without_holes() {
+    // Faulted, folded layers that pinch out: collapsed cells (wedges,
+    // polyhedra split into convex pieces) reach the grid's outside.
+    for (dims, faults, seed) in [([8, 7, 5], 2, 1u64), ([12, 9, 6], 3, 7)] {
+        let g = cp_graph(&crate::generate::faulted(dims, faults, seed));
+        let ijk = g.vertex_ijk();
+        let s = welded(&graph_boundary_triangles(&g, &ijk), g.origin);
+        // Closed as a chain and oriented outward: it encloses the live
+        // cells' volume.
+        assert_closed(&s);
+        let (cells, all) = graph_cells(&g);
+        let v = volume(&s, g.origin);
+        assert!(rel(v, cells) < 1e-6, "{dims:?}: surface {v}, cells {cells}");
+        // Nearest and farthest hits are the true entry and exit (to the
+        // f32 rounding of the soup's positions).
+        let surf: Vec<[[f64; 3]; 3]> = s.triangles.iter().map(|t| corners(&s, t)).collect();
+        let (lo, hi) = all
+            .iter()
+            .flatten()
+            .fold(([f64::MAX; 3], [f64::MIN; 3]), |(l, h), p| {
+                (
+                    [0, 1, 2].map(|a| l[a].min(p[a])),
+                    [0, 1, 2].map(|a| h[a].max(p[a])),
+                )
+            });
+        let size = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+        let mut hit = 0;
+        for r in 0..400 {
+            let f = |n: usize| ((r * n + n) % 97) as f64 / 97.0;
+            let target = [0, 1, 2].map(|a| lo[a] + (hi[a] - lo[a]) * f(a + 3));
+            let dir = [f(5) - 0.5, f(11) - 0.5, 0.6 * f(13) - 0.3];
+            let n = dot(dir, dir).sqrt();
+            let dir = dir.map(|x| x / n);
+            let o = [0, 1, 2].map(|a| target[a] - 2.0 * size * dir[a]);
+            match (hits(&all, o, dir), hits(&surf, o, dir)) {
+                (None, None) => {}
+                (Some(t), Some(h)) => {
+                    assert!((t.0 - h.0).abs() < 1e-6 * size, "entry {t:?} vs {h:?}");
+                    assert!((t.1 - h.1).abs() < 1e-6 * size, "exit {t:?} vs {h:?}");
+                    hit += 1;
+                }
+                (t, h) => panic!("ray from {o:?} along {dir:?}: cells {t:?}, surface {h:?}"),
+            }
+        }
+        assert!(hit > 100, "{dims:?}: {hit} rays hit");
+    }
+}
+
+#[test]
+fn a_corner_point_box_is_bounded_by_its_six_sides_with_their_nodes() {
+    // 3 × 2 × 4 cells: pillars at x = i, y = j, layers 0.5 thick (z = −depth).
+    let dims = [3usize, 2, 4];
+    let [nx, ny, nz] = dims;
+    let mut coord = Vec::new();
+    for pj in 0..=ny {
+        for pi in 0..=nx {
+            coord.extend_from_slice(&[pi as f64, pj as f64, 0.0, pi as f64, pj as f64, 2.0]);
+        }
+    }
+    let zcorn = (0..8 * nx * ny * nz)
+        .map(|n| 0.5 * (n / (4 * nx * ny)).div_ceil(2) as f64)
+        .collect();
+    let cp = crate::cornerpoint::CornerPointGrid {
+        dims,
+        coord,
+        zcorn,
+        actnum: None,
+        mapaxes: None,
+        mapunits: None,
+        gridunit: None,
+        properties: Vec::new(),
+    };
+    let (grid, rep) = cp.to_grid().expect("converts");
+    let layout = crate::structures::cpgraph::IjkLayout {
+        dims,
+        source_cell: rep.source_cell,
+    };
+    let crate::structures::Structure::CpGraph(g) = crate::structures::Structure::build_with(
+        &grid,
+        crate::structures::StructureChoice::CpGraph,
+        Some(&layout),
+    )
+    .expect("builds") else {
+        panic!("not a CP-Graph");
+    };
+    let t = graph_boundary_triangles(g.as_ref(), &g.vertex_ijk());
+    // Top and bottom 3·2 quads each, the j-sides 3·4, the i-sides 2·4;
+    // four triangles per quad (a fan around its centre).
+    let quads = 2 * (3 * 2) + 2 * (3 * 4) + 2 * (2 * 4);
+    assert_eq!(t.len(), 3 * 4 * quads);
+    let s = welded(&t, g.origin);
+    assert_eq!(assert_closed(&s), 2);
+    assert!(rel(volume(&s, [0.0; 3]), 3.0 * 2.0 * 2.0) < 1e-6);
+    // Every corner (fan centres too) carries its node: x = i, y = j, z = −k/2.
+    for (p, n) in s.points.iter().zip(&s.ijk) {
+        let want = [p[0], p[1], -2.0 * p[2]];
+        for a in 0..3 {
+            assert!((n[a] - want[a]).abs() < 1e-5, "{p:?}: {n:?}");
+        }
+    }
 }

@@ -1,6 +1,7 @@
 //! Index-space coordinates of a corner-point graph (no wgpu): per vertex
 //! its lattice node `(i, j, k)`, and per IJK cell its input cell, for the
-//! pre-integrated volume pass (`gpu::ijk_field`).
+//! pre-integrated volume pass (`gpu::ijk_field`; its outer surface, over
+//! every live cell: `gpu::boundary::graph_boundary_triangles`).
 //!
 //! A hexahedron in column `(i, j)`, layer `k` has its local vertex `l` on
 //! pillar corner `corner_pillar[l]` and at node layer `k` or `k + 1`: the
@@ -122,62 +123,6 @@ impl CpGraph {
     }
 }
 
-/// The local vertices of each face of a stencil hexahedron, per direction
-/// (−i, +i, −j, +j, −k, +k), in cyclic order.
-fn hex_faces(corner_pillar: &[u32; 8], npi: u32, lower: &[bool; 8]) -> [[usize; 4]; 6] {
-    // Per local vertex: (di, dj, dk) in {0, 1}.
-    let at: [[u32; 3]; 8] = std::array::from_fn(|l| {
-        [
-            corner_pillar[l] % npi,
-            corner_pillar[l] / npi,
-            lower[l] as u32,
-        ]
-    });
-    std::array::from_fn(|d| {
-        let (axis, side) = (d / 2, (d % 2) as u32);
-        let (b, c) = ((axis + 1) % 3, (axis + 2) % 3);
-        [(0, 0), (1, 0), (1, 1), (0, 1)].map(|(u, v)| {
-            (0..8)
-                .find(|&l| at[l][axis] == side && at[l][b] == u && at[l][c] == v)
-                .unwrap_or(0)
-        })
-    })
-}
-
-impl CpGraph {
-    /// The outer surface of the live stencil hexahedra: every face with no
-    /// linked neighbour (the grid's outside, inactive cells and faults
-    /// with throw), two triangles per face, each corner its position (the
-    /// graph's rebased frame) and `ijk` of its vertex.
-    pub fn boundary_triangles(&self, ijk: &[[f32; 4]]) -> Vec<[f32; 6]> {
-        let lower = self
-            .lower_side()
-            .unwrap_or([false, false, false, false, true, true, true, true]);
-        let faces = hex_faces(&self.corner_pillar, self.deltas[1], &lower);
-        let mut ids = [0u32; MAX_META_VERTICES];
-        let mut out = Vec::new();
-        for slot in 0..self.lattice_slots {
-            if !self.is_live(slot) || !self.is_stencil_hex(slot) {
-                continue;
-            }
-            self.cell(slot, &mut ids);
-            let links = self.links[slot as usize];
-            for (d, f) in faces.iter().enumerate() {
-                if links & (1 << d) != 0 {
-                    continue;
-                }
-                let c = f.map(|l| {
-                    let v = ids[l] as usize;
-                    let (p, q) = (self.positions[v], ijk[v]);
-                    [p[0], p[1], p[2], q[0], q[1], q[2]]
-                });
-                out.extend_from_slice(&[c[0], c[1], c[2], c[0], c[2], c[3]]);
-            }
-        }
-        out
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use crate::cornerpoint::CornerPointGrid;
@@ -218,7 +163,7 @@ mod tests {
     }
 
     #[test]
-    fn vertices_and_outer_faces_carry_their_lattice_node() {
+    fn vertices_carry_their_lattice_node() {
         let Structure::CpGraph(g) = boxed() else {
             panic!("not a CP-Graph");
         };
@@ -234,17 +179,6 @@ mod tests {
             let n = node(*p);
             for a in 0..3 {
                 assert!((q[a] as f64 - n[a]).abs() < 1e-5, "{p:?}: {q:?} vs {n:?}");
-            }
-        }
-        let t = g.boundary_triangles(&ijk);
-        // The outer cell faces: top and bottom 3·2 each, the two j-sides
-        // 3·4 each, the two i-sides 2·4 each; two triangles per face.
-        let quads = 2 * (3 * 2) + 2 * (3 * 4) + 2 * (2 * 4);
-        assert_eq!(t.len(), 6 * quads);
-        for c in &t {
-            let n = node([c[0], c[1], c[2]]);
-            for a in 0..3 {
-                assert!((c[3 + a] as f64 - n[a]).abs() < 1e-5, "{c:?}");
             }
         }
     }
