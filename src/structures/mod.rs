@@ -216,7 +216,7 @@ impl Structure {
             if r.twisted > 0 {
                 out.push(format!(
                     "{} cell(s) with a face that crosses itself (a bow-tie) sliced through a \
-                     tetrahedral decomposition (coned from the cell's vertex mean, each bow-tie \
+                     tetrahedral decomposition (coned from a vertex mean, each bow-tie \
                      face cut along the diagonal from its smallest vertex id); first ids {:?}",
                     r.twisted, r.twisted_first
                 ));

@@ -8,7 +8,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use rayon::prelude::*;
 
-use super::twisted::{find_twisted, twisted_apex, twisted_pieces};
+use super::twisted::{find_twisted, twisted_pieces};
 use super::{
     Element, FacePlan, FaceTable, IdsHasher, SplitError, SplitGrid, SplitMap, SplitPieces,
     SplitReport, Star, canonical_at, canonical_start, cone_volume, ear_clip, element_plane,
@@ -319,10 +319,10 @@ fn split_parts<'a>(
         let mut t = Pieces::default();
         for (c, ids, faces) in &twisted {
             split[*c] = true;
-            let apex = twisted_apex(ids, &pos);
             let apex_id = (np0 + new.points.len()) as u32;
-            new.push(apex, ids);
-            for (ty, p) in twisted_pieces(ids, faces, apex, apex_id, &pos) {
+            let (apex, recipe, cut) = twisted_pieces(ids, faces, apex_id, &pos);
+            new.push(apex, &recipe);
+            for (ty, p) in cut {
                 t.push(ty, &p);
                 report.twisted_pieces += 1;
             }
