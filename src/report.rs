@@ -357,9 +357,17 @@ fn handedness(
     if let Structure::SCGraph(g) = s {
         return (classes, g.left_handed);
     }
-    let left = classes[Inverted as usize] > classes[Valid as usize];
+    // Pieces of split cells are made positive whatever the grid's
+    // handedness: they count as valid either way.
+    let own = s
+        .split()
+        .map_or(0, |m| m.report.pieces + m.report.twisted_pieces);
+    let (v, i) = (Valid as usize, Inverted as usize);
+    let given = classes[v].saturating_sub(own);
+    let left = classes[i] > given;
     if left {
-        classes.swap(Inverted as usize, Valid as usize);
+        classes[v] = classes[i] + (classes[v] - given);
+        classes[i] = given;
     }
     (classes, left)
 }

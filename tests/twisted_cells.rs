@@ -466,3 +466,79 @@ fn corner_point_graph_decomposes_twisted_cells_as_the_cgraph() {
         assert!(a.stats.iter().map(|s| s.area).sum::<f64>() > 0.0);
     }
 }
+
+/// A left-handed grid (every hexahedron's vertex order mirrored, as
+/// UNISIM-II-D's) is one fact about the grid: `info` says so once and
+/// classes its cells as valid (it reported every cell as inverted and none
+/// as valid); a mirrored cell inside it is the inverted one.
+#[test]
+fn a_left_handed_grid_is_reported_once_not_as_inverted_cells() {
+    let n = 3usize;
+    let id = |i: usize, j: usize, k: usize| (i + (n + 1) * (j + (n + 1) * k)) as u32;
+    let mut points = Vec::new();
+    for k in 0..=n {
+        for j in 0..=n {
+            for i in 0..=n {
+                // z down: depth grows with k (a left-handed IJK frame).
+                points.push([i as f64, j as f64, -(k as f64)]);
+            }
+        }
+    }
+    let mut cells = Cells::default();
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let mut ids = [
+                    id(i, j, k),
+                    id(i + 1, j, k),
+                    id(i + 1, j + 1, k),
+                    id(i, j + 1, k),
+                    id(i, j, k + 1),
+                    id(i + 1, j, k + 1),
+                    id(i + 1, j + 1, k + 1),
+                    id(i, j + 1, k + 1),
+                ];
+                if (i, j, k) == (1, 1, 1) {
+                    // One cell right-handed in the left-handed grid.
+                    ids.rotate_left(4);
+                }
+                cells.push(vtk_type::HEXAHEDRON, &ids);
+            }
+        }
+    }
+    let grid = Grid {
+        points,
+        topology: Topology::Unstructured(cells),
+        point_data: Vec::new(),
+        cell_data: Vec::new(),
+    };
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let out = stratasweep::report::info_json(&grid, &s, &Default::default());
+    assert_eq!(out["handedness"], "left-handed");
+    assert_eq!(out["cell_classes"]["valid"], 26, "{}", out["cell_classes"]);
+    assert_eq!(
+        out["cell_classes"]["inverted"], 1,
+        "{}",
+        out["cell_classes"]
+    );
+    // UNISIM-II-D itself, when present.
+    let Some(dir) = std::env::var_os("STRATASWEEP_DATA") else {
+        return;
+    };
+    let p = Path::new(&dir).join("pyvista/UNISIM-II-D.vtu");
+    if !p.exists() {
+        eprintln!("SKIP UNISIM-II-D: {} missing", p.display());
+        return;
+    }
+    let grid = stratasweep::io::load(&p).unwrap().grid;
+    let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
+    let out = stratasweep::report::info_json(&grid, &s, &Default::default());
+    assert_eq!(out["handedness"], "left-handed");
+    assert_eq!(
+        out["cell_classes"]["inverted"], 0,
+        "{}",
+        out["cell_classes"]
+    );
+    assert!(out["cell_classes"]["valid"].as_u64() >= Some(46_000));
+    assert!(s.cell_notes().is_empty(), "{:?}", s.cell_notes());
+}
