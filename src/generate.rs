@@ -401,7 +401,9 @@ fn zoo_field(points: &[[f64; 3]], seed: u64) -> Vec<f64> {
 /// layers (per-layer mean and a lateral trend, plus a little noise).
 ///
 /// Depths are rounded to millimetres, as simulators export them, so a GRDECL
-/// round trip is exact. Deterministic in `(dims, faults, seed)`.
+/// round trip is exact. Deterministic in `(dims, faults, seed)`. No cell
+/// face crosses itself: on small grids, where the fold and the thickness
+/// waves would twist a face over, their wavelengths are stretched.
 ///
 /// # Panics
 /// If any of `dims` is zero.
@@ -437,14 +439,26 @@ pub fn faulted_with_dip(
         dip.is_none_or(|d| (MIN_FAULT_DIP..=90.0).contains(&d)),
         "fault dip must be in [{MIN_FAULT_DIP}, 90] degrees"
     );
-    let m = FaultedModel::new(dims, faults, dip, seed);
-    let h = m.horizons();
-    let coord = m.pillars(&h);
-    let (zcorn, actnum, poro) = m.cells(&h);
+    let mut m = FaultedModel::new(dims, faults, dip, seed);
     let round = |v: f64| (v * 1000.0).round() / 1000.0;
+    // On few cells the fold and thickness waves (sized to the extent) can
+    // turn a cell's top or bottom face over itself (a twist across one cell
+    // near its width) or push corners past their neighbours along leaning
+    // pillars: cells with a face that crosses itself, which no convex split
+    // can cut. Their lateral wavelengths are stretched until no face
+    // crosses itself (grids without any keep their model unchanged).
+    let (coord, zcorn, actnum, poro) = loop {
+        let h = m.horizons();
+        let coord: Vec<f64> = m.pillars(&h).into_iter().map(round).collect();
+        let (zcorn, actnum, poro) = m.cells(&h);
+        if m.relief < 1e-3 || !has_crossed_face(dims, &coord, &zcorn) {
+            break (coord, zcorn, actnum, poro);
+        }
+        m.relief *= 0.6;
+    };
     crate::cornerpoint::CornerPointGrid {
         dims,
-        coord: coord.into_iter().map(round).collect(),
+        coord,
         zcorn,
         actnum: Some(actnum),
         mapaxes: Some([
@@ -486,6 +500,43 @@ struct FaultedModel {
     flines: Vec<([f64; 3], f64)>,
     /// Horizontal lean per unit depth (cot dip) of each fault's pillars.
     lean: Vec<f64>,
+    /// Factor on the fold's and the thickness waves' lateral frequencies
+    /// (1; lowered for grids whose faces would cross themselves).
+    relief: f64,
+}
+
+/// Whether a face of any cell of a corner-point grid (`coord`, `zcorn` of
+/// `dims` cells) crosses itself ([`crate::structures::quad_is_bow_tie`]).
+fn has_crossed_face(dims: [usize; 3], coord: &[f64], zcorn: &[f64]) -> bool {
+    let [nx, ny, nz] = dims;
+    let npx = nx + 1;
+    // Corner q (bit 0: +i, bit 1: +j, bit 2: +k) of cell (i, j, k) on its pillar.
+    let corner = |i: usize, j: usize, k: usize, q: usize| -> [f64; 3] {
+        let (ii, jj, kk) = (q & 1, q >> 1 & 1, q >> 2);
+        let p = &coord[6 * ((i + ii) + npx * (j + jj))..][..6];
+        let z = zcorn[(2 * k + kk) * 4 * nx * ny + (2 * j + jj) * 2 * nx + 2 * i + ii];
+        let s = if p[5] != p[2] {
+            (z - p[2]) / (p[5] - p[2])
+        } else {
+            0.0
+        };
+        [p[0] + s * (p[3] - p[0]), p[1] + s * (p[4] - p[1]), z]
+    };
+    const FACES: [[usize; 4]; 6] = [
+        [0, 1, 3, 2],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 3, 7, 5],
+    ];
+    (0..nx * ny * nz).any(|c| {
+        let (i, j, k) = (c % nx, (c / nx) % ny, c / (nx * ny));
+        let p: [[f64; 3]; 8] = std::array::from_fn(|q| corner(i, j, k, q));
+        FACES
+            .iter()
+            .any(|f| crate::structures::quad_is_bow_tie(f.map(|q| p[q])))
+    })
 }
 
 impl FaultedModel {
@@ -554,6 +605,7 @@ impl FaultedModel {
             layer_f,
             flines,
             lean,
+            relief: 1.0,
         }
     }
 
@@ -565,9 +617,10 @@ impl FaultedModel {
     /// The fold's depth offset at (x, y).
     fn fold(&self, x: f64, y: f64) -> f64 {
         let (lx, ly) = self.extent();
+        let (ax, ay) = (self.ax * self.relief, self.ay * self.relief);
         self.amp
-            * (std::f64::consts::TAU * self.ax * x / lx + self.phx).sin()
-            * (std::f64::consts::TAU * self.ay * y / ly + self.phy).cos()
+            * (std::f64::consts::TAU * ax * x / lx + self.phx).sin()
+            * (std::f64::consts::TAU * ay * y / ly + self.phy).cos()
             + 0.01 * x
     }
 
@@ -575,6 +628,7 @@ impl FaultedModel {
     fn thick(&self, k: usize, x: f64, y: f64) -> f64 {
         let (lx, ly) = self.extent();
         let [fx, fy, ph] = self.layer_f[k];
+        let (fx, fy) = (fx * self.relief, fy * self.relief);
         let w = (std::f64::consts::TAU * (fx * x / lx + fy * y / ly) + ph).sin();
         (self.base_t * (1.0 + 1.3 * w)).max(0.0)
     }

@@ -130,6 +130,7 @@ pub fn stats_json(
             "area": sum(&|s| s.area),
         },
         "memory_bytes": mem,
+        "cell_treatment": cell_treatment_json(s),
         "timings_s": {"load": load, "build": build, "field": r.timings.field, "minima": r.timings.minima, "sweep": r.timings.sweep},
     })
 }
@@ -264,6 +265,7 @@ pub fn info_json(grid: &Grid, s: &Structure, c: &InfoContext) -> Value {
             g.hidden_count,
         ),
     };
+    let (classes, left_handed) = handedness(classes, s);
     let (mem, total) = memory_json(s, grid);
     let nv = grid.points.len();
     let nc = grid.cell_count();
@@ -283,6 +285,7 @@ pub fn info_json(grid: &Grid, s: &Structure, c: &InfoContext) -> Value {
         "live_cells": s.live_cells(),
         "hidden_cells": hidden,
         "cell_types": types,
+        "handedness": if left_handed { "left-handed" } else { "right-handed" },
         "cell_classes": CELL_CLASS_NAMES.iter().zip(classes).map(|(k, v)| (k.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
         "meta_cells": catalog,
         "bounds": {"min": lo, "max": hi},
@@ -337,7 +340,53 @@ pub fn info_json(grid: &Grid, s: &Structure, c: &InfoContext) -> Value {
             "vertex_pulled": r.vertex_pulled,
         })
     });
+    out["cell_treatment"] = cell_treatment_json(s);
     out
+}
+
+/// A grid is left-handed when most of its cells have a mirrored vertex
+/// order (negative volume); that is one fact about the grid, not a defect
+/// of each cell: the classes then count the cells mirrored *relative to the
+/// grid* as inverted and the others as valid. The S-CGraph reads a
+/// left-handed grid with K reversed and says so itself.
+fn handedness(
+    mut classes: [usize; crate::structures::CELL_CLASS_COUNT],
+    s: &Structure,
+) -> ([usize; crate::structures::CELL_CLASS_COUNT], bool) {
+    use crate::structures::CellClass::{Inverted, Valid};
+    if let Structure::SCGraph(g) = s {
+        return (classes, g.left_handed);
+    }
+    // Pieces of split cells are made positive whatever the grid's
+    // handedness: they count as valid either way.
+    let own = s
+        .split()
+        .map_or(0, |m| m.report.pieces + m.report.twisted_pieces);
+    let (v, i) = (Valid as usize, Inverted as usize);
+    let given = classes[v].saturating_sub(own);
+    let left = classes[i] > given;
+    if left {
+        classes[v] = classes[i] + (classes[v] - given);
+        classes[i] = given;
+    }
+    (classes, left)
+}
+
+/// How many cells were not sliced as given: twisted cells sliced through
+/// their tetrahedral decomposition, non-convex cells that could not be
+/// split (skipped), twisted cells the structure leaves unsliced; with the
+/// structure's notes ([`Structure::cell_notes`]).
+pub fn cell_treatment_json(s: &Structure) -> Value {
+    let r = s.split().map(|m| m.report.clone()).unwrap_or_default();
+    json!({
+        "twisted_decomposed": r.twisted,
+        "twisted_pieces": r.twisted_pieces,
+        "twisted_first": r.twisted_first,
+        "skipped_unsplittable": r.skipped,
+        "skipped_first": r.skipped_first,
+        "twisted_not_sliced": s.twisted_left(),
+        "notes": s.cell_notes(),
+    })
 }
 
 /// `info`'s figures of the corner-point graph: faces, exceptions, storage.

@@ -584,7 +584,7 @@ fn class3_blank_renders_are_refused() {
 }
 
 #[test]
-fn class3_a_bow_tie_hexahedron_is_invalid_and_named() {
+fn class3_a_bow_tie_hexahedron_is_named_and_decomposed() {
     let d = Dir::new("bowtie");
     let pts = "0 0 0 1 0 0 1 1 0 0 1 0 0 0 1 1 0 1 1 1 1 0 1 1 2 0 0 2 1 0 2 0 1 2 1 1";
     let cube = |first: &str| {
@@ -619,13 +619,15 @@ fn class3_a_bow_tie_hexahedron_is_invalid_and_named() {
     let (a, b) = (info(&ok), info(&bad));
     assert_eq!(a["cell_classes"]["self_intersecting"], 0);
     assert_eq!(a["cell_classes"]["valid"], 2);
+    // The twisted cell is named, and sliced through its tetrahedral
+    // decomposition (tests/twisted_cells.rs), not dropped.
     assert_eq!(
-        b["cell_classes"]["self_intersecting"], 1,
+        b["cell_classes"]["self_intersecting"], 0,
         "{}",
         b["cell_classes"]
     );
-    assert_eq!(b["cell_classes"]["valid"], 1);
-    assert_eq!(b["live_cells"], 1);
+    assert_eq!(b["live_cells"], 2);
+    assert_eq!(b["cell_treatment"]["twisted_decomposed"], 1);
     assert_eq!(
         b["self_intersecting_cells"],
         serde_json::json!({"count": 1, "first": [0]})
@@ -634,27 +636,31 @@ fn class3_a_bow_tie_hexahedron_is_invalid_and_named() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(
         text.contains(
-            "self-intersecting cells (a face crosses itself; not sliced): 1, first ids [0]"
+            "self-intersecting cells (a face crosses itself; sliced through a tetrahedral decomposition): 1, first ids [0]"
         ),
         "{text}"
     );
-    // Only the good cell is sliced.
+    // Both cells are sliced, and slice says how the twisted one was.
     let stats = d.p("s.json");
+    let o = run(&[
+        "slice", &bad, "--axis", "x", "--count", "4", "--stats", &stats,
+    ]);
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
     assert!(
-        run(&[
-            "slice", &bad, "--axis", "x", "--count", "4", "--stats", &stats
-        ])
-        .status
-        .success()
+        err.contains("note: 1 cell(s) with a face that crosses itself (a bow-tie) sliced"),
+        "{err}"
     );
     let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
     std::fs::remove_file(&stats).unwrap();
+    assert_eq!(s["cell_treatment"]["twisted_decomposed"], 1, "{s}");
+    // Levels at x = 0.25, 0.75 cut the twisted cell only (nothing before).
     assert!(
         s["slices"]
             .as_array()
             .unwrap()
             .iter()
-            .all(|l| l["cells"].as_u64() <= Some(1)),
+            .all(|l| l["cells"] == 1 && l["area"].as_f64() > Some(0.5)),
         "{s}"
     );
     assert_eq!(d.snapshot(), before);

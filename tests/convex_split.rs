@@ -8,8 +8,8 @@ use std::collections::BTreeSet;
 use stratasweep::field::FieldSpec;
 use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
 use stratasweep::pipeline::{LevelSpec, SliceRequest, SliceResult, slice};
-use stratasweep::structures::convex_split::{SplitError, split_non_convex, split_non_convex_cells};
-use stratasweep::structures::{BuildError, Structure, StructureChoice};
+use stratasweep::structures::convex_split::{split_non_convex, split_non_convex_cells};
+use stratasweep::structures::{Structure, StructureChoice};
 
 type P = [f64; 3];
 
@@ -577,8 +577,11 @@ fn split_output_does_not_depend_on_threads() {
     assert_eq!(one.positions, four.positions);
 }
 
+/// A cell that cannot be split costs that cell, not the grid: it is
+/// skipped, counted and named with its reason, and the other cells are
+/// sliced (they used to be refused with the whole grid).
 #[test]
-fn non_star_shaped_cell_is_an_error_naming_it() {
+fn non_star_shaped_cell_is_skipped_and_named() {
     // A U-shaped prism: the two arms' inner walls face each other, so no
     // point sees both.
     let u = [
@@ -600,28 +603,129 @@ fn non_star_shaped_cell_is_an_error_naming_it() {
     );
     let uf = prism(&mut pts, &u, 1.0, &|p| p);
     let g = grid_of(pts, &[cube, uf]);
-    let e = split_non_convex(&g, None).unwrap_err();
+    let r = split_non_convex(&g, None)
+        .unwrap()
+        .expect("split")
+        .map
+        .report;
+    assert_eq!((r.skipped, r.skipped_first.clone()), (1, vec![1]), "{r:?}");
     assert!(
-        matches!(e, SplitError::NotStarShaped { cell: 1, .. }),
-        "{e:?}"
+        r.skipped_reason.contains("cell 1") && r.skipped_reason.contains("star-shaped"),
+        "{}",
+        r.skipped_reason
     );
     for choice in [StructureChoice::Ciel, StructureChoice::Auto] {
-        let e = match Structure::build(&g, choice) {
-            Err(e) => e,
-            Ok(_) => panic!("{choice:?}: the U prism was accepted"),
-        };
-        assert!(matches!(e, BuildError::Split(_)), "{e:?}");
-        let msg = e.to_string();
+        let s = Structure::build(&g, choice).unwrap();
+        assert_eq!(s.live_cells(), 1, "{choice:?}");
+        let notes = s.cell_notes();
         assert!(
-            msg.contains("cell 1") && msg.contains("star-shaped"),
-            "{msg}"
+            notes.len() == 1 && notes[0].contains("[1]") && notes[0].contains("star-shaped"),
+            "{notes:?}"
         );
+        // Only the cube is cut: unit area at every level through it.
+        let res = run(&g, choice, &request(2, vec![0.25, 0.5, 0.75], false));
+        for st in &res.stats {
+            assert!((st.area - 1.0).abs() < 1e-6, "{choice:?}: {}", st.area);
+        }
     }
     // Hidden, it is left alone.
     let mut g = g;
     g.cell_data
         .push(Property::scalar("vtkGhostType", vec![0.0, 32.0]));
-    assert!(Structure::build(&g, StructureChoice::Ciel).is_ok());
+    let s = Structure::build(&g, StructureChoice::Ciel).unwrap();
+    assert!(s.cell_notes().is_empty(), "{:?}", s.cell_notes());
+}
+
+/// Unit cubes as 6-face polyhedra, `n` per axis; with `bad`, the grid's
+/// corner vertex (in the first cell only) is moved so that that cell's
+/// bottom face crosses itself (it cannot be triangulated). Cells listed in
+/// `skip` are left out.
+fn cube_polyhedra(n: [usize; 3], bad: bool, skip: &[usize]) -> Grid {
+    let pid = |i: usize, j: usize, k: usize| (i + (n[0] + 1) * (j + (n[1] + 1) * k)) as u32;
+    let mut points = Vec::new();
+    for k in 0..=n[2] {
+        for j in 0..=n[1] {
+            for i in 0..=n[0] {
+                points.push([i as f64, j as f64, k as f64 * 0.7]);
+            }
+        }
+    }
+    if bad {
+        points[0] = [2.0, 0.5, 0.0];
+    }
+    let mut cells = Vec::new();
+    let mut c = 0;
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                let v = |a: usize, b: usize, d: usize| pid(i + a, j + b, k + d);
+                let faces = vec![
+                    vec![v(0, 0, 0), v(0, 1, 0), v(1, 1, 0), v(1, 0, 0)],
+                    vec![v(0, 0, 1), v(1, 0, 1), v(1, 1, 1), v(0, 1, 1)],
+                    vec![v(0, 0, 0), v(1, 0, 0), v(1, 0, 1), v(0, 0, 1)],
+                    vec![v(0, 1, 0), v(0, 1, 1), v(1, 1, 1), v(1, 1, 0)],
+                    vec![v(0, 0, 0), v(0, 0, 1), v(0, 1, 1), v(0, 1, 0)],
+                    vec![v(1, 0, 0), v(1, 1, 0), v(1, 1, 1), v(1, 0, 1)],
+                ];
+                if !skip.contains(&c) {
+                    cells.push(faces);
+                }
+                c += 1;
+            }
+        }
+    }
+    grid_of(points, &cells)
+}
+
+/// One face that cannot be triangulated (it crosses itself) costs its one
+/// cell, named in the report and the notes; the grid loads and the other
+/// cells slice exactly as the same grid without that cell does, on every
+/// structure and the brute force (before: "cell 0, face 0: the face cannot
+/// be triangulated", and no structure at all).
+#[test]
+fn an_untriangulable_face_costs_one_cell() {
+    let n = [3, 3, 2];
+    let g = cube_polyhedra(n, true, &[]);
+    let want = cube_polyhedra(n, false, &[0]);
+    let r = split_non_convex_cells(&g, None)
+        .unwrap()
+        .expect("split")
+        .map
+        .report;
+    assert_eq!((r.skipped, r.skipped_first.clone()), (1, vec![0]), "{r:?}");
+    assert!(r.skipped_reason.contains("cell 0"), "{}", r.skipped_reason);
+    for axis in 0..3 {
+        let levels: Vec<f64> = (1..12).map(|k| k as f64 * 0.25 + 0.011).collect();
+        let reference = run(
+            &want,
+            StructureChoice::Auto,
+            &request(axis, levels.clone(), false),
+        );
+        for (choice, brute) in [
+            (StructureChoice::Auto, false),
+            (StructureChoice::Auto, true),
+            (StructureChoice::Ciel, false),
+            (StructureChoice::CGraph, false),
+        ] {
+            let s = Structure::build(&g, choice).unwrap();
+            assert_eq!(s.live_cells(), n[0] * n[1] * n[2] - 1, "{choice:?}");
+            let notes = s.cell_notes();
+            assert!(
+                notes.len() == 1 && notes[0].contains("first ids [0]"),
+                "{notes:?}"
+            );
+            let res = run(&g, choice, &request(axis, levels.clone(), brute));
+            for (k, (a, b)) in res.stats.iter().zip(&reference.stats).enumerate() {
+                assert_eq!(a.cells, b.cells, "{choice:?} axis {axis} level {k}");
+                assert!(
+                    (a.area - b.area).abs() < 1e-6 * b.area.max(1.0),
+                    "{choice:?} axis {axis} level {k}: {} vs {}",
+                    a.area,
+                    b.area
+                );
+            }
+        }
+    }
 }
 
 /// VTK's plane cutter on the same non-convex cells, written to a temporary

@@ -61,7 +61,19 @@ pub(crate) fn cmd_info(a: InfoArgs) -> Result<()> {
     for (k, v) in out["cell_types"].as_object().unwrap() {
         println!("    {k:<18} {v}");
     }
+    if out["handedness"] == "left-handed" {
+        println!(
+            "  handedness    left-handed (cells' vertex order mirrored; read as such, classes relative to it)"
+        );
+    }
     println!("  cell classes  {}", out["cell_classes"]);
+    for note in out["cell_treatment"]["notes"]
+        .as_array()
+        .into_iter()
+        .flatten()
+    {
+        println!("  note: {}", note.as_str().unwrap_or_default());
+    }
     let turned = &out["reoriented_polyhedra"];
     if turned["count"].as_u64().unwrap_or(0) > 0 {
         println!(
@@ -71,8 +83,13 @@ pub(crate) fn cmd_info(a: InfoArgs) -> Result<()> {
     }
     let bow_ties = &out["self_intersecting_cells"];
     if bow_ties["count"].as_u64().unwrap_or(0) > 0 {
+        let how = if out["cell_treatment"]["twisted_not_sliced"] == 0 {
+            "sliced through a tetrahedral decomposition"
+        } else {
+            "not sliced"
+        };
         println!(
-            "  self-intersecting cells (a face crosses itself; not sliced): {}, first ids {}",
+            "  self-intersecting cells (a face crosses itself; {how}): {}, first ids {}",
             bow_ties["count"], bow_ties["first"]
         );
     }

@@ -60,6 +60,7 @@ pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
     // the CGraph, the same slices), and pre-integrated slabs march its
     // cells in index space.
     let s = build_structure(&grid, StructureChoice::Auto, ijk.as_ref(), &name, quiet)?;
+    s.cell_notes().iter().for_each(|n| eprintln!("note: {n}"));
     for v in super::render_checks::check_before(&grid, &o)? {
         eprintln!("warning: --iso {v} is outside the property's range: it draws nothing");
     }

@@ -96,6 +96,7 @@ pub(crate) fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
     let t = Instant::now();
     let s = build_structure(&grid, a.structure.into(), ijk.as_ref(), &name, quiet)?;
+    s.cell_notes().iter().for_each(|n| eprintln!("note: {n}"));
     let build_s = t.elapsed().as_secs_f64();
     let nlev = match &levels {
         LevelSpec::Count(k) => *k,

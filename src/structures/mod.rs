@@ -23,7 +23,10 @@ use crate::cellgraph::CellGraph;
 use crate::grid::{Grid, Topology};
 use cgraph::CGraph;
 use ciel::Ciel;
-use convex_split::{Split, SplitMap, split_non_convex_cells, split_non_convex_pieces};
+use convex_split::{
+    Split, SplitMap, split_non_convex_and_twisted_cells, split_non_convex_and_twisted_pieces,
+    split_non_convex_cells, split_non_convex_pieces,
+};
 use cpgraph::{CpGraph, IjkLayout};
 use scgraph::SCGraph;
 
@@ -98,7 +101,13 @@ impl Structure {
         let hidden = grid.hidden_cells();
         let split = split_non_convex_pieces(grid, hidden.as_deref())?;
         stage("split");
-        let g = CpGraph::build(grid, hidden.as_deref(), split, layout)?;
+        let mut g = CpGraph::build(grid, hidden.as_deref(), split, layout)?;
+        if g.class_counts[CellClass::SelfIntersecting as usize] > 0 {
+            // Twisted cells: cut them too and build again (no extra pass
+            // for grids without any).
+            let split = split_non_convex_and_twisted_pieces(grid, hidden.as_deref())?;
+            g = CpGraph::build(grid, hidden.as_deref(), split, layout)?;
+        }
         stage("graph");
         Ok(Structure::CpGraph(Box::new(g)))
     }
@@ -137,36 +146,42 @@ impl Structure {
                 return Ok(Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?));
             }
             StructureChoice::Auto | StructureChoice::BruteForce if structured => {
-                return Ok(Structure::SCGraph(SCGraph::build(grid, hidden.as_deref())?));
+                let s = SCGraph::build(grid, hidden.as_deref())?;
+                if s.class_counts[CellClass::SelfIntersecting as usize] == 0 {
+                    return Ok(Structure::SCGraph(s));
+                }
+                // Twisted cells: the implicit lattice cannot hold their
+                // pieces; the CGraph over the split hexahedra can.
+                drop(s);
+                return cgraph_or_ciel(grid, hidden, choice, true);
             }
             StructureChoice::Ciel => {}
             StructureChoice::CpGraph => unreachable!("handled above"),
             _ => {
-                // CGraph: split non-convex polyhedra first, then build once.
-                let (split_grid, map, h) = split_for_build(grid, hidden)?;
-                let g = split_grid.as_ref().unwrap_or(grid);
-                return match CGraph::build(g, h.as_deref()) {
-                    Ok(inner) => Ok(Structure::CGraph(Split { inner, map })),
-                    // A cell the catalog cannot take (large or odd polyhedra): CIEL.
-                    Err(StructureError::UnsupportedCell { .. })
-                        if choice != StructureChoice::CGraph =>
-                    {
-                        Ok(Structure::Ciel(Split {
-                            inner: ciel(g, h.as_deref())?,
-                            map,
-                        }))
-                    }
-                    Err(e) => Err(e.into()),
-                };
+                // CGraph: split non-convex polyhedra first, then build once;
+                // again with the twisted cells cut when there are some.
+                let s = cgraph_or_ciel(grid, hidden.clone(), choice, false)?;
+                if s.twisted_left() == 0 {
+                    return Ok(s);
+                }
+                drop(s);
+                return cgraph_or_ciel(grid, hidden, choice, true);
             }
         }
         // CIEL counts non-convex cells while building: split and rebuild only
         // when there are some (no extra pass for convex grids).
         let c = ciel(grid, hidden.as_deref())?;
-        if c.counts.non_convex == 0 {
+        let twisted = c.counts.class_counts[CellClass::SelfIntersecting as usize] > 0;
+        if c.counts.non_convex == 0 && !twisted {
             return Ok(Structure::Ciel(c.into()));
         }
-        let Some(split) = split_non_convex_cells(grid, hidden.as_deref())? else {
+        let g = as_unstructured(grid, twisted);
+        let split = if twisted {
+            split_non_convex_and_twisted_cells(&g, hidden.as_deref())?
+        } else {
+            split_non_convex_cells(&g, hidden.as_deref())?
+        };
+        let Some(split) = split else {
             return Ok(Structure::Ciel(c.into()));
         };
         let h = split.map.hidden_cells(hidden.as_deref());
@@ -174,6 +189,55 @@ impl Structure {
             inner: ciel(&split.grid, h.as_deref())?,
             map: Some(split.map),
         }))
+    }
+
+    /// Cells with a face that crosses itself that the structure classed
+    /// [`CellClass::SelfIntersecting`] and does not sweep (the S-CGraph
+    /// chosen explicitly keeps them so; the other structures cut them).
+    pub fn twisted_left(&self) -> usize {
+        let k = CellClass::SelfIntersecting as usize;
+        match self {
+            Structure::SCGraph(g) => g.class_counts[k],
+            Structure::CGraph(g) => g.class_counts[k],
+            Structure::Ciel(g) => g.counts.class_counts[k],
+            Structure::CpGraph(g) => g.class_counts[k],
+        }
+    }
+
+    /// What the structure does with cells that are not sliced as they are
+    /// given, one sentence each (empty when there is nothing to say): twisted
+    /// cells sliced through their tetrahedral decomposition, non-convex
+    /// cells that cannot be split (skipped), twisted cells left unsliced.
+    /// The front ends print these beside the slices.
+    pub fn cell_notes(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Some(m) = self.split() {
+            let r = &m.report;
+            if r.twisted > 0 {
+                out.push(format!(
+                    "{} cell(s) with a face that crosses itself (a bow-tie) sliced through a \
+                     tetrahedral decomposition (coned from a vertex mean, each bow-tie \
+                     face cut along the diagonal from its smallest vertex id); first ids {:?}",
+                    r.twisted, r.twisted_first
+                ));
+            }
+            if r.skipped > 0 {
+                out.push(format!(
+                    "{} non-convex cell(s) cannot be split into convex pieces and are not \
+                     sliced; first ids {:?} (first: {})",
+                    r.skipped, r.skipped_first, r.skipped_reason
+                ));
+            }
+        }
+        let left = self.twisted_left();
+        if left > 0 {
+            out.push(format!(
+                "{left} cell(s) with a face that crosses itself are not sliced by the {} \
+                 (the automatic structure choice slices them through a tetrahedral decomposition)",
+                self.name()
+            ));
+        }
+        out
     }
 
     /// The split of non-convex polyhedra the structure was built on, if any.
@@ -270,17 +334,83 @@ impl Structure {
 }
 
 /// Splits the non-convex polyhedra of `grid` into convex pieces (one pass
-/// over the polyhedra, nothing when there are none): the split grid (None:
-/// use `grid`), its map and the hidden cells to build with. The split grid
+/// over the polyhedra, nothing when there are none), and with `twisted` the
+/// typed cells with a face that crosses itself: the split grid (None: use
+/// `grid`), its map and the hidden cells to build with. The split grid
 /// carries no properties (the structures read points and cells only); its
 /// hidden cells come from the map.
 type SplitForBuild = (Option<Grid>, Option<SplitMap>, Option<Vec<bool>>);
-fn split_for_build(grid: &Grid, hidden: Option<Vec<bool>>) -> Result<SplitForBuild, BuildError> {
-    Ok(match split_non_convex_cells(grid, hidden.as_deref())? {
+fn split_for_build(
+    grid: &Grid,
+    hidden: Option<Vec<bool>>,
+    twisted: bool,
+) -> Result<SplitForBuild, BuildError> {
+    let split = if twisted {
+        split_non_convex_and_twisted_cells(&as_unstructured(grid, true), hidden.as_deref())?
+    } else {
+        split_non_convex_cells(grid, hidden.as_deref())?
+    };
+    Ok(match split {
         Some(sp) => {
             let h = sp.map.hidden_cells(hidden.as_deref());
             (Some(sp.grid), Some(sp.map), h)
         }
         None => (None, None, hidden),
+    })
+}
+
+/// The CGraph of `grid` after [`split_for_build`], or CIEL when a cell does
+/// not fit the catalog (unless the CGraph was chosen).
+fn cgraph_or_ciel(
+    grid: &Grid,
+    hidden: Option<Vec<bool>>,
+    choice: StructureChoice,
+    twisted: bool,
+) -> Result<Structure, BuildError> {
+    let (split_grid, map, h) = split_for_build(grid, hidden, twisted)?;
+    let g = split_grid.as_ref().unwrap_or(grid);
+    match CGraph::build(g, h.as_deref()) {
+        Ok(inner) => Ok(Structure::CGraph(Split { inner, map })),
+        // A cell the catalog cannot take (large or odd polyhedra): CIEL.
+        Err(StructureError::UnsupportedCell { .. }) if choice != StructureChoice::CGraph => {
+            Ok(Structure::Ciel(Split {
+                inner: Ciel::build(g, h.as_deref()).map_err(StructureError::from)?,
+                map,
+            }))
+        }
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// `grid` with unstructured cells (a structured grid's hexahedra in cell
+/// order, points shared, no properties) when `needed`, so that the split can
+/// cut its cells; else `grid` itself.
+fn as_unstructured(grid: &Grid, needed: bool) -> std::borrow::Cow<'_, Grid> {
+    let Topology::Structured { dims } = grid.topology else {
+        return std::borrow::Cow::Borrowed(grid);
+    };
+    if !needed {
+        return std::borrow::Cow::Borrowed(grid);
+    }
+    let [npi, npj, npk] = dims;
+    let slab = npi * npj;
+    let off = crate::grid::hex_corner_offsets(npi, slab);
+    let mut cells = crate::grid::Cells::default();
+    for k in 0..npk.saturating_sub(1) {
+        for j in 0..npj.saturating_sub(1) {
+            for i in 0..npi.saturating_sub(1) {
+                let v0 = i + j * npi + k * slab;
+                cells.push(
+                    crate::grid::vtk_type::HEXAHEDRON,
+                    &off.map(|o| (v0 + o) as u32),
+                );
+            }
+        }
+    }
+    std::borrow::Cow::Owned(Grid {
+        points: grid.points.clone(),
+        topology: Topology::Unstructured(cells),
+        point_data: Vec::new(),
+        cell_data: Vec::new(),
     })
 }

@@ -36,6 +36,7 @@
 //! ([`SplitMap::source`]) and carries its source cell's cell properties.
 
 mod split;
+mod twisted;
 
 use std::hash::Hasher;
 use std::ops::Deref;
@@ -95,6 +96,22 @@ pub struct SplitReport {
     /// Cells with no interior star point, coned from one of their vertices
     /// over the faces it is not on (slivers).
     pub vertex_pulled: usize,
+    /// Typed cells with a face that crosses itself (twisted), not hidden,
+    /// sliced through their decomposition coned from the vertex mean.
+    pub twisted: usize,
+    /// Hidden twisted cells, cut alike (their pieces are hidden).
+    pub twisted_hidden: usize,
+    /// Pieces (tetrahedra and pyramids) the twisted cells became.
+    pub twisted_pieces: usize,
+    /// The first twisted cells (input ids, ascending, at most 20).
+    pub twisted_first: Vec<usize>,
+    /// Non-convex cells that cannot be split (a face that cannot be
+    /// triangulated, or no star point): skipped, not sliced.
+    pub skipped: usize,
+    /// The first skipped cells (input ids, ascending, at most 20).
+    pub skipped_first: Vec<usize>,
+    /// Why the first skipped cell was skipped.
+    pub skipped_reason: String,
 }
 
 /// How a split grid maps back to its input.
@@ -359,6 +376,9 @@ enum FacePlan {
     Fan(u32),
     /// Ear-clipping triangles (canonical orientation).
     Ears(Vec<[u32; 3]>),
+    /// No triangulation (self-intersecting or degenerate): the split cells
+    /// with this face are skipped.
+    Failed,
 }
 
 /// A face's unit Newell normal, vertex mean and tolerance
@@ -577,7 +597,7 @@ pub fn split_non_convex(
     grid: &Grid,
     hidden: Option<&[bool]>,
 ) -> Result<Option<SplitGrid>, SplitError> {
-    split_with(grid, hidden, true)
+    split_with(grid, hidden, true, false)
 }
 
 /// [`split_non_convex`] without the properties: the split grid has no
@@ -587,7 +607,18 @@ pub fn split_non_convex_cells(
     grid: &Grid,
     hidden: Option<&[bool]>,
 ) -> Result<Option<SplitGrid>, SplitError> {
-    split_with(grid, hidden, false)
+    split_with(grid, hidden, false, false)
+}
+
+/// [`split_non_convex_cells`] that also cuts twisted typed cells (a face
+/// that crosses itself) into their decomposition coned from the vertex
+/// mean (see the `twisted` module): what the structures build on when
+/// their classification finds such cells.
+pub fn split_non_convex_and_twisted_cells(
+    grid: &Grid,
+    hidden: Option<&[bool]>,
+) -> Result<Option<SplitGrid>, SplitError> {
+    split_with(grid, hidden, false, true)
 }
 
 /// [`split_non_convex_cells`] without the split grid: the pieces only,
@@ -597,7 +628,16 @@ pub fn split_non_convex_pieces(
     grid: &Grid,
     hidden: Option<&[bool]>,
 ) -> Result<Option<SplitPieces>, SplitError> {
-    split::split_pieces(grid, hidden)
+    split::split_pieces(grid, hidden, false)
+}
+
+/// [`split_non_convex_pieces`] with the twisted typed cells cut too (see
+/// [`split_non_convex_and_twisted_cells`]).
+pub fn split_non_convex_and_twisted_pieces(
+    grid: &Grid,
+    hidden: Option<&[bool]>,
+) -> Result<Option<SplitPieces>, SplitError> {
+    split::split_pieces(grid, hidden, true)
 }
 
 /// A point property with values for the new vertices (component-wise means).

@@ -8,6 +8,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use rayon::prelude::*;
 
+use super::twisted::{find_twisted, twisted_pieces};
 use super::{
     Element, FacePlan, FaceTable, IdsHasher, SplitError, SplitGrid, SplitMap, SplitPieces,
     SplitReport, Star, canonical_at, canonical_start, cone_volume, ear_clip, element_plane,
@@ -59,7 +60,53 @@ struct Pieces {
     ids: Vec<u32>,
 }
 
+impl Default for Pieces {
+    fn default() -> Self {
+        Pieces {
+            cells: Vec::new(),
+            first: vec![0],
+            types: Vec::new(),
+            starts: vec![0],
+            ids: Vec::new(),
+        }
+    }
+}
+
 impl Pieces {
+    /// Closes the current cell's pieces as those of input cell `c`.
+    fn end_cell(&mut self, c: usize) {
+        self.cells.push(c);
+        self.first.push(self.types.len() as u32);
+    }
+    /// Both lists' cells in cell order (`self` and `other` hold distinct
+    /// cells, each in cell order).
+    fn merge(self, other: Pieces) -> Pieces {
+        if other.cells.is_empty() {
+            return self;
+        }
+        if self.cells.is_empty() {
+            return other;
+        }
+        let mut out = Pieces::default();
+        let (mut i, mut j) = (0, 0);
+        while i < self.cells.len() || j < other.cells.len() {
+            let take_self =
+                j == other.cells.len() || (i < self.cells.len() && self.cells[i] < other.cells[j]);
+            let (from, k) = if take_self {
+                i += 1;
+                (&self, i - 1)
+            } else {
+                j += 1;
+                (&other, j - 1)
+            };
+            let (c, pieces) = from.of(k);
+            for (t, ids) in pieces {
+                out.push(t, ids);
+            }
+            out.end_cell(c);
+        }
+        out
+    }
     /// Appends a piece of the current cell.
     fn push(&mut self, t: u8, ids: &[u32]) {
         self.types.push(t);
@@ -129,8 +176,9 @@ pub(super) fn split_with(
     grid: &Grid,
     hidden: Option<&[bool]>,
     properties: bool,
+    twisted: bool,
 ) -> Result<Option<SplitGrid>, SplitError> {
-    let Some(parts) = split_parts(grid, hidden)? else {
+    let Some(parts) = split_parts(grid, hidden, twisted)? else {
         return Ok(None);
     };
     let points = &grid.points;
@@ -160,8 +208,9 @@ pub(super) fn split_with(
 pub(super) fn split_pieces(
     grid: &Grid,
     hidden: Option<&[bool]>,
+    twisted: bool,
 ) -> Result<Option<SplitPieces>, SplitError> {
-    let Some(parts) = split_parts(grid, hidden)? else {
+    let Some(parts) = split_parts(grid, hidden, twisted)? else {
         return Ok(None);
     };
     let (n, split_cells) = (parts.cells.len(), parts.pieces.cells.len());
@@ -196,22 +245,30 @@ pub(super) fn split_pieces(
     Ok(Some(SplitPieces { cells, points, map }))
 }
 
-/// The passes of a split up to its pieces (see the module docs); `None`
-/// when there is no non-convex polyhedron.
+/// The passes of a split up to its pieces (see the module docs); with
+/// `twisted`, typed cells with a self-crossing face are cut too
+/// ([`super::twisted`]). `None` when there is nothing to split.
 fn split_parts<'a>(
     grid: &'a Grid,
     hidden: Option<&[bool]>,
+    twisted: bool,
 ) -> Result<Option<Parts<'a>>, SplitError> {
     let Topology::Unstructured(cells) = &grid.topology else {
         return Ok(None);
     };
-    if !cells.types.contains(&vtk_type::POLYHEDRON) {
-        return Ok(None);
-    }
     let points = &grid.points;
     let is_hidden = |c: usize| hidden.is_some_and(|h| h.get(c).copied().unwrap_or(false));
-    let found = find_non_convex(cells, points, &is_hidden);
-    if found.is_empty() {
+    let found = if cells.types.contains(&vtk_type::POLYHEDRON) {
+        find_non_convex(cells, points, &is_hidden)
+    } else {
+        Vec::new()
+    };
+    let twisted = if twisted {
+        find_twisted(cells, points)
+    } else {
+        Vec::new()
+    };
+    if found.is_empty() && twisted.is_empty() {
         return Ok(None);
     }
     let n = cells.len();
@@ -219,7 +276,6 @@ fn split_parts<'a>(
     for (c, _) in &found {
         split[*c] = true;
     }
-    let (mut table, face_ids) = FaceTable::build(&found);
     let mut report = SplitReport {
         non_convex: found.len(),
         ..Default::default()
@@ -228,31 +284,60 @@ fn split_parts<'a>(
         mean_offsets: vec![0],
         ..Default::default()
     };
-    let ctx = PlanContext {
-        cells,
-        points,
-        split: &split,
-        is_hidden: &is_hidden,
-    };
-    ctx.plan_faces(&found, &face_ids, &mut table, &mut new, &mut report)?;
-    // Cells: boundary elements and star point, per cell in parallel (they
-    // read only the cell, its faces' plans and the face points made above);
-    // then, in cell order, apex ids and pieces (ids as before).
     let np0 = points.len();
-    let fan_points = &new.points;
-    let cpos = |v: u32| -> P3 {
-        if (v as usize) < np0 {
-            points[v as usize]
-        } else {
-            fan_points[v as usize - np0]
-        }
+    let mut pieces = if found.is_empty() {
+        Pieces::default()
+    } else {
+        let (mut table, face_ids) = FaceTable::build(&found);
+        let ctx = PlanContext {
+            cells,
+            points,
+            split: &split,
+            is_hidden: &is_hidden,
+        };
+        ctx.plan_faces(&found, &face_ids, &mut table, &mut new, &mut report);
+        // Cells: boundary elements and star point, per cell in parallel
+        // (they read only the cell, its faces' plans and the face points
+        // made above); then, in cell order, apex ids and pieces.
+        let fan_points = &new.points;
+        let cpos = |v: u32| -> P3 {
+            if (v as usize) < np0 {
+                points[v as usize]
+            } else {
+                fan_points[v as usize - np0]
+            }
+        };
+        let stars: Vec<Result<CellStar, SplitError>> = found
+            .par_iter()
+            .zip(face_ids.par_iter())
+            .map(|((c, faces), ids)| cell_star(*c, faces, ids, &table, points, &cpos))
+            .collect();
+        cut_cells(&found, stars, np0, &mut new, &mut report)
     };
-    let stars: Vec<Result<CellStar, SplitError>> = found
-        .par_iter()
-        .zip(face_ids.par_iter())
-        .map(|((c, faces), ids)| cell_star(*c, faces, ids, &table, points, &cpos))
-        .collect();
-    let pieces = cut_cells(&found, stars, np0, &mut new, &mut report)?;
+    if !twisted.is_empty() {
+        let pos = |v: u32| points[v as usize];
+        let mut t = Pieces::default();
+        for (c, ids, faces) in &twisted {
+            split[*c] = true;
+            let apex_id = (np0 + new.points.len()) as u32;
+            let (apex, recipe, cut) = twisted_pieces(ids, faces, apex_id, &pos);
+            new.push(apex, &recipe);
+            for (ty, p) in cut {
+                t.push(ty, &p);
+                report.twisted_pieces += 1;
+            }
+            t.end_cell(*c);
+            if is_hidden(*c) {
+                report.twisted_hidden += 1;
+            } else {
+                report.twisted += 1;
+                if report.twisted_first.len() < FIRST_IDS {
+                    report.twisted_first.push(*c);
+                }
+            }
+        }
+        pieces = pieces.merge(t);
+    }
     report.new_vertices = new.points.len();
     if np0 + new.points.len() >= u32::MAX as usize / 4 {
         return Err(SplitError::TooLarge(format!(
@@ -268,6 +353,9 @@ fn split_parts<'a>(
         report,
     }))
 }
+
+/// How many cell ids a [`SplitReport`] lists.
+const FIRST_IDS: usize = 20;
 
 /// Non-convex polyhedra, with their faces oriented outward (CIEL's
 /// build_cell), in cell order. The polyhedra are listed first, then
@@ -395,7 +483,7 @@ impl PlanContext<'_> {
         table: &mut FaceTable,
         new: &mut NewPoints,
         report: &mut SplitReport,
-    ) -> Result<(), SplitError> {
+    ) {
         let pos = |v: u32| self.points[v as usize];
         // Loops per face entry (first occurrence, canonical): entries are
         // numbered in first-use order, so entry i's loop is the i-th new one.
@@ -425,8 +513,8 @@ impl PlanContext<'_> {
             .collect();
         let shared = self.shared_with_unsplit(&loops, &bad, &table.split_uses);
         let np0 = self.points.len();
-        for ((c, faces), ids) in found.iter().zip(face_ids) {
-            for (fi, &i) in ids.iter().enumerate().take(faces.len()) {
+        for ((_, faces), ids) in found.iter().zip(face_ids) {
+            for &i in ids.iter().take(faces.len()) {
                 if table.plan[i].is_some() {
                     continue;
                 }
@@ -446,13 +534,14 @@ impl PlanContext<'_> {
                     } else if let Some(t) = ear_clip(l, &pts) {
                         FacePlan::Ears(t)
                     } else {
-                        return Err(SplitError::Face { cell: *c, face: fi });
+                        // Self-intersecting or degenerate: every split cell
+                        // with this face is skipped ([`cell_star`]).
+                        FacePlan::Failed
                     }
                 };
                 table.plan[i] = Some(plan);
             }
         }
-        Ok(())
     }
 
     /// Per face entry: whether it is a bad face used by one split cell
@@ -517,17 +606,20 @@ impl PlanContext<'_> {
 }
 
 /// The boundary elements of split cell `c` after its faces' plans, oriented
-/// outward, with the face each comes from.
+/// outward, with the face each comes from; an error naming `c` and its face
+/// when a face could not be triangulated.
 fn boundary_elements<'a>(
+    c: usize,
     faces: &'a FaceLoops,
     ids: &[usize],
     table: &FaceTable,
-) -> Vec<(usize, Element<'a>)> {
+) -> Result<Vec<(usize, Element<'a>)>, SplitError> {
     let mut elems: Vec<(usize, Element<'a>)> = Vec::new();
     for (fi, (f, &i)) in faces.iter().zip(ids).enumerate() {
         let (i0, same) = canonical_start(f);
         let orient = |t: [u32; 3]| if same { t } else { [t[0], t[2], t[1]] };
         match table.plan[i].as_ref().expect("planned") {
+            FacePlan::Failed => return Err(SplitError::Face { cell: c, face: fi }),
             FacePlan::Whole => elems.push((fi, Element::Base(f))),
             FacePlan::Fan(q) => {
                 let k = f.len();
@@ -543,7 +635,7 @@ fn boundary_elements<'a>(
             }
         }
     }
-    elems
+    Ok(elems)
 }
 
 /// Volume centroid of the closed boundary `elems` (cones from `vm`).
@@ -578,7 +670,7 @@ fn cell_star<'a>(
     points: &[P3],
     cpos: &(impl Fn(u32) -> P3 + Sync),
 ) -> Result<CellStar<'a>, SplitError> {
-    let mut elems = boundary_elements(faces, ids, table);
+    let mut elems = boundary_elements(c, faces, ids, table)?;
     let mut verts: Vec<u32> = faces.ids.clone();
     verts.sort_unstable();
     verts.dedup();
@@ -643,24 +735,32 @@ fn cell_star<'a>(
 }
 
 /// In cell order: each split cell's apex id (a new vertex, or the pulled
-/// vertex) and its pieces; the first failing cell in cell order is the
-/// error, as a sequential loop would give.
+/// vertex) and its pieces. A cell that cannot be split (a face that cannot
+/// be triangulated, or no star point) gets no piece: it is skipped and
+/// counted in the report, with the first such cell's reason.
 fn cut_cells(
     found: &[Found],
     stars: Vec<Result<CellStar<'_>, SplitError>>,
     np0: usize,
     new: &mut NewPoints,
     report: &mut SplitReport,
-) -> Result<Pieces, SplitError> {
-    let mut out = Pieces {
-        cells: Vec::with_capacity(found.len()),
-        first: vec![0],
-        types: Vec::new(),
-        starts: vec![0],
-        ids: Vec::new(),
-    };
+) -> Pieces {
+    let mut out = Pieces::default();
     for ((c, _), star) in found.iter().zip(stars) {
-        let (elems, verts, star) = star?;
+        let (elems, verts, star) = match star {
+            Ok(s) => s,
+            Err(e) => {
+                report.skipped += 1;
+                if report.skipped_first.len() < FIRST_IDS {
+                    report.skipped_first.push(*c);
+                }
+                if report.skipped_reason.is_empty() {
+                    report.skipped_reason = e.to_string();
+                }
+                out.end_cell(*c);
+                continue;
+            }
+        };
         let p = match star {
             Star::Apex(apex) => {
                 new.push(apex, &verts);
@@ -688,10 +788,9 @@ fn cut_cells(
             }
         }
         report.pieces += elems.len();
-        out.cells.push(*c);
-        out.first.push(out.types.len() as u32);
+        out.end_cell(*c);
     }
-    Ok(out)
+    out
 }
 
 /// Copies the input cells `a..b` (a run of unsplit cells) in bulk.
