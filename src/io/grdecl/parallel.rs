@@ -15,7 +15,7 @@
 //! comment or a quoted string (neither spans a line here); a file with no
 //! line break near a cut point is left to the serial path.
 
-use memmap2::{Mmap, UncheckedAdvice};
+use crate::io::mapped::MappedFile;
 use rayon::prelude::*;
 
 use super::lexer::{Lexer, Sink, Source, scan_plain};
@@ -132,14 +132,12 @@ fn append(out: &mut Vec<f64>, bufs: &[Vec<f64>], counts: &[usize]) {
 /// file read so far stops counting in its resident set (the page cache
 /// keeps them; a read there would fault them in again, the same bytes).
 /// Returns the new start.
-fn release(map: &Mmap, from: usize, to: usize) -> usize {
+fn release(map: &MappedFile, from: usize, to: usize) -> usize {
     let to = to & !4095;
     // In steps of 32 MiB: each call costs the other threads a TLB flush.
+    // Nothing in the map is read before the lexer's offset any more.
     if to >= from + (32 << 20) {
-        // SAFETY: the map is a read-only map of a file: MADV_DONTNEED
-        // discards no data (a later read finds the file's bytes again),
-        // and nothing in it is read before the lexer's offset any more.
-        let _ = unsafe { map.unchecked_advise_range(UncheckedAdvice::DontNeed, from, to - from) };
+        map.release(from, to - from);
         return to;
     }
     from
