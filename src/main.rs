@@ -55,7 +55,7 @@ fn checked(p: *mut u8, size: usize) -> *mut u8 {
 /// temporary output files that `io::atomic` registers) is to be removed
 /// here, with async-signal-safe calls only, before `_exit`.
 fn out_of_memory(size: usize) -> ! {
-    let mut buf = [0u8; 160];
+    let mut buf = [0u8; 400];
     let mut n = 0;
     let mut put = |s: &[u8]| {
         let k = s.len().min(buf.len() - n);
@@ -75,7 +75,15 @@ fn out_of_memory(size: usize) -> ! {
         }
     }
     put(&digits[d..]);
-    put(b" bytes failed (free memory or raise the memory limit)\n");
+    put(b" bytes failed");
+    // try_lock: the failing thread may hold the lock (never for long).
+    if let Ok(c) = CONTEXT.try_lock()
+        && c.1 > 0
+    {
+        put(b" while ");
+        put(&c.0[..c.1]);
+    }
+    put(b" (free memory or raise the memory limit)\n");
     #[cfg(unix)]
     // SAFETY: write(2) of our own stack buffer, then _exit(2), which runs
     // no destructor and no atexit handler (nothing that could allocate).
@@ -88,6 +96,24 @@ fn out_of_memory(size: usize) -> ! {
         use std::io::Write;
         let _ = std::io::stderr().write_all(&buf[..n]);
         std::process::exit(OOM_EXIT);
+    }
+}
+
+/// What the program is doing, for the out-of-memory message ("reading
+/// X", "building the sweep structure of X"): a fixed buffer, so that the
+/// message needs no allocation.
+static CONTEXT: std::sync::Mutex<([u8; 240], usize)> = std::sync::Mutex::new(([0; 240], 0));
+
+/// Records `what` (cut to 240 bytes) as what the program is doing, named
+/// by the out-of-memory message if an allocation fails from now on.
+pub(crate) fn oom_context(what: &str) {
+    let mut end = what.len().min(240);
+    while !what.is_char_boundary(end) {
+        end -= 1;
+    }
+    if let Ok(mut c) = CONTEXT.lock() {
+        c.0[..end].copy_from_slice(&what.as_bytes()[..end]);
+        c.1 = end;
     }
 }
 

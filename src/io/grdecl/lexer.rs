@@ -458,6 +458,9 @@ pub(super) struct Sink<'a> {
     pub(super) out: &'a mut Vec<f64>,
     pub(super) expected: usize,
     pub(super) found: usize,
+    /// A repeat's values did not fit in memory (then not kept; see
+    /// [`Sink::memory`]).
+    pub(super) short: bool,
 }
 
 impl Sink<'_> {
@@ -468,8 +471,31 @@ impl Sink<'_> {
         if k == 1 {
             self.out.push(v);
         } else if k > 0 {
-            self.out.resize(self.out.len() + k, v);
+            self.repeat(v, k);
         }
         self.found = self.found.saturating_add(n);
+    }
+
+    /// `k` copies of `v`, the room asked for fallibly (a repeat's count is
+    /// the input's: `800000000*1`).
+    #[inline(never)]
+    fn repeat(&mut self, v: f64, k: usize) {
+        if crate::mem::try_reserve(self.out, k, "").is_err() {
+            self.short = true;
+        } else {
+            self.out.resize(self.out.len() + k, v);
+        }
+    }
+
+    /// `Ok`, or, when a repeat did not fit in memory, an error naming the
+    /// file, the keyword `kw` and the bytes of its `expected` values.
+    pub(super) fn memory(&self, lx: &Lexer, kw: &str) -> Result<(), GrdeclError> {
+        if !self.short {
+            return Ok(());
+        }
+        Err(GrdeclError::Io {
+            file: lx.file.clone(),
+            source: crate::mem::AllocError::of::<f64>(self.expected, kw).into(),
+        })
     }
 }
