@@ -331,7 +331,7 @@ mod tests {
             .unwrap();
         let map = MappedFile::map(std::fs::File::open(&path).unwrap()).unwrap();
         assert!(map.check().is_ok());
-        let cut = (1 << 20) + 123;
+        let cut: usize = (1 << 20) + 123;
         std::fs::OpenOptions::new()
             .write(true)
             .open(&path)
