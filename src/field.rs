@@ -172,13 +172,26 @@ pub enum LevelError {
     /// No levels at all.
     #[error("no levels to sweep")]
     Empty,
+    /// The level list does not fit in memory.
+    #[error(transparent)]
+    Memory(#[from] crate::mem::AllocError),
 }
 
 /// Level values `t_k = lo + (k + 0.5)(hi − lo)/K`.
 pub fn levels_by_count(lo: f64, hi: f64, count: usize) -> Vec<f64> {
-    (0..count)
-        .map(|k| lo + (k as f64 + 0.5) * (hi - lo) / count as f64)
-        .collect()
+    by_count(lo, hi, count).collect()
+}
+
+/// [`levels_by_count`], or an error when the list does not fit in memory.
+pub fn try_levels_by_count(lo: f64, hi: f64, count: usize) -> Result<Vec<f64>, LevelError> {
+    let mut v = crate::mem::try_vec(count, "the level values")?;
+    v.extend(by_count(lo, hi, count));
+    Ok(v)
+}
+
+/// The values of [`levels_by_count`].
+fn by_count(lo: f64, hi: f64, count: usize) -> impl Iterator<Item = f64> {
+    (0..count).map(move |k| lo + (k as f64 + 0.5) * (hi - lo) / count as f64)
 }
 
 /// Level values `from, from+step, ...` up to and including `to` (within 1e-9 step).
@@ -208,7 +221,7 @@ pub fn local_levels(world: &[f64], offset: f64) -> Result<Vec<f32>, LevelError> 
     if world.is_empty() {
         return Err(LevelError::Empty);
     }
-    let mut out = Vec::with_capacity(world.len());
+    let mut out = crate::mem::try_vec(world.len(), "the level values (f32)")?;
     for (i, &w) in world.iter().enumerate() {
         if !w.is_finite() {
             return Err(LevelError::NotFinite { index: i });

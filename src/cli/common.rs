@@ -163,6 +163,7 @@ pub(crate) fn sweep_options_from_env() -> SweepOptions {
 }
 
 pub(crate) fn spinner(quiet: bool, msg: String) -> ProgressBar {
+    crate::oom_context(&msg);
     if quiet {
         return ProgressBar::hidden();
     }
@@ -173,6 +174,7 @@ pub(crate) fn spinner(quiet: bool, msg: String) -> ProgressBar {
 }
 
 pub(crate) fn bar(quiet: bool, len: u64, msg: &str) -> ProgressBar {
+    crate::oom_context(msg);
     if quiet {
         return ProgressBar::hidden();
     }

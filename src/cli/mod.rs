@@ -196,7 +196,10 @@ fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
         Cmd::Info(a) => cmd_info(a),
         Cmd::Slice(a) => cmd_slice(a, quiet),
-        Cmd::Generate(g) => cmd_generate(g, quiet),
+        Cmd::Generate(g) => {
+            crate::oom_context("generating the grid");
+            cmd_generate(g, quiet)
+        }
         Cmd::Bench(a) => cmd_bench(a, quiet),
         Cmd::Render(a) => cmd_render(a, quiet),
         Cmd::View(a) => view::cmd_view(a, quiet),

@@ -12,6 +12,7 @@ use super::shapes::{
 };
 use super::{CornerPointError, CornerPointGrid, CornerPointReport, trilinear_volume};
 use crate::grid::{Cells, Grid, Property, Topology, vtk_type};
+use crate::mem::{AllocError, try_filled};
 use crate::structures::common::split_lengths;
 
 /// Pass 1's result for one IJ row: the signed volume of its active cells,
@@ -360,22 +361,23 @@ struct CellArrays {
 }
 
 impl CellArrays {
-    /// Zeroed arrays of the sizes counted in pass 2.
-    fn new(layout: &Layout) -> Self {
+    /// Zeroed arrays of the sizes counted in pass 2, or the one that does
+    /// not fit in memory.
+    fn new(layout: &Layout) -> Result<Self, AllocError> {
         let kept_cells = layout.kept_cells();
         let (nconn, nfaces) = (layout.totals[1], layout.totals[2]);
-        CellArrays {
-            types: vec![0u8; kept_cells],
-            offsets: vec![0u32; kept_cells + 1],
-            connectivity: vec![0u32; nconn],
-            source: vec![0u32; kept_cells],
+        Ok(CellArrays {
+            types: try_filled(kept_cells, 0u8, "the cell types")?,
+            offsets: try_filled(kept_cells + 1, 0u32, "the cell offsets")?,
+            connectivity: try_filled(nconn, 0u32, "the cell connectivity")?,
+            source: try_filled(kept_cells, 0u32, "the cells' source cells")?,
             face_offsets: if nfaces > 0 {
-                vec![0u32; kept_cells + 1]
+                try_filled(kept_cells + 1, 0u32, "the polyhedra's face offsets")?
             } else {
                 Vec::new()
             },
-            face_stream: vec![0u32; nfaces],
-        }
+            face_stream: try_filled(nfaces, 0u32, "the polyhedra's faces")?,
+        })
     }
 }
 
@@ -626,7 +628,7 @@ impl CornerPointGrid {
         let n = nx * ny * nz;
         let tr = self.transform();
         let mut zcorn = std::mem::take(&mut self.zcorn);
-        let (codes, rows) = self.classify(&zcorn, &tr);
+        let (codes, rows) = self.classify(&zcorn, &tr)?;
         let total: f64 = rows.iter().map(|r| r.0).sum();
         let left = total <= 0.0;
         let order = if left {
@@ -648,7 +650,7 @@ impl CornerPointGrid {
         layout.report(&mut rep, n);
         let depths = PillarDepths::build(&self, &codes, &zcorn)?;
         let canon = self.merge_map(&shapes, &depths, &zcorn);
-        let mut cells = CellArrays::new(&layout);
+        let mut cells = CellArrays::new(&layout)?;
         CellWriter {
             grid: &self,
             codes: &codes,
@@ -662,7 +664,7 @@ impl CornerPointGrid {
         drop(zcorn);
         drop(codes);
         // Points, after ZCORN is gone.
-        let mut points = self.points(&tr, &depths);
+        let mut points = self.points(&tr, &depths)?;
         drop(depths);
         if canon.is_some() {
             renumber(&mut points, &mut cells.connectivity, &mut cells.face_stream);
@@ -691,7 +693,11 @@ impl CornerPointGrid {
 
     /// Pass 1 (parallel over IJ rows): per cell a code (collapsed pillar
     /// edges and flags), per row its [`RowSums`].
-    fn classify(&self, zcorn: &[f64], tr: &[f64; 6]) -> (Vec<u8>, Vec<RowSums>) {
+    fn classify(
+        &self,
+        zcorn: &[f64],
+        tr: &[f64; 6],
+    ) -> Result<(Vec<u8>, Vec<RowSums>), AllocError> {
         let [nx, ny, nz] = self.dims;
         let flat_pillar: [bool; 16] = std::array::from_fn(|m| {
             matches!(
@@ -700,7 +706,7 @@ impl CornerPointGrid {
             )
         });
         let identity = Self::is_identity(tr);
-        let mut codes = vec![0u8; nx * ny * nz];
+        let mut codes = try_filled(nx * ny * nz, 0u8, "the cell codes")?;
         let rows: Vec<RowSums> = codes
             .par_chunks_mut(nx)
             .enumerate()
@@ -773,7 +779,7 @@ impl CornerPointGrid {
                 (signed, kept_abs, cross)
             })
             .collect();
-        (codes, rows)
+        Ok((codes, rows))
     }
 
     /// Cross-pillar merges: unions the coincident vertices (smallest id
@@ -804,8 +810,8 @@ impl CornerPointGrid {
     }
 
     /// World positions of the welded vertices, in parallel over pillars.
-    fn points(&self, tr: &[f64; 6], depths: &PillarDepths) -> Vec<[f64; 3]> {
-        let mut points = vec![[0.0f64; 3]; depths.vertices()];
+    fn points(&self, tr: &[f64; 6], depths: &PillarDepths) -> Result<Vec<[f64; 3]>, AllocError> {
+        let mut points = try_filled(depths.vertices(), [0.0f64; 3], "the points")?;
         split_at_starts(&mut points, &depths.start)
             .into_par_iter()
             .enumerate()
@@ -814,6 +820,6 @@ impl CornerPointGrid {
                     *o = Self::apply(tr, self.on_pillar(p, z));
                 }
             });
-        points
+        Ok(points)
     }
 }

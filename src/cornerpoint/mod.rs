@@ -98,6 +98,9 @@ pub enum CornerPointError {
         /// Value.
         value: u8,
     },
+    /// An array of the conversion does not fit in memory.
+    #[error(transparent)]
+    Memory(#[from] crate::mem::AllocError),
 }
 
 /// What the conversion to a [`Grid`] found, per class of cell.

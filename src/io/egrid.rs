@@ -311,7 +311,14 @@ impl<'a> ArrayReader<'a> {
     /// The data records of the array `h`, each element decoded by `conv`.
     fn decode<T>(&mut self, h: &Header, conv: impl Fn(&[u8]) -> T) -> Result<Vec<T>, EgridError> {
         let (count, size) = (h.count, h.size);
-        let mut v = Vec::with_capacity(count);
+        // Room for what the rest of the file can hold (a count past it is
+        // reported by the record checks below).
+        let most = (self.bytes.len() - self.pos.min(self.bytes.len())) / size.max(1);
+        let mut v =
+            crate::mem::try_vec(count.min(most), &h.keyword).map_err(|e| EgridError::Io {
+                file: self.file.clone(),
+                source: e.into(),
+            })?;
         while v.len() < count {
             let roff = self.pos;
             let r = self.record(&h.keyword)?;
@@ -666,10 +673,12 @@ pub fn add_init_properties_report(
 pub fn read_egrid(path: impl AsRef<Path>) -> Result<EgridFile, EgridError> {
     let path = path.as_ref();
     let read = |p: &Path| {
-        std::fs::read(p).map_err(|e| EgridError::Io {
-            file: p.into(),
-            source: e,
-        })
+        std::fs::File::open(p)
+            .and_then(|f| crate::mem::read_file(&f))
+            .map_err(|e| EgridError::Io {
+                file: p.into(),
+                source: e,
+            })
     };
     let bytes = read(path)?;
     let mut grid = parse_egrid(&bytes, path)?;

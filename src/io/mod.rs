@@ -7,6 +7,7 @@ pub mod egrid_write;
 pub mod grdecl;
 pub mod guard;
 pub mod load;
+pub mod mapped;
 pub mod vtk_read;
 pub mod writers;
 

@@ -17,8 +17,8 @@ use crate::bruteforce::brute_force;
 use crate::cancel::{Interrupted, catch_interrupt, stop_if_cancelled};
 use crate::extract::{EmitContext, LevelMesh};
 use crate::field::{
-    AxisField, FieldSpec, LevelError, PlaneField, ScalarField, VertexField, levels_by_count,
-    local_levels, materialise,
+    AxisField, FieldSpec, LevelError, PlaneField, ScalarField, VertexField, local_levels,
+    materialise, try_levels_by_count,
 };
 use crate::grid::{Grid, GridError};
 use crate::mesh::PolyMesh;
@@ -358,7 +358,7 @@ pub fn place_levels(
             if lo == hi {
                 return Err(PipelineError::ConstantField(lo as f64 + world_offset));
             }
-            levels_by_count(lo as f64 + world_offset, hi as f64 + world_offset, *k)
+            try_levels_by_count(lo as f64 + world_offset, hi as f64 + world_offset, *k)?
         }
         LevelSpec::Values(v) => v.clone(),
     };

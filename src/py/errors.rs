@@ -9,18 +9,31 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use pyo3::PyErr;
-use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyMemoryError, PyOSError, PyRuntimeError, PyValueError};
 
 use crate::io::checks::escape_control;
 
-/// `ValueError(msg)`, control characters escaped.
+/// `ValueError(msg)`, control characters escaped; `MemoryError` when the
+/// message says an allocation failed ([`out_of_memory`]).
 pub fn invalid(msg: impl AsRef<str>) -> PyErr {
-    PyValueError::new_err(escape_control(msg.as_ref()))
+    out_of_memory(msg.as_ref())
+        .unwrap_or_else(|| PyValueError::new_err(escape_control(msg.as_ref())))
 }
 
-/// `RuntimeError(msg)`, control characters escaped.
+/// `RuntimeError(msg)`, control characters escaped; `MemoryError` when the
+/// message says an allocation failed ([`out_of_memory`]).
 pub fn runtime(msg: impl AsRef<str>) -> PyErr {
-    PyRuntimeError::new_err(escape_control(msg.as_ref()))
+    out_of_memory(msg.as_ref())
+        .unwrap_or_else(|| PyRuntimeError::new_err(escape_control(msg.as_ref())))
+}
+
+/// `MemoryError(msg)` when `msg` carries a failed allocation
+/// ([`crate::mem::AllocError`], whose message starts with
+/// [`crate::mem::OUT_OF_MEMORY`]), wherever an error chain put it.
+fn out_of_memory(msg: &str) -> Option<PyErr> {
+    let marker = format!("{}: ", crate::mem::OUT_OF_MEMORY);
+    msg.contains(&marker)
+        .then(|| PyMemoryError::new_err(escape_control(msg)))
 }
 
 /// Runs `f`, turning a panic into `RuntimeError` (the last resort: every
@@ -53,8 +66,12 @@ fn io_cause<'a>(e: &'a (dyn std::error::Error + 'static)) -> Option<&'a std::io:
     None
 }
 
-/// `OSError(errno, message)` (Python picks the errno's subclass).
+/// `OSError(errno, message)` (Python picks the errno's subclass);
+/// `MemoryError` for an allocation that failed.
 pub fn os_error(msg: String, io: &std::io::Error) -> PyErr {
+    if io.kind() == std::io::ErrorKind::OutOfMemory {
+        return PyMemoryError::new_err(escape_control(&msg));
+    }
     let msg = escape_control(&msg);
     match io.raw_os_error() {
         Some(code) => PyOSError::new_err((code, msg)),

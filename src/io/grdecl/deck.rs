@@ -147,13 +147,13 @@ impl Parser {
             "COORD" => {
                 let [nx, ny, _] = self.dims_or(lx, line, kw)?;
                 let n = 6 * (nx + 1) * (ny + 1);
-                let mut v = Vec::with_capacity(lx.reserve_hint(n));
+                let mut v = lx.reserve_values(n, kw)?;
                 read_values(lx, kw, line, n, &mut v, None)?;
                 self.coord = Some(v);
             }
             "ZCORN" => {
                 let n = 8 * self.cells(lx, line, kw)?;
-                let mut v = Vec::with_capacity(lx.reserve_hint(n));
+                let mut v = lx.reserve_values(n, kw)?;
                 read_values(lx, kw, line, n, &mut v, None)?;
                 self.zcorn = Some(v);
             }
@@ -214,7 +214,7 @@ impl Parser {
             }
             _ if KNOWN_PROPERTIES.contains(&kw) => {
                 let n = self.cells(lx, line, kw)?;
-                let mut v = Vec::with_capacity(lx.reserve_hint(n));
+                let mut v = lx.reserve_values(n, kw)?;
                 read_values(lx, kw, line, n, &mut v, None)?;
                 self.set_property(kw, v);
             }
@@ -259,7 +259,7 @@ impl Parser {
     /// ACTNUM: one 0/1 flag per cell.
     fn actnum(&mut self, lx: &mut Lexer, kw: &str, line: usize) -> Result<(), GrdeclError> {
         let n = self.cells(lx, line, kw)?;
-        let mut v = Vec::with_capacity(lx.reserve_hint(n));
+        let mut v = lx.reserve_values(n, kw)?;
         read_values(lx, kw, line, n, &mut v, Some(1.0))?;
         let mut a = Vec::with_capacity(n);
         for (i, &x) in v.iter().enumerate() {
@@ -618,7 +618,7 @@ impl Parser {
         let mut sub = Lexer::open(f, path);
         let r = self.parse(&mut sub);
         self.stack.pop();
-        r
+        sub.settle(r)
     }
 
     pub(super) fn missing(

@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use memmap2::Mmap;
+use crate::io::mapped::MappedFile;
 
 use super::number::*;
 use super::*;
@@ -34,7 +34,7 @@ pub(super) enum Source<'r> {
     Reader(Box<dyn Read + 'r>),
     /// A memory-mapped file; `at` is the offset of the window's end. The
     /// parallel path ([`super::parallel`]) reads ahead of the window here.
-    Mapped { map: Arc<Mmap>, at: usize },
+    Mapped { map: Arc<MappedFile>, at: usize },
 }
 
 pub(super) struct Lexer<'r> {
@@ -62,6 +62,16 @@ impl<'r> Lexer<'r> {
     pub(super) fn reserve_hint(&self, n: usize) -> usize {
         let most = self.len.map_or(1 << 20, |l| (l / 2) as usize + 1024);
         n.min(most)
+    }
+
+    /// An empty array with room for [`Lexer::reserve_hint`]`(n)` values
+    /// of keyword `kw`, or an error naming the file, the keyword and the
+    /// bytes when the memory is not there.
+    pub(super) fn reserve_values(&self, n: usize, kw: &str) -> Result<Vec<f64>, GrdeclError> {
+        crate::mem::try_vec(self.reserve_hint(n), kw).map_err(|e| GrdeclError::Io {
+            file: self.file.clone(),
+            source: e.into(),
+        })
     }
 
     /// A lexer over `r`; `len` is the input's length when known (a file), so
@@ -102,16 +112,27 @@ impl<'r> Lexer<'r> {
     pub(super) fn open(f: File, file: PathBuf) -> Lexer<'static> {
         let len = f.metadata().ok().map(|m| m.len());
         if len.is_some_and(|n| n >= MAP_AT_LEAST) && rayon::current_num_threads() > 1 {
-            // SAFETY: the map is read-only and lives only for this parse. If
-            // another process truncated the file meanwhile, reads past its
-            // new end would fault (SIGBUS): the same race a reading process
-            // always has with a writer (as in `io::vtk_read`).
-            if let Ok(map) = unsafe { Mmap::map(&f) } {
+            // A truncation while it is read gives zeros, reported by
+            // [`Lexer::settle`] (`io::mapped`).
+            if let Some(map) = f.try_clone().ok().and_then(MappedFile::map) {
                 let map = Arc::new(map);
                 return Lexer::over(Source::Mapped { map, at: 0 }, file, len);
             }
         }
         Lexer::new(Box::new(f), file, len)
+    }
+
+    /// Returns `r`, the outcome of reading this lexer's input, unless the
+    /// input is a map whose file was truncated (or failed a page read)
+    /// meanwhile: then an I/O error naming the file, whatever `r` was.
+    pub(super) fn settle<T>(&self, r: Result<T, GrdeclError>) -> Result<T, GrdeclError> {
+        match &self.src {
+            Source::Mapped { map, .. } => map.settle(r, |source| GrdeclError::Io {
+                file: self.file.clone(),
+                source,
+            }),
+            Source::Reader(_) => r,
+        }
     }
 
     /// Offset in the input of the next unread byte (`pos`).
@@ -437,6 +458,9 @@ pub(super) struct Sink<'a> {
     pub(super) out: &'a mut Vec<f64>,
     pub(super) expected: usize,
     pub(super) found: usize,
+    /// A repeat's values did not fit in memory (then not kept; see
+    /// [`Sink::memory`]).
+    pub(super) short: bool,
 }
 
 impl Sink<'_> {
@@ -447,8 +471,31 @@ impl Sink<'_> {
         if k == 1 {
             self.out.push(v);
         } else if k > 0 {
-            self.out.resize(self.out.len() + k, v);
+            self.repeat(v, k);
         }
         self.found = self.found.saturating_add(n);
+    }
+
+    /// `k` copies of `v`, the room asked for fallibly (a repeat's count is
+    /// the input's: `800000000*1`).
+    #[inline(never)]
+    fn repeat(&mut self, v: f64, k: usize) {
+        if crate::mem::try_reserve(self.out, k, "").is_err() {
+            self.short = true;
+        } else {
+            self.out.resize(self.out.len() + k, v);
+        }
+    }
+
+    /// `Ok`, or, when a repeat did not fit in memory, an error naming the
+    /// file, the keyword `kw` and the bytes of its `expected` values.
+    pub(super) fn memory(&self, lx: &Lexer, kw: &str) -> Result<(), GrdeclError> {
+        if !self.short {
+            return Ok(());
+        }
+        Err(GrdeclError::Io {
+            file: lx.file.clone(),
+            source: crate::mem::AllocError::of::<f64>(self.expected, kw).into(),
+        })
     }
 }

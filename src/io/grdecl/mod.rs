@@ -275,6 +275,7 @@ fn parse_with(mut lx: Lexer, name: &Path) -> Result<GrdeclDeck, GrdeclError> {
     p.files.push(name.into());
     p.stack
         .push(name.canonicalize().unwrap_or_else(|_| name.to_path_buf()));
-    p.parse(&mut lx)?;
+    let r = p.parse(&mut lx);
+    lx.settle(r)?;
     p.finish(name)
 }

@@ -15,7 +15,7 @@
 //! comment or a quoted string (neither spans a line here); a file with no
 //! line break near a cut point is left to the serial path.
 
-use memmap2::{Mmap, UncheckedAdvice};
+use crate::io::mapped::MappedFile;
 use rayon::prelude::*;
 
 use super::lexer::{Lexer, Sink, Source, scan_plain};
@@ -42,6 +42,8 @@ struct Chunk {
     lines: usize,
     /// Whether `stop` is at the start of a line.
     bol: bool,
+    /// A repeat's values did not fit in memory.
+    short: bool,
 }
 
 /// The start of the line after offset `x` in `b` (`b.len()` at the end),
@@ -87,13 +89,18 @@ fn scan_chunk(
     // reload its length and pointer at every value.
     let mut values = std::mem::take(buf);
     values.clear();
-    let (mut found, mut lines, mut bol) = (0usize, 0usize, bol);
+    let (mut found, mut lines, mut bol, mut short) = (0usize, 0usize, bol, false);
     let stop = scan_plain(&b[..e], a, e, &mut lines, &mut bol, |v, n| {
         let k = n.min(room - values.len());
         if k == 1 {
             values.push(v);
         } else if k > 0 {
-            values.resize(values.len() + k, v);
+            // A repeat's count is the input's: room asked for fallibly.
+            if crate::mem::try_reserve(&mut values, k, "").is_ok() {
+                values.resize(values.len() + k, v);
+            } else {
+                short = true;
+            }
         }
         found = found.saturating_add(n);
     });
@@ -103,14 +110,18 @@ fn scan_chunk(
         stop,
         lines,
         bol,
+        short,
     }
 }
 
 /// Appends the first `counts[i]` values of each `bufs[i]` to `out`, the
-/// chunks copied in parallel into `out`'s spare room.
-fn append(out: &mut Vec<f64>, bufs: &[Vec<f64>], counts: &[usize]) {
+/// chunks copied in parallel into `out`'s spare room; `false` (nothing
+/// appended) when that room cannot be had.
+fn append(out: &mut Vec<f64>, bufs: &[Vec<f64>], counts: &[usize]) -> bool {
     let total: usize = counts.iter().sum();
-    out.reserve(total);
+    if crate::mem::try_reserve(out, total, "").is_err() {
+        return false;
+    }
     let mut spare = &mut out.spare_capacity_mut()[..total];
     let mut parts = Vec::with_capacity(counts.len());
     for (buf, &k) in bufs.iter().zip(counts) {
@@ -125,6 +136,7 @@ fn append(out: &mut Vec<f64>, bufs: &[Vec<f64>], counts: &[usize]) {
     });
     // SAFETY: the `total` slots after the length were all written above.
     unsafe { out.set_len(out.len() + total) };
+    true
 }
 
 /// Drops the pages of `map` between `from` and `to` (rounded down to a
@@ -132,14 +144,12 @@ fn append(out: &mut Vec<f64>, bufs: &[Vec<f64>], counts: &[usize]) {
 /// file read so far stops counting in its resident set (the page cache
 /// keeps them; a read there would fault them in again, the same bytes).
 /// Returns the new start.
-fn release(map: &Mmap, from: usize, to: usize) -> usize {
+fn release(map: &MappedFile, from: usize, to: usize) -> usize {
     let to = to & !4095;
     // In steps of 32 MiB: each call costs the other threads a TLB flush.
+    // Nothing in the map is read before the lexer's offset any more.
     if to >= from + (32 << 20) {
-        // SAFETY: the map is a read-only map of a file: MADV_DONTNEED
-        // discards no data (a later read finds the file's bytes again),
-        // and nothing in it is read before the lexer's offset any more.
-        let _ = unsafe { map.unchecked_advise_range(UncheckedAdvice::DontNeed, from, to - from) };
+        map.release(from, to - from);
         return to;
     }
     from
@@ -190,6 +200,7 @@ pub(super) fn values(lx: &mut Lexer, sink: &mut Sink) -> Result<bool, GrdeclErro
             counts.push(k);
             left -= k;
             sink.found = sink.found.saturating_add(c.found);
+            sink.short |= c.short;
             lines += c.lines;
             bol = c.bol;
             if c.stop < e {
@@ -197,7 +208,11 @@ pub(super) fn values(lx: &mut Lexer, sink: &mut Sink) -> Result<bool, GrdeclErro
                 break;
             }
         }
-        append(sink.out, &bufs, &counts);
+        if sink.short || !append(sink.out, &bufs, &counts) {
+            // Out of memory: the caller reports it (`Sink::memory`).
+            sink.short = true;
+            return Ok(true);
+        }
         lx.skip_to(at, lines, bol)?;
         released = release(&map, released, lx.offset());
         if early {

@@ -32,6 +32,7 @@ pub(super) fn read_values(
         out,
         expected,
         found: 0,
+        short: false,
     };
     // Rounds of the parallel path that stopped early (comments between
     // the values, say): after a few, the serial path reads the rest.
@@ -41,6 +42,7 @@ pub(super) fn read_values(
             early += 1;
         }
         lx.fast_values(&mut sink);
+        sink.memory(lx, kw)?;
         let t = lx.next()?;
         match t.kind {
             Kind::Slash => break,

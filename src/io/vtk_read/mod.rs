@@ -171,17 +171,14 @@ pub fn read_vtk_as(path: &Path, xml: bool) -> Result<Grid, VtkReadError> {
     let f = std::fs::File::open(path).map_err(io_err)?;
     let len = f.metadata().map_err(io_err)?.len();
     if len >= MAP_AT_LEAST {
-        // SAFETY: the map is read-only and lives only for this parse. If
-        // another process truncated the file meanwhile, reads past its new
-        // end would fault (SIGBUS): the same race a reading process always
-        // has with a writer, traded for not copying the whole file into
-        // fresh memory (120 MB for a 100k-cell Voronoi grid).
-        if let Ok(map) = unsafe { memmap2::Mmap::map(&f) } {
-            return parse(&map, &file);
+        // Mapped rather than read: no copy of the whole file in fresh
+        // memory (120 MB for a 100k-cell Voronoi grid). A truncation while
+        // it is parsed reads zeros and is reported (`io::mapped`).
+        if let Some(map) = crate::io::mapped::MappedFile::map(f.try_clone().map_err(io_err)?) {
+            return map.settle(parse(&map, &file), io_err);
         }
     }
-    let mut bytes = Vec::with_capacity(len as usize);
-    std::io::Read::read_to_end(&mut &f, &mut bytes).map_err(io_err)?;
+    let bytes = crate::mem::read_file(&f).map_err(io_err)?;
     parse(&bytes, &file)
 }
 
