@@ -51,9 +51,8 @@ fn checked(p: *mut u8, size: usize) -> *mut u8 {
 /// (exit code [`OOM_EXIT`]). Allocates nothing: the message is built on the
 /// stack and written with one `write(2)`.
 ///
-/// Hook point: anything that must be undone before the process ends (the
-/// temporary output files that `io::atomic` registers) is to be removed
-/// here, with async-signal-safe calls only, before `_exit`.
+/// Removes the temporary output files (`io::atomic`'s registry, without
+/// allocating) before `_exit`.
 fn out_of_memory(size: usize) -> ! {
     let mut buf = [0u8; 400];
     let mut n = 0;
@@ -84,6 +83,8 @@ fn out_of_memory(size: usize) -> ! {
         put(&c.0[..c.1]);
     }
     put(b" (free memory or raise the memory limit)\n");
+    // The outputs being written stay as they were: their temporaries go.
+    stratasweep::io::atomic::remove_temporaries_without_allocating();
     #[cfg(unix)]
     // SAFETY: write(2) of our own stack buffer, then _exit(2), which runs
     // no destructor and no atexit handler (nothing that could allocate).

@@ -55,6 +55,26 @@ pub fn remove_temporaries() -> usize {
         .count()
 }
 
+/// [`remove_temporaries`] for a process that is out of memory: takes the
+/// registry only if no thread holds it (the failing allocation may be
+/// inside it) and allocates nothing (a short path is turned into a C
+/// string on the stack; a longer one may fail to be removed). Returns how
+/// many temporary files were removed.
+pub fn remove_temporaries_without_allocating() -> usize {
+    let Ok(mut r) = REGISTRY.try_lock() else {
+        return 0;
+    };
+    r.ending = true;
+    let live = std::mem::take(&mut r.live);
+    let removed = live
+        .values()
+        .filter(|p| std::fs::remove_file(p).is_ok())
+        .count();
+    // Dropping the map frees memory; it never allocates.
+    drop(live);
+    removed
+}
+
 /// A file being written: bytes go to a temporary sibling of the destination;
 /// [`AtomicFile::commit`] renames it into place. Dropped without a commit,
 /// or when the commit fails, the temporary file is removed and the
