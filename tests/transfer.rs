@@ -208,23 +208,36 @@ fn rendered_far_point_spike_and_huge_values() {
     assert_eq!(got[0], [255, 255, 255, 255]);
     assert_eq!(got[2], [255, 255, 255, 255]);
     assert!(got[1][0] > 250 && got[1][1] < 5 && got[1][2] < 5, "{got:?}");
-    // Values near ±f64::MAX under viridis: the ends and the middle of the
-    // map, never black.
+    // Values near ±f64::MAX (infinite in f32): the ends and the middle of
+    // the map, never black, under an opaque viridis whose points are near
+    // ±f64::MAX too, and under the default colormap (transparent at the
+    // low end).
     let g = row([-1e308, 0.0, 1e308]);
     let s = Structure::build(&g, StructureChoice::Auto).unwrap();
-    let mut o = opts(None);
-    o.unit_distance = None;
-    let img = r.render(&g, &s, &o).unwrap();
-    assert!(img.premultiplied.iter().flatten().all(|x| x.is_finite()));
-    let got: Vec<[u8; 4]> = (0..3).map(|i| cell_colour(&img, i)).collect();
-    eprintln!("±1e308: {got:?}");
+    let mut opaque = Transfer::named("viridis", -1.7e308, 1.7e308).unwrap();
+    for p in &mut opaque.points {
+        p.opacity = 1.0;
+    }
     let v = Transfer::named("viridis", 0.0, 1.0).unwrap();
-    for (c, x) in got.iter().zip([0.0, 0.5, 1.0]) {
-        let want = v.eval(x).map(|k| (k * 255.0).round() as i32);
-        assert!(
-            (0..3).all(|k| (c[k] as i32 - want[k]).abs() <= 3),
-            "{got:?}: cell at {x} wants {want:?}"
-        );
+    for t in [Some(opaque), None] {
+        let transparent_low = t.is_none();
+        let mut o = opts(t);
+        o.unit_distance = None;
+        let img = r.render(&g, &s, &o).unwrap();
+        assert!(img.premultiplied.iter().flatten().all(|x| x.is_finite()));
+        let got: Vec<[u8; 4]> = (0..3).map(|i| cell_colour(&img, i)).collect();
+        eprintln!("±1e308: {got:?}");
+        for (c, x) in got.iter().zip([0.0, 0.5, 1.0]) {
+            // 20 slices of opacity 0.5 or more composite to opaque.
+            let want = match transparent_low && x == 0.0 {
+                true => [255; 4],
+                false => v.eval(x).map(|k| (k * 255.0).round() as i32),
+            };
+            assert!(
+                (0..3).all(|k| (c[k] as i32 - want[k]).abs() <= 3),
+                "{got:?}: cell at {x} wants {want:?}"
+            );
+        }
     }
 }
 

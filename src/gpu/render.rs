@@ -741,6 +741,12 @@ pub fn emit_slices<'c>(
         };
         p.grid.attr_per_cell = true;
     }
+    // Values beyond f32 (or near its limit) clamped, so that no
+    // interpolation on the GPU makes a NaN (the LUT's range is clamped alike).
+    let limit = super::transfer::VALUE_LIMIT;
+    for a in p.grid.attr.iter_mut() {
+        *a = a.clamp(-limit, limit);
+    }
     let mut cp_boundary = None;
     let (field, field_fallback) = match k.attr_gradient && !k.iso {
         true => match IjkField::new(ctx, grid, s, property.as_deref()) {

@@ -24,9 +24,13 @@ pub const MAX_POINTS: usize = LUT_KNOTS - 2;
 /// the knots' RGBA, then their positions four to an entry.
 pub const LUT_VEC4S: usize = 1 + LUT_KNOTS + LUT_KNOTS / 4;
 
-/// The largest magnitude a knot position takes on the GPU (f32): values
-/// beyond it (up to ±f64::MAX, or infinite) are clamped to it.
-const F32_MAX: f64 = f32::MAX as f64;
+/// The largest magnitude a shown value or knot position takes on the GPU:
+/// values beyond it (up to ±f64::MAX, or infinite in f32) are clamped to
+/// it, so that interpolating between two of them (`a + t·(b − a)`, and
+/// the rasteriser's weights) stays finite in f32.
+pub const VALUE_LIMIT: f32 = f32::MAX / 4.0;
+
+const F32_MAX: f64 = VALUE_LIMIT as f64;
 
 /// Errors of transfer functions.
 #[derive(Debug, Error)]
@@ -297,9 +301,7 @@ impl Transfer {
             return blank("the transfer function has no points: nothing would be drawn".into());
         };
         if !opaque && self.points.iter().all(|p| p.opacity == 0.0) {
-            return blank(
-                "every point of the transfer function has opacity 0: nothing would be drawn".into(),
-            );
+            return blank("every transfer point has opacity 0: nothing would be drawn".into());
         }
         let Some(((lo, hi), what)) = data.filter(|((lo, hi), _)| lo <= hi) else {
             return Ok(Vec::new());
