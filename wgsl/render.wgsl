@@ -8,11 +8,12 @@
 // normals are taken in display space (z × z_scale).
 
 @group(0) @binding(0) var<uniform> rp: RenderParams;
-// Transfer function: LUT_SIZE premultiplied-free RGBA entries over
-// [value_lo, value_hi], linearly interpolated and clamped.
+// Transfer function (`gpu::transfer`): lut[0].x knots n; lut[1 + i] the
+// straight RGBA of knot i; its position in lut[1 + LUT_KNOTS + i / 4][i % 4],
+// ascending. Piecewise linear between knots, clamped outside.
 @group(0) @binding(1) var<storage, read> lut: array<vec4<f32>>;
 
-const LUT_SIZE: u32 = 256u;
+const LUT_KNOTS: u32 = 1024u;
 
 // Pre-integrated slabs: PRE_SIZE × PRE_SIZE premultiplied RGBA over
 // (front, back) values in [value_lo, value_hi], for slabs of
@@ -47,15 +48,38 @@ fn vs_iso(@location(0) pos: vec3<f32>, @location(1) value: f32, @location(2) nor
     return vertex_out(pos, value, normal);
 }
 
+fn knot_pos(i: u32) -> f32 {
+    return lut[1u + LUT_KNOTS + i / 4u][i % 4u];
+}
+
 fn transfer(v: f32) -> vec4<f32> {
-    let span = rp.value_hi - rp.value_lo;
-    var x = 0.0;
-    if span > 0.0 {
-        x = clamp((v - rp.value_lo) / span, 0.0, 1.0) * f32(LUT_SIZE - 1u);
+    let n = min(u32(lut[0].x), LUT_KNOTS);
+    // NaN (an infinite value interpolated against its opposite): nothing.
+    if n == 0u || (bitcast<u32>(v) & 0x7fffffffu) > 0x7f800000u {
+        return vec4<f32>(0.0);
     }
-    let i = min(u32(floor(x)), LUT_SIZE - 2u);
-    let f = x - f32(i);
-    return mix(lut[i], lut[i + 1u], f);
+    if v <= knot_pos(0u) {
+        return lut[1u];
+    }
+    if v >= knot_pos(n - 1u) {
+        return lut[n];
+    }
+    // knot_pos(lo) < v < knot_pos(hi).
+    var lo = 0u;
+    var hi = n - 1u;
+    while hi - lo > 1u {
+        let mid = (lo + hi) / 2u;
+        if knot_pos(mid) <= v {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let a = knot_pos(lo);
+    let b = knot_pos(hi);
+    // Halved so that ends near ±f32::MAX do not overflow.
+    let f = clamp((0.5 * v - 0.5 * a) / (0.5 * b - 0.5 * a), 0.0, 1.0);
+    return mix(lut[1u + lo], lut[1u + hi], f);
 }
 
 @fragment

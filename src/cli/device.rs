@@ -23,25 +23,81 @@ pub(crate) enum DeviceArg {
     Auto,
 }
 
+/// The backends `WGPU_BACKEND` may name (a comma-separated list), with
+/// the aliases wgpu itself accepts.
+const BACKEND_NAMES: [(&[&str], wgpu::Backends); 4] = [
+    (&["vulkan", "vk"], wgpu::Backends::VULKAN),
+    (&["gl", "gles", "opengl"], wgpu::Backends::GL),
+    (&["metal", "mtl"], wgpu::Backends::METAL),
+    (&["dx12", "d3d12"], wgpu::Backends::DX12),
+];
+
+/// Parses a `WGPU_BACKEND` value: backend names separated by commas (any
+/// case); `None` for an empty value. An unknown name is an error that
+/// lists the valid ones (wgpu would skip it and then find no adapter).
+pub(crate) fn parse_backends(value: &str) -> Result<Option<wgpu::Backends>> {
+    if value.trim().is_empty() {
+        return Ok(None);
+    }
+    let mut out = wgpu::Backends::empty();
+    for name in value.split(',').map(str::trim) {
+        let lower = name.to_lowercase();
+        let Some((_, b)) = BACKEND_NAMES
+            .iter()
+            .find(|(names, _)| names.contains(&lower.as_str()))
+        else {
+            let valid: Vec<String> = BACKEND_NAMES
+                .iter()
+                .map(|(n, _)| format!("{} ({})", n[0], n[1..].join(", ")))
+                .collect();
+            anyhow::bail!(
+                "WGPU_BACKEND='{value}': '{name}' is not a backend name; valid names: {} (several separated by commas; unset WGPU_BACKEND to let stratasweep choose)",
+                valid.join(", ")
+            );
+        };
+        out |= *b;
+    }
+    Ok(Some(out))
+}
+
 /// The device options of `--adapter`, with wgpu's own environment
 /// variables: `WGPU_ADAPTER_NAME` when no `--adapter` is given, and
-/// `WGPU_BACKEND` (for example `vulkan` or `gl`) for the backends.
-pub(crate) fn context_options(adapter: &Option<String>) -> ContextOptions {
+/// `WGPU_BACKEND` (for example `vulkan` or `gl`) for the backends, checked
+/// by [`parse_backends`].
+pub(crate) fn context_options(adapter: &Option<String>) -> Result<ContextOptions> {
     let from_env = || {
         std::env::var("WGPU_ADAPTER_NAME")
             .ok()
             .filter(|s| !s.is_empty())
     };
-    ContextOptions {
+    let backends = match std::env::var("WGPU_BACKEND") {
+        Ok(v) => parse_backends(&v)?,
+        Err(std::env::VarError::NotPresent) => None,
+        Err(std::env::VarError::NotUnicode(v)) => {
+            anyhow::bail!("WGPU_BACKEND={v:?} is not UTF-8 text")
+        }
+    };
+    Ok(ContextOptions {
         adapter: adapter.clone().or_else(from_env),
-        backends: wgpu::Backends::from_env(),
+        backends,
         limits: None,
-    }
+    })
+}
+
+/// When `WGPU_BACKEND` chose the backends: a note naming it, for errors of
+/// the device it gave.
+pub(crate) fn backend_chosen() -> Option<String> {
+    let v = std::env::var("WGPU_BACKEND")
+        .ok()
+        .filter(|v| !v.trim().is_empty())?;
+    Some(format!(
+        "WGPU_BACKEND={v} chose the backend (unset it, or set WGPU_BACKEND=vulkan)"
+    ))
 }
 
 /// Opens the GPU, printing the adapter's name unless quiet.
-pub(crate) fn open(adapter: &Option<String>, quiet: bool) -> Result<GpuContext, GpuError> {
-    let ctx = GpuContext::new(&context_options(adapter))?;
+pub(crate) fn open(adapter: &Option<String>, quiet: bool) -> Result<GpuContext> {
+    let ctx = GpuContext::new(&context_options(adapter)?)?;
     if !quiet {
         eprintln!("GPU adapter: {}", ctx.name);
     }
@@ -64,13 +120,13 @@ pub(crate) fn slice_gpu(
         }
         DeviceArg::Auto => match open(adapter, quiet) {
             Ok(c) => c,
-            Err(e @ GpuError::NoAdapter { .. }) => {
+            Err(e) if matches!(e.downcast_ref(), Some(GpuError::NoAdapter { .. })) => {
                 if !quiet {
                     eprintln!("--device auto: {e}\n  falling back to the CPU path");
                 }
                 return Ok(None);
             }
-            Err(e) => return Err(e.into()),
+            Err(e) => return Err(e),
         },
     };
     let (r, t) = slice_on(Emitter::Gpu(&ctx), grid, s, req)
@@ -86,4 +142,21 @@ pub(crate) fn slice_gpu(
         );
     }
     Ok(Some(r))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_backends;
+
+    #[test]
+    fn backend_names_parse_and_unknown_ones_are_named() {
+        let b = wgpu::Backends::VULKAN | wgpu::Backends::GL;
+        assert_eq!(parse_backends("Vulkan, gl").unwrap(), Some(b));
+        assert_eq!(parse_backends(" ").unwrap(), None);
+        let e = parse_backends("vulkan,foo").unwrap_err().to_string();
+        assert!(
+            e.contains("'foo' is not a backend name") && e.contains("gl (gles, opengl)"),
+            "{e}"
+        );
+    }
 }

@@ -12,6 +12,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 use stratasweep::gpu::render::Mode;
 use stratasweep::gpu::render::Renderer;
+use stratasweep::gpu::render::TransferSource;
 use stratasweep::io::guard::Named;
 use stratasweep::structures::StructureChoice;
 
@@ -34,21 +35,18 @@ pub(crate) struct RenderArgs {
 pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
     cli_checks::check_slices(a.scene.slices)?;
     let outputs = Outputs::default().add("-o", Some(&a.output));
-    let transfer_file = a
-        .scene
-        .transfer
-        .ends_with(".json")
-        .then(|| Named::new("the transfer function", &a.scene.transfer));
+    let transfer_file = matches!(
+        TransferSource::parse(&a.scene.transfer),
+        Ok(TransferSource::File(_))
+    )
+    .then(|| Named::new("the transfer function", &a.scene.transfer));
     outputs.check_before(a.input.grid.as_deref(), transfer_file.as_slice())?;
     cli_checks::output_ext("-o", &a.output, &["png"])?;
     let mut o = a.scene.options()?;
+    super::render_checks::check_mode_flags(&o, &a.scene)?;
     if a.scene.cells.is_none() {
         // The same PNG bits on every run (see `--cells`).
         o.cells = stratasweep::gpu::render::CellFinding::Sweep;
-    }
-    if let Some(t) = &o.transfer {
-        super::render_checks::check_transfer(t)
-            .with_context(|| format!("in {}", a.scene.transfer))?;
     }
     if o.mode == Mode::Iso && o.iso.is_empty() {
         bail!("--mode iso needs --iso VALUES (comma-separated)");
@@ -61,11 +59,12 @@ pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
     // cells in index space.
     let s = build_structure(&grid, StructureChoice::Auto, ijk.as_ref(), &name, quiet)?;
     s.cell_notes().iter().for_each(|n| eprintln!("note: {n}"));
-    for v in super::render_checks::check_before(&grid, &o)? {
-        eprintln!("warning: --iso {v} is outside the property's range: it draws nothing");
-    }
+    super::render_checks::check_before(&grid, &o, &a.scene)?;
     let ctx = open(&a.scene.adapter, quiet)?;
-    let mut r = Renderer::new(&ctx)?;
+    let mut r = Renderer::new(&ctx).map_err(|e| match backend_chosen() {
+        Some(hint) => anyhow::Error::new(e).context(hint),
+        None => e.into(),
+    })?;
     r.set_preintegrated(a.scene.preintegrated);
     let t = Instant::now();
     let img = r.render_exaggerated(&grid, &s, &o, z_scale)?;

@@ -6,7 +6,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 
 use stratasweep::gpu::camera::default_z_scale;
-use stratasweep::gpu::render::{CellFinding, Mode, RenderOptions, Transfer};
+use stratasweep::gpu::render::{CellFinding, Mode, RenderOptions};
 use stratasweep::grid::Grid;
 
 use super::parse_triplet;
@@ -148,14 +148,7 @@ impl SceneArgs {
             .transpose()?;
         let size = parse_size(&self.size)?;
         let background = parse_background(&self.background)?;
-        let (transfer, colormap) = if self.transfer.ends_with(".json") {
-            let text = std::fs::read_to_string(&self.transfer)
-                .with_context(|| format!("cannot read the transfer function {}", self.transfer))?;
-            let t = Transfer::from_json(&text).with_context(|| format!("in {}", self.transfer))?;
-            (Some(t), String::new())
-        } else {
-            (None, self.transfer.clone())
-        };
+        let (transfer, colormap) = super::render_checks::read_transfer(&self.transfer)?;
         let mode = match self.mode {
             ModeArg::Volume => Mode::Volume,
             ModeArg::Slices => Mode::Slices,

@@ -12,15 +12,19 @@ use thiserror::Error;
 pub enum GpuError {
     /// No adapter at all (or none matching `--adapter`).
     #[error(
-        "no GPU adapter{}: found [{}]. Install a Vulkan driver; without a GPU, Mesa's software rasteriser works (Debian/Ubuntu: `apt install mesa-vulkan-drivers`), or slice on the CPU",
+        "no GPU adapter{}{}: found [{}]. {}",
+        .backends.as_ref().map(|b| format!(" on the backends {b}")).unwrap_or_default(),
         .wanted.as_ref().map(|w| format!(" matching '{w}'")).unwrap_or_default(),
-        .available.join(", ")
+        .available.join(", "),
+        no_adapter_advice(.backends.as_deref())
     )]
     NoAdapter {
         /// The requested name, if any.
         wanted: Option<String>,
         /// Adapters that exist.
         available: Vec<String>,
+        /// The backends searched, when chosen (`None`: the primary ones, then GL).
+        backends: Option<String>,
     },
     /// The device could not be created.
     #[error("cannot open the device on adapter '{adapter}': {why}")]
@@ -85,6 +89,19 @@ pub enum GpuError {
     /// The device did not finish in time.
     #[error("the GPU did not finish within {0:?} (device hung or lost)")]
     Timeout(Duration),
+}
+
+/// What to do when no adapter was found: install a Vulkan driver, or
+/// (when the chosen backends leave Vulkan out) choose other backends.
+fn no_adapter_advice(backends: Option<&str>) -> &'static str {
+    match backends {
+        Some(b) if !b.contains("vulkan") => {
+            "Choose other backends (Vulkan finds Mesa's software rasteriser where there is no GPU), or slice on the CPU"
+        }
+        _ => {
+            "Install a Vulkan driver; without a GPU, Mesa's software rasteriser works (Debian/Ubuntu: `apt install mesa-vulkan-drivers`), or slice on the CPU"
+        }
+    }
 }
 
 /// How long a wait on the device may take before it is an error.
@@ -229,6 +246,10 @@ impl GpuContext {
         Err(GpuError::NoAdapter {
             wanted: opts.adapter.clone(),
             available,
+            backends: opts.backends.map(|b| {
+                let names: Vec<String> = b.iter_names().map(|(n, _)| n.to_lowercase()).collect();
+                names.join(", ")
+            }),
         })
     }
 

@@ -95,7 +95,8 @@ pub struct DrawBindings {
 impl DrawBindings {
     /// Writes this frame's parameters and the transfer function's LUT,
     /// and the pre-integrated table when the frame uses it and its slab
-    /// ratio or transfer changed.
+    /// ratio or transfer changed. `transfer` is the one the LUT was made
+    /// from, restricted to the LUT's range ([`Transfer::over`]).
     pub fn write(
         &self,
         queue: &wgpu::Queue,
@@ -159,7 +160,7 @@ impl<'c> Renderer<'c> {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             })
         };
-        let lut = zeros("lut", super::render::LUT_SIZE * 16);
+        let lut = zeros("lut", super::render::LUT_VEC4S * 16);
         let pre = zeros("pre-integrated table", PRE_SIZE * PRE_SIZE * 16);
         let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("render"),
@@ -370,9 +371,10 @@ impl<'c> Renderer<'c> {
         background: Option<[f32; 4]>,
     ) -> Result<Image, RenderError> {
         let ctx = self.ctx;
-        let (lut, vlo, vhi) = transfer.lut();
+        let (lut, vlo, vhi) = transfer.lut(set.range.0, set.range.1);
         let bindings = self.bindings();
-        bindings.write(&ctx.queue, &frame.params(set, vlo, vhi), transfer, &lut);
+        let over = transfer.over(vlo, vhi);
+        bindings.write(&ctx.queue, &frame.params(set, vlo, vhi), &over, &lut);
         let target = self.target(size);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.encode_slices(&mut enc, &target, set, &bindings, frame)?;

@@ -30,4 +30,5 @@ pub mod shared;
 pub mod shown;
 pub mod slice;
 pub mod tables;
+pub mod transfer;
 pub mod twin;

@@ -14,8 +14,8 @@ use crate::structures::Structure;
 use super::draw::FrameSetup;
 use super::host_slices::build_slices;
 use super::render::{
-    GridStamp, Image, Mode, RenderError, RenderOptions, Renderer, slice_key, slicing_axis,
-    transfer_for, unit_distance,
+    GridStamp, Image, Mode, RenderError, RenderOptions, Renderer, check_transfer, slice_key,
+    slicing_axis, transfer_for, unit_distance,
 };
 use super::scene::fit_camera;
 use super::shown::check_shown_property;
@@ -71,6 +71,7 @@ impl Renderer<'_> {
             self.stamp = Some(stamp);
         }
         check_shown_property(grid, o)?;
+        check_transfer(grid, o)?;
         let axis = slicing_axis(d);
         let mut k = slice_key(grid, o, axis)?;
         if self.preintegrated && o.mode == Mode::Volume {

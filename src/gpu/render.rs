@@ -16,7 +16,6 @@
 use std::collections::HashMap;
 
 use glam::Vec3;
-use serde::Deserialize;
 use thiserror::Error;
 
 use crate::field::FieldSpec;
@@ -31,12 +30,12 @@ use super::gradient::vertex_gradients;
 use super::ijk_field::IjkField;
 use super::pre_pass::{BoundaryMesh, PrePipeline};
 use super::shaders;
-use super::shown::shown_property;
+use super::shown::{check_shown_property, property_range, shown_property};
 use super::slice::{prepare, prepare_unswept};
 use super::tables::{Frame, slot_values};
-
-/// Entries of the transfer-function lookup table (`LUT_SIZE` in `wgsl/render.wgsl`).
-pub const LUT_SIZE: usize = 256;
+pub use super::transfer::{
+    COLORMAPS, LUT_VEC4S, Transfer, TransferError, TransferPoint, TransferSource,
+};
 
 /// Errors of rendering.
 #[derive(Debug, Error)]
@@ -50,6 +49,9 @@ pub enum RenderError {
     /// A bad option.
     #[error("{0}")]
     Options(String),
+    /// A transfer function that is malformed or can only draw nothing.
+    #[error(transparent)]
+    Transfer(#[from] TransferError),
 }
 
 /// How to draw.
@@ -61,121 +63,6 @@ pub enum Mode {
     Slices,
     /// Opaque lit isosurfaces.
     Iso,
-}
-
-/// One control point of a transfer function.
-#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
-pub struct TransferPoint {
-    /// Property value.
-    pub value: f64,
-    /// Straight RGB in [0, 1].
-    pub color: [f32; 3],
-    /// Opacity per unit distance in [0, 1].
-    pub opacity: f32,
-}
-
-/// A piecewise-linear transfer function (clamped outside its points).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-pub struct Transfer {
-    /// Control points, sorted by value.
-    pub points: Vec<TransferPoint>,
-}
-
-/// (position in [0, 1], RGB) anchors of the named colormaps.
-fn colormap(name: &str) -> Option<Vec<(f64, [f32; 3])>> {
-    let hex = |h: u32| {
-        [
-            (h >> 16 & 255) as f32 / 255.0,
-            (h >> 8 & 255) as f32 / 255.0,
-            (h & 255) as f32 / 255.0,
-        ]
-    };
-    let anchors = |c: &[u32]| {
-        c.iter()
-            .enumerate()
-            .map(|(i, &h)| (i as f64 / (c.len() - 1) as f64, hex(h)))
-            .collect()
-    };
-    Some(match name {
-        "viridis" => anchors(&[0x440154, 0x3b528b, 0x21918c, 0x5ec962, 0xfde725]),
-        "magma" => anchors(&[0x000004, 0x51127c, 0xb73779, 0xfc8961, 0xfcfdbf]),
-        "coolwarm" => anchors(&[0x3b4cc0, 0x8db0fe, 0xdddddd, 0xf49a7b, 0xb40426]),
-        "greys" => anchors(&[0xffffff, 0x000000]),
-        _ => return None,
-    })
-}
-
-/// Names accepted by [`Transfer::named`].
-pub const COLORMAPS: [&str; 4] = ["viridis", "magma", "coolwarm", "greys"];
-
-impl Transfer {
-    /// A named colormap over `[lo, hi]` with opacity rising linearly from 0 to 1.
-    pub fn named(name: &str, lo: f64, hi: f64) -> Option<Self> {
-        let a = colormap(name)?;
-        Some(Transfer {
-            points: a
-                .into_iter()
-                .map(|(x, color)| TransferPoint {
-                    value: lo + x * (hi - lo),
-                    color,
-                    opacity: x as f32,
-                })
-                .collect(),
-        })
-    }
-
-    /// Parses `{"points":[{"value":v,"color":[r,g,b],"opacity":a},...]}`.
-    pub fn from_json(text: &str) -> Result<Self, RenderError> {
-        let mut t: Transfer = serde_json::from_str(text)
-            .map_err(|e| RenderError::Options(format!("transfer function JSON: {e}")))?;
-        for p in &t.points {
-            let ok = p.value.is_finite()
-                && p.color.iter().all(|c| (0.0..=1.0).contains(c))
-                && (0.0..=1.0).contains(&p.opacity);
-            if !ok {
-                return Err(RenderError::Options(format!(
-                    "transfer point {p:?}: value must be finite, color and opacity in [0, 1]"
-                )));
-            }
-        }
-        t.points.sort_by(|a, b| a.value.total_cmp(&b.value));
-        Ok(t)
-    }
-
-    /// RGBA at `v` (straight colour), clamped outside the points;
-    /// transparent black when there are no points.
-    pub fn eval(&self, v: f64) -> [f32; 4] {
-        let p = &self.points;
-        let rgba = |q: &TransferPoint| [q.color[0], q.color[1], q.color[2], q.opacity];
-        match p.len() {
-            0 => [0.0; 4],
-            _ if v <= p[0].value => rgba(&p[0]),
-            _ if v >= p[p.len() - 1].value => rgba(&p[p.len() - 1]),
-            _ => {
-                let i = p.windows(2).position(|w| v <= w[1].value).unwrap_or(0);
-                let (a, b) = (&p[i], &p[i + 1]);
-                let f = if b.value > a.value {
-                    ((v - a.value) / (b.value - a.value)) as f32
-                } else {
-                    1.0
-                };
-                let (x, y) = (rgba(a), rgba(b));
-                std::array::from_fn(|c| x[c] + f * (y[c] - x[c]))
-            }
-        }
-    }
-
-    /// Its lookup table over its own value range: (`LUT_SIZE` RGBA, lo, hi).
-    pub fn lut(&self) -> (Vec<[f32; 4]>, f64, f64) {
-        let (lo, hi) = match (self.points.first(), self.points.last()) {
-            (Some(a), Some(b)) => (a.value, b.value),
-            _ => (0.0, 1.0),
-        };
-        let lut = (0..LUT_SIZE)
-            .map(|i| self.eval(lo + (hi - lo) * i as f64 / (LUT_SIZE - 1) as f64))
-            .collect();
-        (lut, lo, hi)
-    }
 }
 
 /// What to render.
@@ -497,11 +384,7 @@ impl<'c> Renderer<'c> {
     /// Builds the render pipelines (Rgba32Float target when the adapter can
     /// blend it, else Rgba16Float).
     pub fn new(ctx: &'c GpuContext) -> Result<Self, RenderError> {
-        let format = if ctx.float32_blend {
-            wgpu::TextureFormat::Rgba32Float
-        } else {
-            wgpu::TextureFormat::Rgba16Float
-        };
+        let format = target_format(ctx)?;
         let src = shaders::render_source();
         shaders::validate("render.wgsl", &src)
             .map_err(|e| GpuError::Device(format!("invalid shader {e}")))?;
@@ -635,6 +518,54 @@ impl<'c> Renderer<'c> {
     }
 }
 
+/// The colour target format: Rgba32Float when the adapter can render to it
+/// and blend it, else Rgba16Float; an error naming the backend and the
+/// format when the adapter cannot render to a format the renderer needs
+/// (GL adapters without float colour buffers), instead of wgpu's
+/// validation error when the pipelines are built.
+fn target_format(ctx: &GpuContext) -> Result<wgpu::TextureFormat, GpuError> {
+    use wgpu::TextureFormat::{Rgba16Float, Rgba32Float};
+    let can = |f: wgpu::TextureFormat, blend: bool| {
+        let ff = ctx.adapter.get_texture_format_features(f);
+        ff.allowed_usages
+            .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+            && (!blend
+                || ff
+                    .flags
+                    .contains(wgpu::TextureFormatFeatureFlags::BLENDABLE))
+    };
+    let backend = match ctx.adapter.get_info().backend {
+        wgpu::Backend::Gl => "GL".to_string(),
+        b => format!("{b:?}"),
+    };
+    let refuse = |what: String| GpuError::Unsupported {
+        adapter: ctx.name.clone(),
+        why: format!(
+            "the {backend} backend cannot {what} on this adapter; use the Vulkan backend (Mesa's llvmpipe where there is no GPU) or the CPU path"
+        ),
+    };
+    for f in [
+        super::pre_pass::SCALAR_FORMAT,
+        super::pre_pass::BOUNDARY_FORMAT,
+    ] {
+        if !can(f, false) {
+            return Err(refuse(format!(
+                "render to {f:?} targets (the renderer's per-pixel value targets)"
+            )));
+        }
+    }
+    match (
+        ctx.float32_blend && can(Rgba32Float, true),
+        can(Rgba16Float, true),
+    ) {
+        (true, _) => Ok(Rgba32Float),
+        (false, true) => Ok(Rgba16Float),
+        (false, false) => Err(refuse(
+            "render to and blend Rgba32Float or Rgba16Float colour targets".into(),
+        )),
+    }
+}
+
 /// The render pass's bindings: 0 the uniform parameters, 1 the transfer
 /// LUT, 2 the pre-integrated table (both storage, read only).
 fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
@@ -672,11 +603,70 @@ pub fn transfer_for(o: &RenderOptions, range: (f64, f64)) -> Result<Transfer, Re
         Some(t) => Ok(t.clone()),
         None => Transfer::named(&o.colormap, range.0, range.1).ok_or_else(|| {
             RenderError::Options(format!(
-                "unknown colormap '{}' (known: {COLORMAPS:?})",
-                o.colormap
+                "unknown colormap '{}' (known: {})",
+                o.colormap,
+                COLORMAPS.join(", ")
             ))
         }),
     }
+}
+
+/// The checks of `o` before a render, shared by every front end: the shown
+/// property ([`check_shown_property`]), options the mode does not use
+/// ([`check_modes`]) and the transfer function ([`check_transfer`]).
+/// Returns the warnings to show.
+pub fn check_options(
+    grid: &Grid,
+    o: &RenderOptions,
+    preintegrated: bool,
+) -> Result<Vec<String>, RenderError> {
+    check_shown_property(grid, o)?;
+    check_modes(o, preintegrated)?;
+    check_transfer(grid, o)
+}
+
+/// Refuses options that the mode would silently ignore: isovalues outside
+/// iso mode, pre-integration outside volume mode.
+pub fn check_modes(o: &RenderOptions, preintegrated: bool) -> Result<(), RenderError> {
+    let mode = format!("{:?}", o.mode).to_lowercase();
+    if o.mode != Mode::Iso && !o.iso.is_empty() {
+        return Err(RenderError::Options(format!(
+            "isovalues are drawn only in iso mode, and the mode is {mode}: choose iso mode or leave the isovalues out"
+        )));
+    }
+    if preintegrated && o.mode != Mode::Volume {
+        return Err(RenderError::Options(format!(
+            "pre-integration applies only to volume mode, and the mode is {mode}: choose volume mode or leave pre-integration off"
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses a transfer function that can only draw nothing (no points;
+/// every point, or every point over the shown values' range, transparent
+/// outside iso mode) and an unknown colormap; warns when the transfer
+/// function lies wholly outside the shown values (see
+/// [`Transfer::check`]). Returns the warnings.
+pub fn check_transfer(grid: &Grid, o: &RenderOptions) -> Result<Vec<String>, RenderError> {
+    let Some(t) = &o.transfer else {
+        transfer_for(o, (0.0, 1.0))?;
+        return Ok(Vec::new());
+    };
+    let property = shown_property(grid, o);
+    let data = match &property {
+        Some(name) => property_range(grid, name).map(|r| (r, format!("property '{name}'"))),
+        None => {
+            let d = Vec3::from_array(o.view_dir.map(|c| c as f32));
+            let axis = slicing_axis(d);
+            let (lo, hi) = grid.bounds();
+            Some((
+                (lo[axis], hi[axis]),
+                format!("the slice positions along {}", ["x", "y", "z"][axis]),
+            ))
+        }
+    };
+    let data = data.as_ref().map(|(r, what)| (*r, what.as_str()));
+    Ok(t.check(o.mode == Mode::Iso, data)?)
 }
 
 /// The unit distance of the opacities in display space: `o.unit_distance`,
@@ -753,6 +743,12 @@ pub fn emit_slices<'c>(
             }
         };
         p.grid.attr_per_cell = true;
+    }
+    // Values beyond f32 (or near its limit) clamped, so that no
+    // interpolation on the GPU makes a NaN (the LUT's range is clamped alike).
+    let limit = super::transfer::VALUE_LIMIT;
+    for a in p.grid.attr.iter_mut() {
+        *a = a.clamp(-limit, limit);
     }
     let mut cp_boundary = None;
     let (field, field_fallback) = match k.attr_gradient && !k.iso {

@@ -338,7 +338,8 @@ impl Scene {
         };
         let set = sets[0];
         let transfer = transfer_for(&self.options, set.range)?;
-        let (lut, vlo, vhi) = transfer.lut();
+        let (lut, vlo, vhi) = transfer.lut(set.range.0, set.range.1);
+        let transfer = transfer.over(vlo, vhi);
         let mode = if k.iso { Mode::Iso } else { self.options.mode };
         let frame = FrameSetup {
             camera: self.camera,

@@ -5,10 +5,14 @@
 
 use numpy::IntoPyArray;
 use numpy::ndarray::Array3;
+use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
 
 use crate::gpu::context::{ContextOptions, GpuContext};
-use crate::gpu::render::{CellFinding, Mode, RenderError, RenderOptions, Renderer, Transfer};
+use crate::gpu::render::{
+    CellFinding, Mode, RenderError, RenderOptions, Renderer, Transfer, TransferSource,
+    check_options,
+};
 use crate::structures::StructureChoice;
 
 use super::data::GridData;
@@ -70,19 +74,24 @@ pub struct RenderArgs<'a, 'py> {
     pub device: String,
 }
 
+/// The transfer function of `transfer=`: a colormap name, a path ending
+/// in `.json`, or a dict `{"points": [...]}` (anything else refused, as on
+/// the command line).
 fn transfer_of(t: Option<&Bound<'_, PyAny>>) -> PyResult<(Option<Transfer>, String)> {
     let Some(t) = t else {
         return Ok((None, "viridis".into()));
     };
     if let Ok(s) = t.extract::<String>() {
-        if s.ends_with(".json") {
-            let text = std::fs::read_to_string(&s).map_err(|e| {
-                super::errors::os_error(format!("cannot read the transfer function {s}: {e}"), &e)
-            })?;
-            let tf = Transfer::from_json(&text).map_err(|e| invalid(format!("in {s}: {e}")))?;
-            return Ok((Some(tf), String::new()));
-        }
-        return Ok((None, s));
+        let path = match TransferSource::parse(&s).map_err(|e| value_error(&e))? {
+            TransferSource::Colormap(name) => return Ok((None, name)),
+            TransferSource::File(path) => path,
+        };
+        let text = std::fs::read(&path).map_err(|e| {
+            super::errors::os_error(format!("cannot read the transfer function {path}: {e}"), &e)
+        })?;
+        let text = String::from_utf8_lossy(&text);
+        let tf = Transfer::from_json(&text).map_err(|e| invalid(format!("in {path}: {e}")))?;
+        return Ok((Some(tf), String::new()));
     }
     let text: String = t
         .py()
@@ -217,8 +226,11 @@ pub fn render<'py>(
     // Ctrl-C stops the render between its slicing and its drawing.
     let cancel = Cancel::new();
     let token = cancel.clone();
-    let rgba = interruptible(py, &cancel, move || {
+    let (rgba, warnings) = interruptible(py, &cancel, move || {
         guard(|| {
+            // The CLI's checks: a transfer function that draws nothing is
+            // refused, one outside the data warned about.
+            let warnings = check_options(&d.grid, &opts, false).map_err(render_error)?;
             let b = d.structure(StructureChoice::Auto)?;
             let ctx = GpuContext::new(&ContextOptions {
                 adapter,
@@ -231,9 +243,13 @@ pub fn render<'py>(
             let img = r
                 .render(&d.grid, &b.structure, &opts)
                 .map_err(render_error)?;
-            Ok(img.rgba8())
+            Ok((img.rgba8(), warnings))
         })
     })?;
+    for w in warnings {
+        let msg = std::ffi::CString::new(crate::io::checks::escape_control(&w)).unwrap_or_default();
+        PyErr::warn(py, &py.get_type::<PyUserWarning>(), &msg, 1)?;
+    }
     let arr = Array3::from_shape_vec((h as usize, w as usize, 4), rgba)
         .map_err(|e| invalid(e.to_string()))?;
     Ok(arr.into_pyarray(py).into_any())

@@ -122,7 +122,7 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         true => None,
         false => Some(EventLoop::new().context("cannot start the window event loop")?),
     };
-    let options = crate::cli::device::context_options(&a.scene.adapter);
+    let options = crate::cli::device::context_options(&a.scene.adapter)?;
     let ctx = match &event_loop {
         Some(el) => GpuContext::with_display(|| Box::new(el.owned_display_handle()), &options)?,
         None => GpuContext::new(&options)?,
