@@ -314,9 +314,12 @@ fn hide(cell_data: &mut Vec<Property>, hidden: &[bool]) {
         }
     };
     let g = &mut cell_data[i];
+    // Component 0 of each tuple (an array of more is refused by the
+    // grid's checks, naming it).
+    let k = g.components.max(1);
     for (c, &h) in hidden.iter().enumerate() {
-        if h && c < g.values.len() {
-            g.values[c] = f64::from(g.values[c] as u8 | GHOST_HIDDEN_CELL);
+        if h && c * k < g.values.len() {
+            g.values[c * k] = f64::from(g.values[c * k] as u8 | GHOST_HIDDEN_CELL);
         }
     }
 }
