@@ -356,7 +356,7 @@ fn missing_init_is_named() {
         "no INIT beside {} (looked for M.INIT, M.init): no properties",
         egrid.display()
     );
-    assert_eq!(l.warnings, [want.clone()]);
+    assert_eq!(l.warnings, std::slice::from_ref(&want));
     assert!(l.grid.cell_data.is_empty());
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_stratasweep"))
         .arg("info")

@@ -185,7 +185,7 @@ fn grdecl_and_vtu_agree_on_the_raw_generator() {
     stratasweep::io::grdecl::write_grdecl(&mut text, &cp).unwrap();
     std::fs::write(d.join("R.grdecl"), text).unwrap();
     let (zoo, rep) = cp.into_grid().unwrap();
-    stratasweep::io::writers::write_vtk_xml_grid(&d.join("R.vtu"), &zoo).unwrap();
+    stratasweep::io::writers::write_vtk_xml_grid(d.join("R.vtu"), &zoo).unwrap();
     let g = stratasweep::io::load(&d.join("R.grdecl")).unwrap();
     let v = stratasweep::io::load(&d.join("R.vtu")).unwrap();
     let gv = g.cornerpoint.as_ref().unwrap()["bulk_volume"]
