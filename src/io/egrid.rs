@@ -498,6 +498,122 @@ pub fn parse_egrid(bytes: &[u8], file: &Path) -> Result<CornerPointGrid, EgridEr
     Ok(parse_egrid_notes(bytes, file)?.0)
 }
 
+/// The dimensions a GRIDHEAD array gives (a corner-point grid of at least
+/// one cell, small enough for u32 ids).
+fn gridhead_dims(data: &EclData, file: &Path) -> Result<[usize; 3], EgridError> {
+    let count_err = |found: usize| EgridError::Count {
+        file: file.into(),
+        keyword: "GRIDHEAD".into(),
+        kind: data.type_name().into(),
+        expected: 4,
+        found,
+    };
+    let EclData::Int(v) = data else {
+        return Err(count_err(data.len()));
+    };
+    if v.len() < 4 {
+        return Err(count_err(v.len()));
+    }
+    if v[0] != 1 {
+        return Err(EgridError::Unsupported {
+            file: file.into(),
+            why: format!("GRIDHEAD grid type {} (only corner-point, 1)", v[0]),
+        });
+    }
+    if v[1..4].iter().any(|&x| x <= 0)
+        || (v[1] as u128 + 1) * (v[2] as u128 + 1) * (v[3] as u128) * 8 >= u32::MAX as u128
+    {
+        return Err(EgridError::Unsupported {
+            file: file.into(),
+            why: format!("GRIDHEAD dimensions {:?}", &v[1..4]),
+        });
+    }
+    Ok([v[1] as usize, v[2] as usize, v[3] as usize])
+}
+
+/// The ACTNUM array `h`: 0/1 per cell; for a dual-porosity grid (`notes`
+/// says so) the matrix bit (1 of 1 | 2), the matrix and fracture counts
+/// recorded in `notes`.
+fn read_actnum(
+    r: &mut ArrayReader<'_>,
+    h: &Header,
+    notes: &mut EgridNotes,
+    file: &Path,
+) -> Result<Vec<u8>, EgridError> {
+    // NaN kept as 4 to be reported.
+    let dual = notes.dual_porosity.is_some();
+    let v = r.numeric(h, |x| match (x.is_finite(), dual) {
+        (false, _) => 4,
+        (true, false) => (x != 0.0) as u8,
+        (true, true) => (x as i64 & 3) as u8,
+    })?;
+    if let Some(i) = v.iter().position(|&x| x == 4) {
+        return Err(EgridError::BadData {
+            file: file.into(),
+            offset: r.pos,
+            keyword: h.keyword.clone(),
+            why: format!("value {i} is not finite"),
+        });
+    }
+    if !dual {
+        return Ok(v);
+    }
+    notes.fracture_active = v.iter().filter(|&&x| x & 2 != 0).count();
+    notes.matrix_active = v.iter().filter(|&&x| x & 1 != 0).count();
+    Ok(v.into_iter().map(|x| x & 1).collect())
+}
+
+/// The end of the file: an error when it ends inside a local grid
+/// (`in_lgr`) before any main grid; a dual-porosity grid without ACTNUM
+/// has every cell active in both halves.
+fn close_notes(
+    notes: &mut EgridNotes,
+    in_lgr: Option<usize>,
+    dims: Option<[usize; 3]>,
+    has_actnum: bool,
+    file: &Path,
+) -> Result<(), EgridError> {
+    if let (Some(l), None) = (in_lgr, dims) {
+        return Err(EgridError::Missing {
+            file: file.into(),
+            keyword: format!(
+                "GRIDHEAD of the main grid (the file ends inside local grid refinement {}, which has no ENDLGR)",
+                notes.local_grids[l]
+            ),
+        });
+    }
+    if notes.dual_porosity.is_some() && !has_actnum {
+        let n = dims.map_or(0, |[nx, ny, nz]| nx * ny * nz);
+        (notes.matrix_active, notes.fracture_active) = (n, n);
+    }
+    Ok(())
+}
+
+/// Records an `LGR` record (or an `LGRNAME` inside a section) whose data
+/// is `data`: outside a section (`current` = `None`) a new local grid named
+/// by its first string (`#n` when it has none); inside one, a name for a
+/// section that had none. Returns the section's index.
+fn name_lgr(names: &mut Vec<String>, current: Option<usize>, data: &EclData) -> usize {
+    let name = match data {
+        EclData::Char(v) => v.first().cloned().unwrap_or_default(),
+        _ => String::new(),
+    };
+    let unnamed = |n: usize| format!("#{}", n + 1);
+    match current {
+        Some(l) => {
+            if names[l] == unnamed(l) && !name.is_empty() {
+                names[l] = name;
+            }
+            l
+        }
+        None => {
+            let l = names.len();
+            names.push(if name.is_empty() { unnamed(l) } else { name });
+            l
+        }
+    }
+}
+
 /// [`parse_egrid`], with what the file holds beyond the main
 /// single-porosity grid: local grid refinements (their sections are
 /// skipped wherever they stand, so one placed first is never taken for the
@@ -528,26 +644,8 @@ pub fn parse_egrid_notes(
     };
     while let Some(h) = r.header()? {
         if h.keyword == "LGR" || (h.keyword == "LGRNAME" && in_lgr.is_some()) {
-            // A section's name: the first string of LGR (or of an LGRNAME
-            // inside the section, when LGR gave none).
-            let name = match r.data(&h)? {
-                EclData::Char(v) => v.first().cloned().unwrap_or_default(),
-                _ => String::new(),
-            };
-            let unnamed = |n: usize| format!("#{}", n + 1);
-            match in_lgr {
-                Some(l) if notes.local_grids[l] == unnamed(l) && !name.is_empty() => {
-                    notes.local_grids[l] = name;
-                }
-                Some(_) => {}
-                None => {
-                    let l = notes.local_grids.len();
-                    notes
-                        .local_grids
-                        .push(if name.is_empty() { unnamed(l) } else { name });
-                    in_lgr = Some(l);
-                }
-            }
+            let data = r.data(&h)?;
+            in_lgr = Some(name_lgr(&mut notes.local_grids, in_lgr, &data));
             continue;
         }
         if in_lgr.is_some() || main_done {
@@ -582,24 +680,7 @@ pub fn parse_egrid_notes(
                 why: format!("value {i} is not finite"),
             };
             if h.keyword == "ACTNUM" {
-                // 0/1 per cell (dual porosity: the matrix bit, 1 of 1 | 2),
-                // NaN kept as 4 to be reported.
-                let dual = notes.dual_porosity.is_some();
-                let v = r.numeric(&h, |x| match (x.is_finite(), dual) {
-                    (false, _) => 4,
-                    (true, false) => (x != 0.0) as u8,
-                    (true, true) => (x as i64 & 3) as u8,
-                })?;
-                if let Some(i) = v.iter().position(|&x| x == 4) {
-                    return Err(non_finite(i, r.pos));
-                }
-                actnum = Some(if dual {
-                    notes.fracture_active = v.iter().filter(|&&x| x & 2 != 0).count();
-                    notes.matrix_active = v.iter().filter(|&&x| x & 1 != 0).count();
-                    v.into_iter().map(|x| x & 1).collect()
-                } else {
-                    v
-                });
+                actnum = Some(read_actnum(&mut r, &h, &mut notes, file)?);
                 continue;
             }
             let v = r.numeric(&h, |x| x)?;
@@ -625,30 +706,7 @@ pub fn parse_egrid_notes(
                     notes.dual_porosity = Some(v[5]);
                 }
             }
-            "GRIDHEAD" => {
-                let EclData::Int(v) = &a.data else {
-                    return Err(count_err("GRIDHEAD", a.data.type_name(), a.data.len(), 4));
-                };
-                if v.len() < 4 {
-                    return Err(count_err("GRIDHEAD", a.data.type_name(), v.len(), 4));
-                }
-                if v[0] != 1 {
-                    return Err(EgridError::Unsupported {
-                        file: file.into(),
-                        why: format!("GRIDHEAD grid type {} (only corner-point, 1)", v[0]),
-                    });
-                }
-                if v[1..4].iter().any(|&x| x <= 0)
-                    || (v[1] as u128 + 1) * (v[2] as u128 + 1) * (v[3] as u128) * 8
-                        >= u32::MAX as u128
-                {
-                    return Err(EgridError::Unsupported {
-                        file: file.into(),
-                        why: format!("GRIDHEAD dimensions {:?}", &v[1..4]),
-                    });
-                }
-                dims = Some([v[1] as usize, v[2] as usize, v[3] as usize]);
-            }
+            "GRIDHEAD" => dims = Some(gridhead_dims(&a.data, file)?),
             "MAPUNITS" | "GRIDUNIT" => {
                 if let EclData::Char(s) = &a.data {
                     let s = s.first().cloned();
@@ -663,20 +721,7 @@ pub fn parse_egrid_notes(
             _ => {}
         }
     }
-    if let (Some(l), None) = (in_lgr, dims) {
-        return Err(EgridError::Missing {
-            file: file.into(),
-            keyword: format!(
-                "GRIDHEAD of the main grid (the file ends inside local grid refinement {}, which has no ENDLGR)",
-                notes.local_grids[l]
-            ),
-        });
-    }
-    if notes.dual_porosity.is_some() && actnum.is_none() {
-        // Every cell active in both halves.
-        let n = dims.map_or(0, |[nx, ny, nz]| nx * ny * nz);
-        (notes.matrix_active, notes.fracture_active) = (n, n);
-    }
+    close_notes(&mut notes, in_lgr, dims, actnum.is_some(), file)?;
     let missing = |k: &str| EgridError::Missing {
         file: file.into(),
         keyword: k.into(),
