@@ -257,6 +257,16 @@ pub enum GridError {
         /// What is wrong.
         why: String,
     },
+    /// A `vtkGhostType` cell array with more than one component: VTK's
+    /// ghost flags are one value per cell, and reading a multi-component
+    /// array flat would hide the wrong cells.
+    #[error(
+        "cell array 'vtkGhostType' has {components} components; VTK's ghost array has one value per cell (bit 32 = hidden), so the hidden cells cannot be told"
+    )]
+    GhostComponents {
+        /// Its component count.
+        components: usize,
+    },
     /// Too many points or cells for u32 ids.
     #[error("grid too large: {what} = {count} exceeds u32 ids")]
     TooLarge {
@@ -343,11 +353,14 @@ impl Grid {
     }
 
     /// Per-cell hidden flags from VTK's `vtkGhostType` (bit 32), if present.
+    /// The array has one component per cell ([`Grid::validate`] refuses
+    /// others); should an unvalidated grid hold more, component 0 is read.
     pub fn hidden_cells(&self) -> Option<Vec<bool>> {
         let g = self.cell_property("vtkGhostType")?;
+        let k = g.components.max(1);
         Some(
             (0..g.len())
-                .map(|i| (g.values[i] as u64 as u8) & GHOST_HIDDEN_CELL != 0)
+                .map(|i| (g.values[i * k] as u64 as u8) & GHOST_HIDDEN_CELL != 0)
                 .collect(),
         )
     }
@@ -409,6 +422,11 @@ impl Grid {
                         name: p.name.clone(),
                         expected: n,
                         found: p.len(),
+                    });
+                }
+                if kind == "cell" && p.name == "vtkGhostType" && p.components > 1 {
+                    return Err(GridError::GhostComponents {
+                        components: p.components,
                     });
                 }
                 if let Some(i) = p.values.iter().position(|v| !v.is_finite()) {

@@ -226,7 +226,7 @@ pub struct InfoContext {
 pub fn info_json(grid: &Grid, s: &Structure, c: &InfoContext) -> Value {
     let bulk_volume = match &c.cornerpoint {
         Some(i) => i["bulk_volume"].as_f64().unwrap_or(0.0),
-        None => live_volume(s),
+        None => crate::cornerpoint::bulk_volume(grid),
     };
     let mut types = serde_json::Map::new();
     match &grid.topology {

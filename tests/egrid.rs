@@ -195,3 +195,183 @@ fn fuzz_regressions() {
     write_array(&mut b, "GRIDHEAD", &EclData::Int(vec![1, -1, 2, 2])).unwrap();
     assert!(parse_egrid(&b, Path::new("r.EGRID")).is_err());
 }
+
+/// `STRATASWEEP_DATA`, or `None` (the test says it skips).
+fn data_dir(test: &str) -> Option<std::path::PathBuf> {
+    let d = std::env::var_os("STRATASWEEP_DATA").map(std::path::PathBuf::from);
+    if d.is_none() {
+        eprintln!("\n*** SKIP {test}: STRATASWEEP_DATA is not set ***\n");
+    }
+    d
+}
+
+/// A scratch directory for one test.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("stratasweep-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// TEST_DP is a 5×3×1 dual-porosity model (FILEHEAD[5] = 1, ACTNUM 0–3,
+/// INIT arrays of matrix then fracture values: PORV 2·15, PORO 11 + 13);
+/// TEST_SP is the same model in single porosity, its matrix. Read as its
+/// matrix, TEST_DP gives TEST_SP's cells and PORO/PORV exactly, with a
+/// warning naming FILEHEAD[5] and the fracture cells skipped.
+#[test]
+fn dual_porosity_egrid_is_read_as_its_matrix_with_a_warning() {
+    let Some(data) = data_dir("dual_porosity_egrid_is_read_as_its_matrix_with_a_warning") else {
+        return;
+    };
+    let dp = stratasweep::io::load(&data.join("restart/TEST_DP.EGRID")).unwrap();
+    let sp = stratasweep::io::load(&data.join("restart/TEST_SP.EGRID")).unwrap();
+    let w = dp.warnings.join("\n");
+    assert!(
+        w.contains("FILEHEAD[5] = 1")
+            && w.contains("dual porosity")
+            && w.contains("only the matrix is shown")
+            && w.contains("11 cells with an active matrix")
+            && w.contains("fracture (13 active cells)"),
+        "{w}"
+    );
+    assert!(
+        !sp.warnings.iter().any(|w| w.contains("porosity")),
+        "{:?}",
+        sp.warnings
+    );
+    // ACTNUM 3 (both) or 1 (matrix) cells: 11 of the 15; the two
+    // fracture-only cells (ACTNUM 2) are not shown.
+    assert_eq!(dp.grid.cell_count(), 11);
+    assert_eq!(dp.grid.points, sp.grid.points);
+    assert_eq!(dp.grid.topology, sp.grid.topology);
+    assert_eq!(
+        dp.ijk.as_ref().unwrap().source_cell,
+        sp.ijk.as_ref().unwrap().source_cell
+    );
+    for name in ["PORO", "PORV", "PERMX"] {
+        let a = dp.grid.cell_property(name).unwrap();
+        let b = sp.grid.cell_property(name).unwrap();
+        assert_eq!(a.values, b.values, "{name}");
+    }
+    // PORO runs 0.10, 0.11, … by IJK index on the active cells.
+    let poro = &dp.grid.cell_property("PORO").unwrap().values;
+    for (o, &c) in dp.ijk.as_ref().unwrap().source_cell.iter().enumerate() {
+        assert_eq!(poro[o] as f32, (0.1 + 0.01 * c as f64) as f32, "cell {c}");
+    }
+    // No INIT array was skipped as "wrong length": every per-cell array of
+    // TEST_DP has its matrix half read.
+    assert!(
+        !w.contains("has 24 values") && !w.contains("has 30 values"),
+        "{w}"
+    );
+}
+
+/// EGRID arrays of a small local grid (`LGR` … `ENDLGR`), as Eclipse
+/// writes one, for the grid `g` named `name`.
+fn lgr_section(name: &str, g: &stratasweep::cornerpoint::CornerPointGrid) -> Vec<u8> {
+    let mut b = Vec::new();
+    let [nx, ny, nz] = g.dims.map(|d| d as i32);
+    let reals = |v: &[f64]| EclData::Real(v.iter().map(|&x| x as f32).collect());
+    write_array(&mut b, "LGR", &EclData::Char(vec![name.into()])).unwrap();
+    write_array(&mut b, "LGRPARNT", &EclData::Char(vec!["".into()])).unwrap();
+    write_array(&mut b, "GRIDHEAD", &EclData::Int(vec![1, nx, ny, nz, 0, 0])).unwrap();
+    write_array(&mut b, "COORD", &reals(&g.coord)).unwrap();
+    write_array(&mut b, "ZCORN", &reals(&g.zcorn)).unwrap();
+    write_array(&mut b, "ACTNUM", &EclData::Int(vec![1; g.cell_count()])).unwrap();
+    write_array(&mut b, "HOSTNUM", &EclData::Int(vec![1; g.cell_count()])).unwrap();
+    write_array(&mut b, "ENDGRID", &EclData::Int(vec![])).unwrap();
+    write_array(&mut b, "ENDLGR", &EclData::Int(vec![1])).unwrap();
+    b
+}
+
+/// Local grid refinements, one before the main grid and one after it (with
+/// an NNC section between): the main grid is the one outside the LGR
+/// sections (same cells and volume as the EGRID without LGRs), and the load
+/// warns naming both. An LGR section that never ends is an error naming it.
+#[test]
+fn local_grids_are_skipped_and_named_never_taken_as_the_main_grid() {
+    let main = stratasweep::generate::faulted([6, 5, 3], 1, 4);
+    let lgr = stratasweep::generate::faulted([2, 2, 2], 0, 9);
+    let mut plain = Vec::new();
+    stratasweep::io::egrid_write::write_egrid(&mut plain, &main).unwrap();
+    let mut b = lgr_section("LGR1", &lgr);
+    b.extend_from_slice(&plain);
+    write_array(&mut b, "NNCHEAD", &EclData::Int(vec![1, 0, 0, 0])).unwrap();
+    write_array(&mut b, "NNC1", &EclData::Int(vec![1])).unwrap();
+    write_array(&mut b, "NNC2", &EclData::Int(vec![2])).unwrap();
+    b.extend_from_slice(&lgr_section("LGR2", &lgr));
+    let (cp, notes) = stratasweep::io::egrid::parse_egrid_notes(&b, Path::new("L.EGRID")).unwrap();
+    assert_eq!(cp.dims, main.dims);
+    assert_eq!(cp, parse_egrid(&plain, Path::new("P.EGRID")).unwrap());
+    assert_eq!(notes.local_grids, ["LGR1", "LGR2"]);
+    assert_eq!(notes.dual_porosity, None);
+    let d = scratch("lgr");
+    std::fs::write(d.join("L.EGRID"), &b).unwrap();
+    std::fs::write(d.join("P.EGRID"), &plain).unwrap();
+    let l = stratasweep::io::load(&d.join("L.EGRID")).unwrap();
+    let p = stratasweep::io::load(&d.join("P.EGRID")).unwrap();
+    assert_eq!(l.grid, p.grid);
+    assert_eq!(
+        l.cornerpoint.as_ref().unwrap()["bulk_volume"],
+        p.cornerpoint.as_ref().unwrap()["bulk_volume"]
+    );
+    let want = format!(
+        "{}: 2 local grid refinements (LGR1, LGR2) skipped: only the main grid is shown",
+        d.join("L.EGRID").display()
+    );
+    assert!(l.warnings.contains(&want), "{:?}", l.warnings);
+    assert!(!p.warnings.iter().any(|w| w.contains("local grid")));
+    // The warnings travel in the report `info --json` and Python print.
+    let cpj = l.cornerpoint.as_ref().unwrap();
+    assert!(
+        cpj["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w == &want)
+    );
+    // An LGR first that never ends: no main grid, said so.
+    let mut open = lgr_section("LONELY", &lgr);
+    open.truncate(open.len() - 36); // drop ENDLGR (header 24 + data 12 bytes)
+    let e = parse_egrid(&open, Path::new("O.EGRID")).map(|g| g.dims);
+    assert!(
+        matches!(&e, Err(err) if err.to_string().contains("LONELY")),
+        "{e:?}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// An EGRID without its INIT: the load warns naming the INIT files looked
+/// for, and `info` (a subprocess) prints it; with the INIT beside it, no
+/// such warning.
+#[test]
+fn missing_init_is_named() {
+    let g = stratasweep::generate::faulted([4, 3, 2], 1, 2);
+    let d = scratch("noinit");
+    let egrid = d.join("M.EGRID");
+    let mut b = Vec::new();
+    stratasweep::io::egrid_write::write_egrid(&mut b, &g).unwrap();
+    std::fs::write(&egrid, &b).unwrap();
+    let l = stratasweep::io::load(&egrid).unwrap();
+    let want = format!(
+        "no INIT beside {} (looked for M.INIT, M.init): no properties",
+        egrid.display()
+    );
+    assert_eq!(l.warnings, std::slice::from_ref(&want));
+    assert!(l.grid.cell_data.is_empty());
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_stratasweep"))
+        .arg("info")
+        .arg(&egrid)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains(&format!("warning: {want}")), "{err}");
+    // With its INIT: properties, no warning.
+    let mut init = Vec::new();
+    stratasweep::io::egrid_write::write_init(&mut init, &g).unwrap();
+    std::fs::write(d.join("M.INIT"), &init).unwrap();
+    let l = stratasweep::io::load(&egrid).unwrap();
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    assert!(l.grid.cell_property("PORO").is_some());
+    let _ = std::fs::remove_dir_all(&d);
+}

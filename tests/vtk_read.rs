@@ -821,3 +821,56 @@ fn real_data_dir_is_fully_covered() {
         "every VTK file in the data directory has expectations"
     );
 }
+
+/// A `vtkGhostType` cell array of two components (tuples (0, 32) and
+/// (0, 0)): read flat, its values 0, 32 would hide cell 1, read by
+/// component 0 no cell. VTK's ghost array has one component, so the readers
+/// (legacy FIELD, XML DataArray) and the array path refuse it, naming the
+/// array and its component count.
+#[test]
+fn multi_component_ghost_array_is_refused() {
+    let xml = std::fs::read_to_string(fixture("a_ascii.vtu")).unwrap();
+    let two = xml.replace(
+        "<DataArray type=\"UInt8\" Name=\"vtkGhostType\" format=\"ascii\">\n  0 32",
+        "<DataArray type=\"UInt8\" Name=\"vtkGhostType\" NumberOfComponents=\"2\" format=\"ascii\">\n  0 32 0 0",
+    );
+    assert_ne!(two, xml, "fixture layout changed");
+    let e = xml_err(&two);
+    assert!(
+        e.contains("vtkGhostType") && e.contains("2 components"),
+        "{e}"
+    );
+    let legacy = std::fs::read_to_string(fixture("a_legacy_ascii_42.vtk")).unwrap();
+    let two = legacy.replace(
+        "vtkGhostType 1 2 unsigned_char\n0 32",
+        "vtkGhostType 2 2 unsigned_char\n0 32 0 0",
+    );
+    assert_ne!(two, legacy, "fixture layout changed");
+    let e = legacy_err(&two);
+    assert!(
+        e.contains("vtkGhostType") && e.contains("2 components"),
+        "{e}"
+    );
+    // The one-component array still hides cell 1 only.
+    let g = parse_vtk_xml(xml.as_bytes(), "a.vtu").unwrap();
+    assert_eq!(g.hidden_cells().unwrap(), vec![false, true]);
+    // In-memory grids (Python's from_arrays) go through the same check.
+    let mut g = g;
+    let ghost = g
+        .cell_data
+        .iter_mut()
+        .find(|p| p.name == "vtkGhostType")
+        .unwrap();
+    *ghost = Property {
+        name: "vtkGhostType".into(),
+        components: 2,
+        values: vec![0.0, 32.0, 0.0, 0.0],
+    };
+    let e = g.validate().unwrap_err().to_string();
+    assert!(
+        e.contains("vtkGhostType") && e.contains("2 components"),
+        "{e}"
+    );
+    // Read without validation, component 0 decides: no cell hidden.
+    assert_eq!(g.hidden_cells().unwrap(), vec![false, false]);
+}

@@ -31,8 +31,13 @@
 //!   are dropped and counted; cells oriented against the grid are kept and
 //!   counted as inverted.
 
+mod collapse;
 mod convert;
 mod shapes;
+mod volume;
+
+pub use collapse::{CollapseCounts, collapse_hexahedra};
+pub use volume::{bulk_volume, cell_volume};
 
 use rayon::prelude::*;
 use thiserror::Error;

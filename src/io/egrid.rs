@@ -6,9 +6,14 @@
 //! record (8-char keyword, i32 count, 4-char type: INTE, REAL, DOUB, LOGI,
 //! CHAR, C0nn, MESS) followed by data records (blocks of at most 1000
 //! numbers or 105 strings; the reader does not rely on the block size).
-//! Only the main grid is read (up to the first ENDGRID); INIT properties
-//! stored for the active cells only are expanded to all cells (0 for
-//! inactive ones, which the corner-point conversion excludes anyway).
+//! Only the main grid is read: local grid refinements (`LGR` … `ENDLGR`
+//! sections, before or after it) are skipped and named, never taken for
+//! the main grid. INIT properties stored for the active cells only are
+//! expanded to all cells (0 for inactive ones, which the corner-point
+//! conversion excludes anyway). A dual-porosity file (`FILEHEAD[5]` ≠ 0)
+//! is read as its matrix: ACTNUM bit 1 says which cells are active, and
+//! INIT arrays hold the matrix values first, then the fracture values, of
+//! which the matrix half is kept (see [`EgridNotes`]).
 
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -356,6 +361,12 @@ impl<'a> ArrayReader<'a> {
         })
     }
 
+    /// Steps over the data records of the array `h` (checked as
+    /// [`ArrayReader::data`] checks them, nothing decoded).
+    fn skip(&mut self, h: &Header) -> Result<(), EgridError> {
+        self.decode(h, |_| ()).map(|_| ())
+    }
+
     /// The data of the numeric (INTE, REAL, DOUB) array `h`, each value
     /// widened to f64 and mapped by `f`, without an intermediate array.
     fn numeric<T>(&mut self, h: &Header, f: impl Fn(f64) -> T) -> Result<Vec<T>, EgridError> {
@@ -466,13 +477,164 @@ pub struct EgridFile {
     pub grid: CornerPointGrid,
     /// The INIT file read, if any.
     pub init: Option<PathBuf>,
+    /// When no INIT file was found: the paths looked for, in order.
+    pub init_looked_for: Vec<PathBuf>,
     /// INIT arrays not added as properties, with the reason.
     pub skipped_init: Vec<SkippedArray>,
+    /// What the EGRID holds beyond the main single-porosity grid.
+    pub notes: EgridNotes,
+}
+
+/// What an EGRID holds that the reader does not show: a dual-porosity
+/// model's fracture half, local grid refinements.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EgridNotes {
+    /// `FILEHEAD[5]` when it is not 0 (1 dual porosity, 2 dual
+    /// permeability): only the matrix is read.
+    pub dual_porosity: Option<i32>,
+    /// Dual porosity: cells whose fracture is active (ACTNUM bit 2), not shown.
+    pub fracture_active: usize,
+    /// Dual porosity: cells whose matrix is active (ACTNUM bit 1), shown.
+    pub matrix_active: usize,
+    /// Names of the local grid refinements skipped, in file order.
+    pub local_grids: Vec<String>,
 }
 
 /// Parses EGRID bytes (main grid only) into a corner-point grid.
 pub fn parse_egrid(bytes: &[u8], file: &Path) -> Result<CornerPointGrid, EgridError> {
+    Ok(parse_egrid_notes(bytes, file)?.0)
+}
+
+/// The dimensions a GRIDHEAD array gives (a corner-point grid of at least
+/// one cell, small enough for u32 ids).
+fn gridhead_dims(data: &EclData, file: &Path) -> Result<[usize; 3], EgridError> {
+    let count_err = |found: usize| EgridError::Count {
+        file: file.into(),
+        keyword: "GRIDHEAD".into(),
+        kind: data.type_name().into(),
+        expected: 4,
+        found,
+    };
+    let EclData::Int(v) = data else {
+        return Err(count_err(data.len()));
+    };
+    if v.len() < 4 {
+        return Err(count_err(v.len()));
+    }
+    if v[0] != 1 {
+        return Err(EgridError::Unsupported {
+            file: file.into(),
+            why: format!("GRIDHEAD grid type {} (only corner-point, 1)", v[0]),
+        });
+    }
+    if v[1..4].iter().any(|&x| x <= 0)
+        || (v[1] as u128 + 1) * (v[2] as u128 + 1) * (v[3] as u128) * 8 >= u32::MAX as u128
+    {
+        return Err(EgridError::Unsupported {
+            file: file.into(),
+            why: format!("GRIDHEAD dimensions {:?}", &v[1..4]),
+        });
+    }
+    Ok([v[1] as usize, v[2] as usize, v[3] as usize])
+}
+
+/// The ACTNUM array `h`: 0/1 per cell; for a dual-porosity grid (`notes`
+/// says so) the matrix bit (1 of 1 | 2), the matrix and fracture counts
+/// recorded in `notes`.
+fn read_actnum(
+    r: &mut ArrayReader<'_>,
+    h: &Header,
+    notes: &mut EgridNotes,
+    file: &Path,
+) -> Result<Vec<u8>, EgridError> {
+    // NaN kept as 4 to be reported.
+    let dual = notes.dual_porosity.is_some();
+    let v = r.numeric(h, |x| match (x.is_finite(), dual) {
+        (false, _) => 4,
+        (true, false) => (x != 0.0) as u8,
+        (true, true) => (x as i64 & 3) as u8,
+    })?;
+    if let Some(i) = v.iter().position(|&x| x == 4) {
+        return Err(EgridError::BadData {
+            file: file.into(),
+            offset: r.pos,
+            keyword: h.keyword.clone(),
+            why: format!("value {i} is not finite"),
+        });
+    }
+    if !dual {
+        return Ok(v);
+    }
+    notes.fracture_active = v.iter().filter(|&&x| x & 2 != 0).count();
+    notes.matrix_active = v.iter().filter(|&&x| x & 1 != 0).count();
+    Ok(v.into_iter().map(|x| x & 1).collect())
+}
+
+/// The end of the file: an error when it ends inside a local grid
+/// (`in_lgr`) before any main grid; a dual-porosity grid without ACTNUM
+/// has every cell active in both halves.
+fn close_notes(
+    notes: &mut EgridNotes,
+    in_lgr: Option<usize>,
+    dims: Option<[usize; 3]>,
+    has_actnum: bool,
+    file: &Path,
+) -> Result<(), EgridError> {
+    if let (Some(l), None) = (in_lgr, dims) {
+        return Err(EgridError::Missing {
+            file: file.into(),
+            keyword: format!(
+                "GRIDHEAD of the main grid (the file ends inside local grid refinement {}, which has no ENDLGR)",
+                notes.local_grids[l]
+            ),
+        });
+    }
+    if notes.dual_porosity.is_some() && !has_actnum {
+        let n = dims.map_or(0, |[nx, ny, nz]| nx * ny * nz);
+        (notes.matrix_active, notes.fracture_active) = (n, n);
+    }
+    Ok(())
+}
+
+/// Records an `LGR` record (or an `LGRNAME` inside a section) whose data
+/// is `data`: outside a section (`current` = `None`) a new local grid named
+/// by its first string (`#n` when it has none); inside one, a name for a
+/// section that had none. Returns the section's index.
+fn name_lgr(names: &mut Vec<String>, current: Option<usize>, data: &EclData) -> usize {
+    let name = match data {
+        EclData::Char(v) => v.first().cloned().unwrap_or_default(),
+        _ => String::new(),
+    };
+    let unnamed = |n: usize| format!("#{}", n + 1);
+    match current {
+        Some(l) => {
+            if names[l] == unnamed(l) && !name.is_empty() {
+                names[l] = name;
+            }
+            l
+        }
+        None => {
+            let l = names.len();
+            names.push(if name.is_empty() { unnamed(l) } else { name });
+            l
+        }
+    }
+}
+
+/// [`parse_egrid`], with what the file holds beyond the main
+/// single-porosity grid: local grid refinements (their sections are
+/// skipped wherever they stand, so one placed first is never taken for the
+/// main grid) and the dual-porosity flag (`FILEHEAD[5]`; the grid is then
+/// its matrix: ACTNUM bit 1).
+pub fn parse_egrid_notes(
+    bytes: &[u8],
+    file: &Path,
+) -> Result<(CornerPointGrid, EgridNotes), EgridError> {
     let mut r = ArrayReader::new(bytes, file);
+    let mut notes = EgridNotes::default();
+    // Inside an LGR section (from `LGR` to `ENDLGR`): its name.
+    let mut in_lgr: Option<usize> = None;
+    let mut main_done = false;
     let mut dims = None;
     let mut coord = None;
     let mut zcorn = None;
@@ -488,6 +650,18 @@ pub fn parse_egrid(bytes: &[u8], file: &Path) -> Result<CornerPointGrid, EgridEr
         found,
     };
     while let Some(h) = r.header()? {
+        if h.keyword == "LGR" || (h.keyword == "LGRNAME" && in_lgr.is_some()) {
+            let data = r.data(&h)?;
+            in_lgr = Some(name_lgr(&mut notes.local_grids, in_lgr, &data));
+            continue;
+        }
+        if in_lgr.is_some() || main_done {
+            if h.keyword == "ENDLGR" {
+                in_lgr = None;
+            }
+            r.skip(&h)?;
+            continue;
+        }
         if matches!(h.keyword.as_str(), "COORD" | "ZCORN" | "ACTNUM" | "MAPAXES") {
             // Numeric arrays decoded straight to their final form.
             let Some([nx, ny, nz]) = dims.or((h.keyword == "MAPAXES").then_some([0, 0, 0])) else {
@@ -513,12 +687,7 @@ pub fn parse_egrid(bytes: &[u8], file: &Path) -> Result<CornerPointGrid, EgridEr
                 why: format!("value {i} is not finite"),
             };
             if h.keyword == "ACTNUM" {
-                // 0/1 per cell, NaN kept as 2 to be reported.
-                let v = r.numeric(&h, |x| if x.is_finite() { (x != 0.0) as u8 } else { 2 })?;
-                if let Some(i) = v.iter().position(|&x| x == 2) {
-                    return Err(non_finite(i, r.pos));
-                }
-                actnum = Some(v);
+                actnum = Some(read_actnum(&mut r, &h, &mut notes, file)?);
                 continue;
             }
             let v = r.numeric(&h, |x| x)?;
@@ -537,30 +706,14 @@ pub fn parse_egrid(bytes: &[u8], file: &Path) -> Result<CornerPointGrid, EgridEr
             keyword: h.keyword,
         };
         match a.keyword.as_str() {
-            "GRIDHEAD" => {
-                let EclData::Int(v) = &a.data else {
-                    return Err(count_err("GRIDHEAD", a.data.type_name(), a.data.len(), 4));
-                };
-                if v.len() < 4 {
-                    return Err(count_err("GRIDHEAD", a.data.type_name(), v.len(), 4));
-                }
-                if v[0] != 1 {
-                    return Err(EgridError::Unsupported {
-                        file: file.into(),
-                        why: format!("GRIDHEAD grid type {} (only corner-point, 1)", v[0]),
-                    });
-                }
-                if v[1..4].iter().any(|&x| x <= 0)
-                    || (v[1] as u128 + 1) * (v[2] as u128 + 1) * (v[3] as u128) * 8
-                        >= u32::MAX as u128
+            "FILEHEAD" => {
+                if let EclData::Int(v) = &a.data
+                    && v.get(5).is_some_and(|&d| d != 0)
                 {
-                    return Err(EgridError::Unsupported {
-                        file: file.into(),
-                        why: format!("GRIDHEAD dimensions {:?}", &v[1..4]),
-                    });
+                    notes.dual_porosity = Some(v[5]);
                 }
-                dims = Some([v[1] as usize, v[2] as usize, v[3] as usize]);
             }
+            "GRIDHEAD" => dims = Some(gridhead_dims(&a.data, file)?),
             "MAPUNITS" | "GRIDUNIT" => {
                 if let EclData::Char(s) = &a.data {
                     let s = s.first().cloned();
@@ -571,15 +724,16 @@ pub fn parse_egrid(bytes: &[u8], file: &Path) -> Result<CornerPointGrid, EgridEr
                     }
                 }
             }
-            "ENDGRID" => break,
+            "ENDGRID" => main_done = true,
             _ => {}
         }
     }
+    close_notes(&mut notes, in_lgr, dims, actnum.is_some(), file)?;
     let missing = |k: &str| EgridError::Missing {
         file: file.into(),
         keyword: k.into(),
     };
-    Ok(CornerPointGrid {
+    let grid = CornerPointGrid {
         dims: dims.ok_or_else(|| missing("GRIDHEAD"))?,
         coord: coord.ok_or_else(|| missing("COORD"))?,
         zcorn: zcorn.ok_or_else(|| missing("ZCORN"))?,
@@ -588,7 +742,8 @@ pub fn parse_egrid(bytes: &[u8], file: &Path) -> Result<CornerPointGrid, EgridEr
         mapunits,
         gridunit,
         properties: Vec::new(),
-    })
+    };
+    Ok((grid, notes))
 }
 
 /// Adds the per-cell arrays of INIT bytes to `grid`: arrays of `nx·ny·nz`
@@ -619,6 +774,50 @@ pub fn add_init_properties_report(
     bytes: &[u8],
     file: &Path,
 ) -> Result<(Vec<String>, Vec<SkippedArray>), EgridError> {
+    add_init_properties_with(grid, bytes, file, &EgridNotes::default())
+}
+
+/// The per-cell values of an INIT array `v` of `grid` (`active`: its active
+/// cells), or `None` when its length fits no layout. Single porosity: one
+/// value per cell, or per active cell. Dual porosity (`notes`): the matrix
+/// half of one value per cell for each half (`2·n`), or of one per active
+/// matrix cell then one per active fracture cell.
+fn per_cell(v: Vec<f64>, n: usize, active: &[usize], notes: &EgridNotes) -> Option<Vec<f64>> {
+    let expand = |v: &[f64]| {
+        let mut full = vec![0.0; n];
+        for (&c, &x) in active.iter().zip(v) {
+            full[c] = x;
+        }
+        full
+    };
+    if notes.dual_porosity.is_some() {
+        return if v.len() == 2 * n {
+            let mut v = v;
+            v.truncate(n);
+            Some(v)
+        } else if v.len() == notes.matrix_active + notes.fracture_active && !active.is_empty() {
+            Some(expand(&v[..active.len()]))
+        } else {
+            None
+        };
+    }
+    if v.len() == n {
+        Some(v)
+    } else if v.len() == active.len() && !active.is_empty() {
+        Some(expand(&v))
+    } else {
+        None
+    }
+}
+
+/// [`add_init_properties_report`] for the EGRID whose [`EgridNotes`] are
+/// `notes`: for a dual-porosity grid, every array's matrix half.
+pub fn add_init_properties_with(
+    grid: &mut CornerPointGrid,
+    bytes: &[u8],
+    file: &Path,
+    notes: &EgridNotes,
+) -> Result<(Vec<String>, Vec<SkippedArray>), EgridError> {
     let n = grid.cell_count();
     let mut skipped = Vec::new();
     let active: Vec<usize> = (0..n).filter(|&c| grid.is_active(c)).collect();
@@ -629,24 +828,25 @@ pub fn add_init_properties_report(
         if matches!(a.data, EclData::Logical(_)) || a.keyword.ends_with("HEAD") {
             continue;
         }
-        let full = if v.len() == n {
-            v
-        } else if v.len() == active.len() && !active.is_empty() {
-            let mut full = vec![0.0; n];
-            for (&c, x) in active.iter().zip(v) {
-                full[c] = x;
-            }
-            full
-        } else {
+        let len = v.len();
+        let Some(full) = per_cell(v, n, &active, notes) else {
             // Only arrays that look per-cell (at least half the active
             // count, at most twice the cells) are worth a word: TAB,
             // TABDIMS and the like are not properties.
-            if a.keyword != "TAB" && v.len() * 2 >= active.len().max(2) && v.len() <= 2 * n {
+            if a.keyword != "TAB" && len * 2 >= active.len().max(2) && len <= 2 * n {
+                let layout = if notes.dual_porosity.is_some() {
+                    format!(
+                        "; dual porosity expects {} (matrix and fracture per cell) or {} (active matrix, then active fracture cells)",
+                        2 * n,
+                        notes.matrix_active + notes.fracture_active
+                    )
+                } else {
+                    String::new()
+                };
                 skipped.push(SkippedArray {
                     name: a.keyword.clone(),
                     reason: format!(
-                        "has {} values; the grid has {n} cells, {} of them active",
-                        v.len(),
+                        "has {len} values; the grid has {n} cells, {} of them active{layout}",
                         active.len()
                     ),
                 });
@@ -681,22 +881,27 @@ pub fn read_egrid(path: impl AsRef<Path>) -> Result<EgridFile, EgridError> {
             })
     };
     let bytes = read(path)?;
-    let mut grid = parse_egrid(&bytes, path)?;
+    let (mut grid, notes) = parse_egrid_notes(&bytes, path)?;
     drop(bytes);
     let mut init = None;
     let mut skipped_init = Vec::new();
-    for ext in ["INIT", "init"] {
-        let p = path.with_extension(ext);
+    let looked: Vec<PathBuf> = ["INIT", "init"]
+        .iter()
+        .map(|e| path.with_extension(e))
+        .collect();
+    for p in &looked {
         if p.is_file() {
-            let b = read(&p)?;
-            skipped_init = add_init_properties_report(&mut grid, &b, &p)?.1;
-            init = Some(p);
+            let b = read(p)?;
+            skipped_init = add_init_properties_with(&mut grid, &b, p, &notes)?.1;
+            init = Some(p.clone());
             break;
         }
     }
     Ok(EgridFile {
         grid,
+        init_looked_for: if init.is_none() { looked } else { Vec::new() },
         init,
         skipped_init,
+        notes,
     })
 }

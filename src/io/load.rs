@@ -193,7 +193,11 @@ pub fn load(path: &Path) -> Result<Loaded, LoadError> {
         file: path.into(),
         why,
     })?;
-    let warnings = load_warnings(cornerpoint.as_ref());
+    let warnings = load_warnings(path, cornerpoint.as_ref());
+    let mut cornerpoint = cornerpoint;
+    if let Some(c) = cornerpoint.as_mut() {
+        c["warnings"] = json!(warnings);
+    }
     Ok(Loaded {
         warnings,
         grid,
@@ -226,8 +230,12 @@ fn load_cornerpoint(
             .iter()
             .map(|s| json!({"name": s.name, "reason": s.reason}))
             .collect();
+        let n = &e.notes;
         let extra = json!({"format": "egrid", "init": e.init.as_ref().map(|p| p.display().to_string()),
-            "skipped_init_arrays": skipped});
+            "init_looked_for": e.init_looked_for.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+            "skipped_init_arrays": skipped, "local_grids": n.local_grids,
+            "dual_porosity": n.dual_porosity.map(|d| json!({"filehead_5": d,
+                "matrix_active": n.matrix_active, "fracture_active": n.fracture_active}))});
         let mut inputs = vec![path.to_path_buf()];
         inputs.extend(e.init.iter().cloned());
         (e.grid, inputs, extra)
@@ -295,24 +303,70 @@ fn check_egrid_head(path: &Path) -> Result<(), LoadError> {
     })
 }
 
-/// The warnings a corner-point load report carries: skipped INIT arrays.
-fn load_warnings(cornerpoint: Option<&Value>) -> Vec<String> {
+/// The warnings a corner-point load report carries: an EGRID without its
+/// INIT (naming the files looked for), a dual-porosity EGRID read as its
+/// matrix, local grid refinements skipped, skipped INIT arrays.
+fn load_warnings(path: &Path, cornerpoint: Option<&Value>) -> Vec<String> {
     let Some(c) = cornerpoint else {
         return Vec::new();
     };
-    let init = c["input"]["init"].as_str().unwrap_or("INIT");
-    c["input"]["skipped_init_arrays"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .map(|s| {
-                    format!(
-                        "{init}: array {} skipped: {}",
-                        s["name"].as_str().unwrap_or("?"),
-                        s["reason"].as_str().unwrap_or("?")
-                    )
-                })
-                .collect()
-        })
-        .unwrap_or_default()
+    let input = &c["input"];
+    let strs = |v: &Value| -> Vec<String> {
+        v.as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|s| s.as_str().map(String::from))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let file = path.display();
+    let mut out = Vec::new();
+    let looked = strs(&input["init_looked_for"]);
+    if !looked.is_empty() {
+        let names: Vec<String> = looked
+            .iter()
+            .map(|p| {
+                Path::new(p)
+                    .file_name()
+                    .map_or(p.clone(), |n| n.to_string_lossy().into_owned())
+            })
+            .collect();
+        out.push(format!(
+            "no INIT beside {file} (looked for {}): no properties",
+            names.join(", ")
+        ));
+    }
+    let dp = &input["dual_porosity"];
+    if let Some(flag) = dp["filehead_5"].as_i64() {
+        let kind = if flag == 2 {
+            "dual permeability"
+        } else {
+            "dual porosity"
+        };
+        out.push(format!(
+            "{file}: {kind} (FILEHEAD[5] = {flag}): only the matrix is shown ({} cells with an active matrix, ACTNUM bit 1); the fracture ({} active cells) and the fracture half of every INIT array are skipped",
+            dp["matrix_active"], dp["fracture_active"]
+        ));
+    }
+    let lgrs = strs(&input["local_grids"]);
+    if !lgrs.is_empty() {
+        let s = if lgrs.len() == 1 { "" } else { "s" };
+        out.push(format!(
+            "{file}: {} local grid refinement{s} ({}) skipped: only the main grid is shown",
+            lgrs.len(),
+            lgrs.join(", ")
+        ));
+    }
+    let init = input["init"].as_str().unwrap_or("INIT");
+    if let Some(a) = input["skipped_init_arrays"].as_array() {
+        out.extend(a.iter().map(|s| {
+            format!(
+                "{init}: array {} skipped: {}",
+                s["name"].as_str().unwrap_or("?"),
+                s["reason"].as_str().unwrap_or("?")
+            )
+        }));
+    }
+    out
 }

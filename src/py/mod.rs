@@ -31,19 +31,31 @@ pub use slices::PySlices;
 /// `stratasweep.load(path)`: any grid file the CLI reads.
 #[pyfunction]
 fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyGrid> {
-    let data = py.detach(|| {
+    let (data, warnings) = py.detach(|| {
         guard(|| {
             let t = Instant::now();
             let l = crate::io::load(&path).map_err(errors::load_error)?;
-            Ok(GridData::new(
+            let data = GridData::new(
                 l.grid,
                 path.display().to_string(),
                 l.cornerpoint,
                 t.elapsed().as_secs_f64(),
             )
-            .with_layout(l.ijk))
+            .with_layout(l.ijk);
+            Ok((data, l.warnings))
         })
     })?;
+    // The load's warnings (an EGRID without its INIT, skipped local grids,
+    // ...) as Python warnings, as the CLI prints them.
+    for w in warnings {
+        let msg = std::ffi::CString::new(w.replace('\0', " ")).unwrap_or_default();
+        PyErr::warn(
+            py,
+            &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+            &msg,
+            1,
+        )?;
+    }
     Ok(PyGrid::from(data))
 }
 

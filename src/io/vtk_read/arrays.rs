@@ -9,7 +9,7 @@ use std::collections::HashMap;
 
 use super::VtkReadError;
 use super::common::{PolyFaces, build_cells, finish};
-use crate::grid::{GHOST_HIDDEN_CELL, Grid, Property, Topology, vtk_type};
+use crate::grid::{Grid, Property, Topology, vtk_type};
 
 /// An unstructured grid in VTK's arrays.
 #[derive(Clone, Copy, Debug)]
@@ -25,10 +25,12 @@ pub struct UnstructuredArrays<'a> {
 /// Builds an unstructured grid from VTK's arrays with its properties. With
 /// `merge_points`, exactly coincident points become one (grids whose cells
 /// each own their corners, as an explicit structured grid's; point data
-/// keeps the first merged point's values), and a hexahedron whose corners
-/// then repeat is hidden (`vtkGhostType`) when its faces do not enclose a
-/// polyhedron of four or more distinct corners, else turned into that
-/// polyhedron.
+/// keeps the first merged point's values). With or without it, a
+/// hexahedron whose corners coincide (repeated ids, or points repeated at
+/// one position) is typed as the corner-point conversion types a pinched
+/// cell: a wedge, pyramid, tetrahedron or polyhedron, or hidden
+/// (`vtkGhostType`) when no volume is left
+/// ([`crate::cornerpoint::collapse_hexahedra`]).
 pub fn grid_from_arrays(
     a: UnstructuredArrays<'_>,
     point_data: Vec<Property>,
@@ -39,7 +41,6 @@ pub fn grid_from_arrays(
     let mut parts = Parts::new(a, point_data, cell_data, what)?;
     if merge_points {
         parts.weld();
-        parts.fix_collapsed_hexes();
     }
     parts.into_grid(what)
 }
@@ -163,14 +164,6 @@ impl Parts {
         }
     }
 
-    /// Hexahedra whose corners repeat become polyhedra, or hidden cells.
-    pub(super) fn fix_collapsed_hexes(&mut self) {
-        let hidden = fix_collapsed_hexes(&mut self.types, &mut self.offsets, &mut self.conn);
-        if hidden.iter().any(|&h| h) {
-            hide(&mut self.cell_data, &hidden);
-        }
-    }
-
     /// The checked grid.
     pub(super) fn into_grid(self, what: &str) -> Result<Grid, VtkReadError> {
         let cells = build_cells(
@@ -230,97 +223,6 @@ fn weld(points: &[[f64; 3]]) -> (Vec<[f64; 3]>, Vec<u32>) {
     (out, remap)
 }
 
-/// VTK hexahedron faces, outward for a positive hexahedron.
-const HEX_FACES: [[usize; 4]; 6] = [
-    [0, 3, 2, 1],
-    [4, 5, 6, 7],
-    [0, 1, 5, 4],
-    [1, 2, 6, 5],
-    [2, 3, 7, 6],
-    [3, 0, 4, 7],
-];
-
-/// Hexahedra with repeated corners become polyhedra of their faces (each
-/// face's repeats dropped, faces of fewer than three corners dropped), or
-/// are flagged to hide when fewer than four corners or four faces remain.
-fn fix_collapsed_hexes(
-    types: &mut [i64],
-    offsets: &mut Vec<usize>,
-    conn: &mut Vec<i64>,
-) -> Vec<bool> {
-    let n = types.len();
-    let mut hidden = vec![false; n];
-    if !types.iter().any(|&t| t == i64::from(vtk_type::HEXAHEDRON)) {
-        return hidden;
-    }
-    let mut new_conn = Vec::with_capacity(conn.len());
-    let mut new_off = Vec::with_capacity(n + 1);
-    new_off.push(0);
-    for c in 0..n {
-        let ids = &conn[offsets[c]..offsets[c + 1]];
-        let mut distinct = ids.to_vec();
-        distinct.sort_unstable();
-        distinct.dedup();
-        if types[c] != i64::from(vtk_type::HEXAHEDRON) || ids.len() != 8 || distinct.len() == 8 {
-            new_conn.extend_from_slice(ids);
-            new_off.push(new_conn.len());
-            continue;
-        }
-        let mut faces: Vec<Vec<i64>> = Vec::new();
-        for f in HEX_FACES {
-            let mut loop_: Vec<i64> = Vec::with_capacity(4);
-            for k in f {
-                let v = ids[k];
-                if loop_.last() != Some(&v) {
-                    loop_.push(v);
-                }
-            }
-            while loop_.len() > 1 && loop_.first() == loop_.last() {
-                loop_.pop();
-            }
-            let mut d = loop_.clone();
-            d.sort_unstable();
-            d.dedup();
-            if d.len() >= 3 && d.len() == loop_.len() {
-                faces.push(loop_);
-            }
-        }
-        if distinct.len() < 4 || faces.len() < 4 {
-            hidden[c] = true;
-            new_conn.extend_from_slice(ids);
-        } else {
-            types[c] = i64::from(vtk_type::POLYHEDRON);
-            new_conn.push(faces.len() as i64);
-            for f in faces {
-                new_conn.push(f.len() as i64);
-                new_conn.extend(f);
-            }
-        }
-        new_off.push(new_conn.len());
-    }
-    *conn = new_conn;
-    *offsets = new_off;
-    hidden
-}
-
-/// Sets the hidden bit of `vtkGhostType` for the flagged cells (adding the
-/// array when there is none).
-fn hide(cell_data: &mut Vec<Property>, hidden: &[bool]) {
-    let i = match cell_data.iter().position(|p| p.name == "vtkGhostType") {
-        Some(i) => i,
-        None => {
-            cell_data.push(Property::scalar("vtkGhostType", vec![0.0; hidden.len()]));
-            cell_data.len() - 1
-        }
-    };
-    let g = &mut cell_data[i];
-    for (c, &h) in hidden.iter().enumerate() {
-        if h && c < g.values.len() {
-            g.values[c] = f64::from(g.values[c] as u8 | GHOST_HIDDEN_CELL);
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -337,8 +239,10 @@ mod tests {
     ];
 
     /// A hexahedron whose cells own their corners: welded, a cube stays a
-    /// hexahedron; one whose top edge collapses (a wedge) becomes a
-    /// five-face polyhedron; a flat one is hidden. Bad arrays name the cell.
+    /// hexahedron; one whose top edge collapses becomes a wedge (as the
+    /// corner-point conversion types it); a flat one is hidden. Without
+    /// welding, the coincident corners are merged per cell alike. Bad
+    /// arrays name the cell.
     #[test]
     fn padded_cells_merge_and_collapse() {
         // Cell 0: the cube; cell 1: a wedge as a hexahedron with corners 6,7
@@ -375,13 +279,28 @@ mod tests {
         let Topology::Unstructured(c) = &g.topology else {
             panic!("unstructured expected")
         };
-        assert_eq!(c.types, vec![12, 42, 12]);
-        assert_eq!(c.faces_of(1)[0], 5, "a wedge has five faces");
+        assert_eq!(c.types, vec![12, 13, 12]);
         assert_eq!(g.hidden_cells().unwrap(), vec![false, false, true]);
-        // Without merging, the same arrays stay three hexahedra.
+        let welded = g;
+        // Without welding, the same cells (the points stay 24).
         let g = grid_from_arrays(a, vec![], vec![], false, "t").unwrap();
         assert_eq!(g.points.len(), 24);
-        assert!(g.hidden_cells().is_none());
+        let Topology::Unstructured(c) = &g.topology else {
+            panic!("unstructured expected")
+        };
+        assert_eq!(c.types, vec![12, 13, 12]);
+        assert_eq!(g.hidden_cells().unwrap(), vec![false, false, true]);
+        let pos = |g: &Grid, c: usize| -> Vec<[f64; 3]> {
+            let Topology::Unstructured(cells) = &g.topology else {
+                unreachable!()
+            };
+            cells
+                .cell(c)
+                .iter()
+                .map(|&v| g.points[v as usize])
+                .collect()
+        };
+        assert_eq!(pos(&g, 1), pos(&welded, 1));
         // Errors name the cell.
         let short = UnstructuredArrays {
             points: &pts,

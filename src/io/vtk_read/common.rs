@@ -720,8 +720,11 @@ pub(crate) fn structured_cells(d: [usize; 3]) -> Option<usize> {
 }
 
 /// Final checks: structured dims are checked for overflow here (so that
-/// [`Grid::validate`] cannot overflow), then the grid is validated.
-pub(crate) fn finish(grid: Grid, file: &str) -> Result<Grid, VtkReadError> {
+/// [`Grid::validate`] cannot overflow), then the grid is validated, and
+/// hexahedra whose corners coincide (pinched cells, points the file
+/// repeats) are typed as the corner-point conversion types them
+/// ([`crate::cornerpoint::collapse_hexahedra`]).
+pub(crate) fn finish(mut grid: Grid, file: &str) -> Result<Grid, VtkReadError> {
     if let Topology::Structured { dims } = &grid.topology {
         let expected = dims[0]
             .checked_mul(dims[1])
@@ -740,6 +743,7 @@ pub(crate) fn finish(grid: Grid, file: &str) -> Result<Grid, VtkReadError> {
         file: file.to_string(),
         source,
     })?;
+    crate::cornerpoint::collapse_hexahedra(&mut grid);
     Ok(grid)
 }
 

@@ -25,9 +25,9 @@ const HEX_CORNER: [[usize; 3]; 8] = [
 /// Builds the grid of an explicit structured grid of `dims` cells (I, J,
 /// K) from its unstructured arrays: every cell a hexahedron, cell `c` at
 /// IJK index `c`. Coincident corners are merged (hexahedra whose corners
-/// then repeat become polyhedra, or hidden cells, as with `merge_points`
-/// in [`super::grid_from_arrays`]); cells hidden by `vtkGhostType` stay
-/// hidden. Returns the grid and its IJK layout.
+/// then repeat become wedges, pyramids, tetrahedra or polyhedra, or hidden
+/// cells, as in [`super::grid_from_arrays`]); cells hidden by
+/// `vtkGhostType` stay hidden. Returns the grid and its IJK layout.
 pub fn grid_from_explicit_structured(
     a: UnstructuredArrays<'_>,
     dims: [usize; 3],
@@ -75,7 +75,7 @@ pub fn grid_from_explicit_structured(
     parts.weld();
     renumber_by_pillar(&mut parts, dims);
     orient_right_handed(&mut parts);
-    parts.fix_collapsed_hexes();
+    // Pinched hexahedra are typed when the grid is finished.
     let grid = parts.into_grid(what)?;
     let layout = IjkLayout {
         dims,
