@@ -197,41 +197,31 @@ fn grdecl_and_vtu_agree_on_the_raw_generator() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// The model's bulk volume against xtgeo 4.27's on the same GRDECL file:
-/// `grid_from_file(path, fformat="grdecl").get_bulk_volume(precision=4)`
-/// (a tetrahedral decomposition, not the exact trilinear volume) gave the
-/// value below; with `STRATASWEEP_XTGEO_PYTHON` set, xtgeo is run again.
+/// The model's bulk volume against xtgeo's on the same GRDECL file:
+/// `grid_from_file(path, fformat="grdecl").get_bulk_volume(precision=4)`,
+/// a tetrahedral decomposition rather than the exact trilinear volume, so
+/// the two agree to 1e-4, not to rounding (xtgeo 4.27 on the model of
+/// stop 25: 2.2e-5). Run with `STRATASWEEP_XTGEO_PYTHON` (set by `.ci/run`).
 #[test]
 fn bulk_volume_agrees_with_xtgeo() {
+    let Some(py) = std::env::var_os("STRATASWEEP_XTGEO_PYTHON") else {
+        eprintln!("SKIP: STRATASWEEP_XTGEO_PYTHON not set: xtgeo not run");
+        return;
+    };
     let cp = model();
     let (_, rep) = cp.clone().into_grid().unwrap();
-    if let Some(py) = std::env::var_os("STRATASWEEP_XTGEO_PYTHON") {
-        let d = scratch("formats-xtgeo");
-        let path = d.join("X.grdecl");
-        let mut text = Vec::new();
-        stratasweep::io::grdecl::write_grdecl(&mut text, &cp).unwrap();
-        std::fs::write(&path, text).unwrap();
-        let out = run_xtgeo(Path::new(&py), &path);
-        let live: f64 = out.trim().parse().unwrap();
-        let _ = std::fs::remove_dir_all(&d);
-        eprintln!("xtgeo: {live}");
-        assert!(
-            rel(live, XTGEO_PRECISION_4) < 1e-12,
-            "xtgeo now gives {live}"
-        );
-    } else {
-        eprintln!("STRATASWEEP_XTGEO_PYTHON not set: xtgeo not run again");
-    }
-    let r = rel(rep.bulk_volume, XTGEO_PRECISION_4);
-    eprintln!(
-        "bulk volume {} vs xtgeo {XTGEO_PRECISION_4}: rel {r:.3e}",
-        rep.bulk_volume
-    );
+    let d = scratch("formats-xtgeo");
+    let path = d.join("X.grdecl");
+    let mut text = Vec::new();
+    stratasweep::io::grdecl::write_grdecl(&mut text, &cp).unwrap();
+    std::fs::write(&path, text).unwrap();
+    let out = run_xtgeo(Path::new(&py), &path);
+    let xtgeo: f64 = out.trim().parse().unwrap();
+    let _ = std::fs::remove_dir_all(&d);
+    let r = rel(rep.bulk_volume, xtgeo);
+    eprintln!("bulk volume {} vs xtgeo {xtgeo}: rel {r:.3e}", rep.bulk_volume);
     assert!(r < 1e-4, "{r}");
 }
-
-/// xtgeo 4.27.0, precision 4, on `model()` written as GRDECL.
-const XTGEO_PRECISION_4: f64 = 24_592_715.487_916_373;
 
 fn run_xtgeo(py: &Path, grdecl: &Path) -> String {
     let script = "import sys, xtgeo\n\
