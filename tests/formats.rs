@@ -219,7 +219,10 @@ fn bulk_volume_agrees_with_xtgeo() {
     let xtgeo: f64 = out.trim().parse().unwrap();
     let _ = std::fs::remove_dir_all(&d);
     let r = rel(rep.bulk_volume, xtgeo);
-    eprintln!("bulk volume {} vs xtgeo {xtgeo}: rel {r:.3e}", rep.bulk_volume);
+    eprintln!(
+        "bulk volume {} vs xtgeo {xtgeo}: rel {r:.3e}",
+        rep.bulk_volume
+    );
     assert!(r < 1e-4, "{r}");
 }
 
