@@ -168,3 +168,55 @@ fn property_names_match_regardless_of_case_and_misses_suggest_a_name() {
     let e = run(&g, &s, &req).unwrap_err().to_string();
     assert!(e.contains(&format!("did you mean '{name}'?")), "{e}");
 }
+
+/// The sweep behind `render` and `slice --device gpu` (`gpu::tables::
+/// sweep_frame`, CPU only) stops between levels too: a render's Ctrl-C
+/// does not wait for its whole sweep.
+#[test]
+fn the_render_sweep_is_cancelled_between_levels() {
+    use stratasweep::cellgraph::CellGraph;
+    use stratasweep::field::AxisField;
+    use stratasweep::gpu::tables::sweep_frame;
+    let g = stratasweep::generate::warped([48, 48, 48], 1);
+    let Structure::SCGraph(s) = Structure::build(&g, StructureChoice::SCGraph).unwrap() else {
+        panic!("not an S-CGraph");
+    };
+    let f = AxisField {
+        axis: 2,
+        sign: 1.0,
+        positions: s.positions(),
+    };
+    let (lo, hi) = f
+        .positions
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(a, b), p| (a.min(p[2]), b.max(p[2])));
+    let k = 100_000;
+    let levels: Vec<f32> = (0..k)
+        .map(|i| lo + (i as f32 + 0.5) * (hi - lo) / k as f32)
+        .collect();
+    // Not cancelled: the same frame as with a default token, all levels.
+    let few = &levels[..50];
+    let a = sweep_frame(&s, &f, Some(2), few, 1, &Cancel::new()).unwrap();
+    let b = sweep_frame(&s, &f, Some(2), few, 1, &Cancel::default()).unwrap();
+    assert_eq!(a.0.entries.len(), b.0.entries.len());
+    assert!(!a.0.entries.is_empty());
+    // Cancelled from another thread after 300 ms of a sweep that takes
+    // tens of seconds.
+    let cancel = Cancel::new();
+    let token = cancel.clone();
+    let t = Instant::now();
+    let stopper = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(300));
+        token.cancel();
+        Instant::now()
+    });
+    let r = sweep_frame(&s, &f, Some(2), &levels, 2, &cancel);
+    let cancelled_at = stopper.join().unwrap();
+    assert!(r.is_err(), "the sweep ran to its end");
+    let stop = cancelled_at.elapsed();
+    assert!(
+        stop < Duration::from_secs(1),
+        "stopped {stop:?} after the cancel"
+    );
+    assert!(t.elapsed() < Duration::from_secs(5));
+}

@@ -74,6 +74,8 @@ impl Renderer<'_> {
         check_transfer(grid, o)?;
         let axis = slicing_axis(d);
         let mut k = slice_key(grid, o, axis)?;
+        // The sweep stops between levels when the render is cancelled.
+        k.cancel = self.cancel.clone();
         if self.preintegrated && o.mode == Mode::Volume {
             k = k.with_attr_gradient();
         }

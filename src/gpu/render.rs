@@ -234,6 +234,8 @@ pub struct SliceKey {
     pub clip: Option<[[usize; 2]; 3]>,
     /// How the cut cells are found (the slices are the same either way).
     pub cells: CellFinding,
+    /// Stops the CPU sweep between levels (not part of the cache key).
+    pub cancel: crate::cancel::Cancel,
 }
 
 impl SliceKey {
@@ -311,6 +313,7 @@ pub fn slice_key(grid: &Grid, o: &RenderOptions, axis: usize) -> Result<SliceKey
         attr_gradient: false,
         clip: None,
         cells: o.cells,
+        cancel: Default::default(),
     })
 }
 
@@ -847,7 +850,10 @@ pub(super) fn slice_request(grid: &Grid, k: &SliceKey) -> (SliceRequest, Option<
         threads: rayon::current_num_threads(),
         brute_force: false,
         collect_mesh: false,
-        sweep: Default::default(),
+        sweep: crate::sweep::SweepOptions {
+            cancel: k.cancel.clone(),
+            ..Default::default()
+        },
     };
     (req, cell_values)
 }

@@ -151,7 +151,7 @@ fn finish<G: CellGraph, F: ScalarField>(
     let warnings = level_warnings(&req.field, range, world_offset, &world, &levels);
     let t = Instant::now();
     let (frame, cpu_stats) = match sweep {
-        true => sweep_frame(g, f, axis_slot, &levels, req.threads),
+        true => sweep_frame(g, f, axis_slot, &levels, req.threads, &req.sweep.cancel)?,
         false => (
             Frame {
                 visited: vec![0; levels.len()],

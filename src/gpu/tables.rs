@@ -3,6 +3,7 @@
 //! frame's per-level active cell lists. The GPU passes and the CPU twin
 //! read exactly these vectors.
 
+use crate::cancel::{Cancel, Interrupted, catch_interrupt, stop_if_cancelled};
 use crate::extract::EmitContext;
 use crate::field::ScalarField;
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
@@ -241,13 +242,15 @@ impl Frame {
 /// intersected cells, in block order. The sweep runs with
 /// [`EmitContext::cells_only`]: it records the cut cells and emits nothing
 /// (the per-level stats returned alongside count cells and visits only).
+/// Stops between levels once `cancel` is cancelled (`Interrupted`).
 pub fn sweep_frame<G: CellGraph, F: ScalarField>(
     g: &G,
     f: &F,
     axis_slot: Option<usize>,
     levels: &[f32],
     threads: usize,
-) -> (Frame, Vec<LevelStats>) {
+    cancel: &Cancel,
+) -> Result<(Frame, Vec<LevelStats>), Interrupted> {
     let mut sw = Sweeper::new(g, threads.max(1));
     sw.prepare_minima(f, axis_slot);
     let k = levels.len();
@@ -256,18 +259,21 @@ pub fn sweep_frame<G: CellGraph, F: ScalarField>(
         attribute: None,
         cells_only: true,
     };
-    let blocks = sw.sweep(
-        f,
-        axis_slot,
-        levels,
-        &ctx,
-        || (vec![Vec::<u32>::new(); k], vec![LevelStats::default(); k]),
-        |acc, lv, mesh, st| {
-            // Cells-only mode: one entry per cut cell.
-            acc.0[lv].extend_from_slice(&mesh.cells);
-            acc.1[lv] = *st;
-        },
-    );
+    let blocks = catch_interrupt(|| {
+        sw.sweep(
+            f,
+            axis_slot,
+            levels,
+            &ctx,
+            || (vec![Vec::<u32>::new(); k], vec![LevelStats::default(); k]),
+            |acc, lv, mesh, st| {
+                // Cells-only mode: one entry per cut cell.
+                acc.0[lv].extend_from_slice(&mesh.cells);
+                acc.1[lv] = *st;
+                stop_if_cancelled(cancel);
+            },
+        )
+    })?;
     let mut frame = Frame {
         levels: levels.to_vec(),
         entries: Vec::new(),
@@ -284,7 +290,7 @@ pub fn sweep_frame<G: CellGraph, F: ScalarField>(
         }
         frame.visited[lv] = stats[lv].visited;
     }
-    (frame, stats)
+    Ok((frame, stats))
 }
 
 /// Work groups (x, y) for `n` entries, with x at most `max_x`.
