@@ -167,6 +167,15 @@ fn property_names_match_regardless_of_case_and_misses_suggest_a_name() {
     req.field = FieldSpec::Property(format!("{name}x"));
     let e = run(&g, &s, &req).unwrap_err().to_string();
     assert!(e.contains(&format!("did you mean '{name}'?")), "{e}");
+    // A render (its legend, its cache key) shows the grid's own spelling.
+    let o = stratasweep::gpu::render::RenderOptions {
+        property: Some(name.to_uppercase()),
+        ..Default::default()
+    };
+    assert_eq!(
+        stratasweep::gpu::shown::shown_property(&g, &o),
+        Some(name.clone())
+    );
 }
 
 /// The sweep behind `render` and `slice --device gpu` (`gpu::tables::

@@ -7,7 +7,16 @@ use crate::grid::{Grid, Property};
 /// The property shown by `o` on `grid`: the named one, else
 /// [`default_property`].
 pub fn shown_property(grid: &Grid, o: &RenderOptions) -> Option<String> {
-    o.property.clone().or_else(|| default_property(grid))
+    match &o.property {
+        // The grid's own spelling (names match regardless of case), so the
+        // legend and the cache key read `PORO` for `--property poro`.
+        Some(n) => Some(
+            grid.point_property(n)
+                .or_else(|| grid.cell_property(n))
+                .map_or_else(|| n.clone(), |p| p.name.clone()),
+        ),
+        None => default_property(grid),
+    }
 }
 
 /// The property shown when none is named: the first point property, else
