@@ -3,6 +3,7 @@
 
 use super::VtkReadError;
 use crate::grid::{Cells, Grid, Topology, vtk_type};
+use crate::mem::{AllocError, try_filled, try_vec};
 use crate::structures::common::split_lengths;
 
 /// A VTK scalar type.
@@ -75,23 +76,26 @@ impl Scalar {
 }
 
 macro_rules! decode_chunks {
-    ($bytes:expr, $t:ty, $big:expr, $conv:expr) => {{
+    ($out:expr, $bytes:expr, $t:ty, $big:expr, $conv:expr) => {{
         const N: usize = std::mem::size_of::<$t>();
         // Indexed parallel decode (keeps the order; large arrays split
-        // across threads).
-        rayon::iter::ParallelIterator::collect(rayon::iter::ParallelIterator::map(
-            rayon::slice::ParallelSlice::par_chunks_exact($bytes, N),
-            |c| {
-                let mut a = [0u8; N];
-                a.copy_from_slice(c);
-                let v = if $big {
-                    <$t>::from_be_bytes(a)
-                } else {
-                    <$t>::from_le_bytes(a)
-                };
-                $conv(v)
-            },
-        ))
+        // across threads) into `$out`, whose room is already there.
+        rayon::iter::IndexedParallelIterator::collect_into_vec(
+            rayon::iter::ParallelIterator::map(
+                rayon::slice::ParallelSlice::par_chunks_exact($bytes, N),
+                |c| {
+                    let mut a = [0u8; N];
+                    a.copy_from_slice(c);
+                    let v = if $big {
+                        <$t>::from_be_bytes(a)
+                    } else {
+                        <$t>::from_le_bytes(a)
+                    };
+                    $conv(v)
+                },
+            ),
+            $out,
+        )
     }};
 }
 
@@ -102,19 +106,36 @@ fn unpack_bits(bytes: &[u8], n: usize) -> impl Iterator<Item = u8> + '_ {
 
 /// Decodes binary values to f64 (`bytes.len()` must be a multiple of the
 /// size; trailing bytes are ignored). For [`Scalar::Bit`], `bits` values.
-pub(crate) fn decode_f64(bytes: &[u8], ty: Scalar, big: bool, bits: usize) -> Vec<f64> {
+/// The decoded array is allocated first, fallibly (`what` names it).
+pub(crate) fn decode_f64(
+    bytes: &[u8],
+    ty: Scalar,
+    big: bool,
+    bits: usize,
+    what: &str,
+) -> Result<Vec<f64>, AllocError> {
+    let mut out = try_vec(values_in(bytes, ty, bits), what)?;
     match ty {
-        Scalar::Bit => unpack_bits(bytes, bits).map(f64::from).collect(),
-        Scalar::I8 => bytes.iter().map(|&b| f64::from(b as i8)).collect(),
-        Scalar::U8 => bytes.iter().map(|&b| f64::from(b)).collect(),
-        Scalar::I16 => decode_chunks!(bytes, i16, big, f64::from),
-        Scalar::U16 => decode_chunks!(bytes, u16, big, f64::from),
-        Scalar::I32 => decode_chunks!(bytes, i32, big, f64::from),
-        Scalar::U32 => decode_chunks!(bytes, u32, big, f64::from),
-        Scalar::I64 => decode_chunks!(bytes, i64, big, |v: i64| v as f64),
-        Scalar::U64 => decode_chunks!(bytes, u64, big, |v: u64| v as f64),
-        Scalar::F32 => decode_chunks!(bytes, f32, big, f64::from),
-        Scalar::F64 => decode_chunks!(bytes, f64, big, |v: f64| v),
+        Scalar::Bit => out.extend(unpack_bits(bytes, bits).map(f64::from)),
+        Scalar::I8 => out.extend(bytes.iter().map(|&b| f64::from(b as i8))),
+        Scalar::U8 => out.extend(bytes.iter().map(|&b| f64::from(b))),
+        Scalar::I16 => decode_chunks!(&mut out, bytes, i16, big, f64::from),
+        Scalar::U16 => decode_chunks!(&mut out, bytes, u16, big, f64::from),
+        Scalar::I32 => decode_chunks!(&mut out, bytes, i32, big, f64::from),
+        Scalar::U32 => decode_chunks!(&mut out, bytes, u32, big, f64::from),
+        Scalar::I64 => decode_chunks!(&mut out, bytes, i64, big, |v: i64| v as f64),
+        Scalar::U64 => decode_chunks!(&mut out, bytes, u64, big, |v: u64| v as f64),
+        Scalar::F32 => decode_chunks!(&mut out, bytes, f32, big, f64::from),
+        Scalar::F64 => decode_chunks!(&mut out, bytes, f64, big, |v: f64| v),
+    }
+    Ok(out)
+}
+
+/// How many values of `ty` `bytes` hold (`bits` for packed bits).
+fn values_in(bytes: &[u8], ty: Scalar, bits: usize) -> usize {
+    match ty.size() {
+        0 => bits,
+        n => bytes.len() / n,
     }
 }
 
@@ -127,34 +148,44 @@ pub(crate) fn decode_i64(
     big: bool,
     bits: usize,
 ) -> Result<Vec<i64>, String> {
-    Ok(match ty {
-        Scalar::Bit => unpack_bits(bytes, bits).map(i64::from).collect(),
-        Scalar::I8 => bytes.iter().map(|&b| i64::from(b as i8)).collect(),
-        Scalar::U8 => bytes.iter().map(|&b| i64::from(b)).collect(),
-        Scalar::I16 => decode_chunks!(bytes, i16, big, i64::from),
-        Scalar::U16 => decode_chunks!(bytes, u16, big, i64::from),
-        Scalar::I32 => decode_chunks!(bytes, i32, big, i64::from),
-        Scalar::U32 => decode_chunks!(bytes, u32, big, i64::from),
-        Scalar::I64 => decode_chunks!(bytes, i64, big, |v: i64| v),
-        Scalar::U64 => decode_chunks!(bytes, u64, big, |v: u64| i64::try_from(v)
+    if matches!(ty, Scalar::F32 | Scalar::F64) {
+        return Err(format!("{ty:?} values where integers are required"));
+    }
+    let values = values_in(bytes, ty, bits);
+    let mut out = try_vec(values, "the decoded integers").map_err(|e| e.to_string())?;
+    match ty {
+        Scalar::Bit => out.extend(unpack_bits(bytes, bits).map(i64::from)),
+        Scalar::I8 => out.extend(bytes.iter().map(|&b| i64::from(b as i8))),
+        Scalar::U8 => out.extend(bytes.iter().map(|&b| i64::from(b))),
+        Scalar::I16 => decode_chunks!(&mut out, bytes, i16, big, i64::from),
+        Scalar::U16 => decode_chunks!(&mut out, bytes, u16, big, i64::from),
+        Scalar::I32 => decode_chunks!(&mut out, bytes, i32, big, i64::from),
+        Scalar::U32 => decode_chunks!(&mut out, bytes, u32, big, i64::from),
+        Scalar::I64 => decode_chunks!(&mut out, bytes, i64, big, |v: i64| v),
+        Scalar::U64 => decode_chunks!(&mut out, bytes, u64, big, |v: u64| i64::try_from(v)
             .unwrap_or(i64::MAX)),
-        Scalar::F32 | Scalar::F64 => {
-            return Err(format!("{ty:?} values where integers are required"));
-        }
-    })
+        Scalar::F32 | Scalar::F64 => unreachable!("refused above"),
+    }
+    Ok(out)
 }
 
 /// Decodes binary integer values straight to u32 when every one is in
 /// `0..u32::MAX` (ids and counts); `None` otherwise (the caller then takes
-/// [`decode_i64`] and names the bad value).
-pub(crate) fn decode_u32_ids(bytes: &[u8], ty: Scalar, big: bool) -> Option<Vec<u32>> {
+/// [`decode_i64`] and names the bad value). The array is allocated first,
+/// fallibly (`what` names it).
+pub(crate) fn decode_u32_ids(
+    bytes: &[u8],
+    ty: Scalar,
+    big: bool,
+    what: &str,
+) -> Result<Option<Vec<u32>>, AllocError> {
     use rayon::prelude::*;
     /// Values per parallel task.
     const BLOCK: usize = 1 << 16;
     macro_rules! narrow {
         ($t:ty) => {{
             const N: usize = std::mem::size_of::<$t>();
-            let mut out = vec![0u32; bytes.len() / N];
+            let mut out = try_filled(bytes.len() / N, 0u32, what)?;
             // Through i64 then u64: negatives and values past u32::MAX - 1
             // (including u64 values past i64::MAX) all land at or above
             // u32::MAX.
@@ -177,7 +208,7 @@ pub(crate) fn decode_u32_ids(bytes: &[u8], ty: Scalar, big: bool) -> Option<Vec<
                     ok
                 })
                 .reduce(|| true, |a, b| a & b);
-            ok.then_some(out)
+            Ok(ok.then_some(out))
         }};
     }
     match ty {
@@ -185,7 +216,7 @@ pub(crate) fn decode_u32_ids(bytes: &[u8], ty: Scalar, big: bool) -> Option<Vec<
         Scalar::U32 => narrow!(u32),
         Scalar::I64 => narrow!(i64),
         Scalar::U64 => narrow!(u64),
-        _ => None,
+        _ => Ok(None),
     }
 }
 
@@ -581,12 +612,20 @@ pub(crate) fn build_cells<C: StreamValue + Sync, T: StreamValue + Sync>(
         cb += p.connectivity.len();
         fb += p.face_stream.len();
     }
+    let memory = |source| VtkReadError::Memory {
+        file: file.to_string(),
+        source,
+    };
     let mut cells = Cells {
-        types: vec![0; n],
-        offsets: vec![0; n + 1],
-        connectivity: vec![0; cb],
-        face_offsets: if any_poly { vec![0; n + 1] } else { Vec::new() },
-        face_stream: vec![0; fb],
+        types: try_filled(n, 0, "the cell types").map_err(memory)?,
+        offsets: try_filled(n + 1, 0, "the cell offsets").map_err(memory)?,
+        connectivity: try_filled(cb, 0, "the cell connectivity").map_err(memory)?,
+        face_offsets: if any_poly {
+            try_filled(n + 1, 0, "the polyhedra's face offsets").map_err(memory)?
+        } else {
+            Vec::new()
+        },
+        face_stream: try_filled(fb, 0, "the polyhedra's faces").map_err(memory)?,
     };
     cells.offsets[n] = cb as u32;
     if any_poly {
@@ -829,7 +868,7 @@ mod tests {
                     .map(|&v| v as u32)
                     .collect();
                 assert_eq!(
-                    decode_u32_ids(&good, ty, big),
+                    decode_u32_ids(&good, ty, big, "ids").unwrap(),
                     Some(want),
                     "{ty:?} big {big}"
                 );
@@ -839,7 +878,11 @@ mod tests {
                     }
                     let mut b = good.clone();
                     b.extend(enc(bad));
-                    assert_eq!(decode_u32_ids(&b, ty, big), None, "{ty:?} {bad}");
+                    assert_eq!(
+                        decode_u32_ids(&b, ty, big, "ids").unwrap(),
+                        None,
+                        "{ty:?} {bad}"
+                    );
                 }
             }
         }

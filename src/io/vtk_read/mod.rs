@@ -58,6 +58,14 @@ pub enum VtkReadError {
         /// The I/O error.
         source: std::io::Error,
     },
+    /// An array the file sizes did not fit in memory.
+    #[error("{file}: {source}")]
+    Memory {
+        /// File name.
+        file: String,
+        /// What could not be allocated, and how much.
+        source: crate::mem::AllocError,
+    },
     /// The file name does not end in `.vtk`, `.vtu` or `.vts`.
     #[error("{file}: unsupported file extension '{ext}' (expected .vtk, .vtu or .vts)")]
     UnsupportedExtension {
