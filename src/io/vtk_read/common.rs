@@ -743,12 +743,18 @@ fn build_cell_range<C: StreamValue, T: StreamValue>(
     Ok(cells)
 }
 
-/// Groups a flat coordinate vector into points (`flat.len()` must be a multiple of 3).
-pub(crate) fn to_points(flat: &[f64]) -> Vec<[f64; 3]> {
+/// Groups a flat coordinate vector into points (`flat.len()` must be a
+/// multiple of 3) in `file`; the points are allocated first, fallibly.
+pub(crate) fn to_points(flat: &[f64], file: &str) -> Result<Vec<[f64; 3]>, VtkReadError> {
     use rayon::prelude::*;
+    let mut out = try_vec(flat.len() / 3, "the points").map_err(|source| VtkReadError::Memory {
+        file: file.to_string(),
+        source,
+    })?;
     flat.par_chunks_exact(3)
         .map(|c| [c[0], c[1], c[2]])
-        .collect()
+        .collect_into_vec(&mut out);
+    Ok(out)
 }
 
 /// Number of cells of a structured grid with point dims `d`, or `None` on overflow.

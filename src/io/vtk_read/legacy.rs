@@ -724,7 +724,7 @@ impl<'a> Parser<'a> {
         let Some(dataset) = dataset else {
             return Err(self.err(self.lx.pos, "no DATASET section"));
         };
-        let pts = to_points(&points.map(|p| p.1).unwrap_or_default());
+        let pts = to_points(&points.map(|p| p.1).unwrap_or_default(), self.file)?;
         let topology = match dataset {
             Dataset::Structured => {
                 let Some((dp, d)) = dims else {
