@@ -600,12 +600,10 @@ fn run(
     let on_level = |p: &mut Part, lv: usize, mesh: &LevelMesh, st: &LevelStats| {
         let i = lv - p.first;
         p.stats[i] = *st;
-        if collect {
-            if let Err(e) = p.pieces[i].append(mesh, |s| r.source(s)) {
-                // Out of the sweep as an interruption is (the run's state
-                // is dropped on the way), then an error below.
-                std::panic::resume_unwind(Box::new(e));
-            }
+        if collect && let Err(e) = p.pieces[i].append(mesh, |s| r.source(s)) {
+            // Out of the sweep as an interruption is (the run's state is
+            // dropped on the way), then an error below.
+            std::panic::resume_unwind(Box::new(e));
         }
         if let Some(m) = split {
             cut_pieces(mesh, m, |s| r.source(s), &mut p.cut[i]);
