@@ -35,6 +35,7 @@
 mod arrays;
 mod byte_order;
 mod common;
+mod decode;
 mod explicit;
 mod legacy;
 mod xml;
