@@ -335,8 +335,8 @@ impl Grid {
         origin_of(&self.points)
     }
 
-    /// Positions as f32 relative to [`Grid::origin`].
-    pub fn rebased_positions(&self) -> Vec<[f32; 3]> {
+    /// Positions as f32 relative to [`Grid::origin`], allocated fallibly.
+    pub fn rebased_positions(&self) -> Result<Vec<[f32; 3]>, crate::mem::AllocError> {
         rebased(&self.points, self.origin())
     }
 
@@ -577,9 +577,10 @@ pub fn origin_of(points: &[[f64; 3]]) -> [f64; 3] {
 
 /// `points` as f32 relative to `o` (see [`Grid::rebased_positions`]), in
 /// parallel (each point on its own, so the same bits on any thread count).
-pub fn rebased(points: &[[f64; 3]], o: [f64; 3]) -> Vec<[f32; 3]> {
+/// The array is allocated first, fallibly (as "the f32 positions").
+pub fn rebased(points: &[[f64; 3]], o: [f64; 3]) -> Result<Vec<[f32; 3]>, crate::mem::AllocError> {
     use rayon::prelude::*;
-    let mut out = crate::mem::huge_vec(points.len());
+    let mut out = crate::mem::try_vec(points.len(), "the f32 positions")?;
     out.par_extend(points.par_iter().map(|p| {
         [
             (p[0] - o[0]) as f32,
@@ -587,7 +588,7 @@ pub fn rebased(points: &[[f64; 3]], o: [f64; 3]) -> Vec<[f32; 3]> {
             (p[2] - o[2]) as f32,
         ]
     }));
-    out
+    Ok(out)
 }
 
 /// The property named `name`, else the only one named so up to case.

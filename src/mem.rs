@@ -69,6 +69,14 @@ pub fn try_reserve<T>(v: &mut Vec<T>, extra: usize, what: &str) -> Result<(), Al
         .map_err(|_| AllocError::of::<T>(v.len().saturating_add(extra), what))
 }
 
+/// Makes room for `extra` more items in `v` as `Vec::reserve` does (the
+/// capacity at least doubles, so repeated appends stay linear), or says
+/// that `what` could not get the memory (the vector is left as it was).
+pub fn try_grow<T>(v: &mut Vec<T>, extra: usize, what: &str) -> Result<(), AllocError> {
+    fallibly(|| v.try_reserve(extra))
+        .map_err(|_| AllocError::of::<T>(v.len().saturating_add(extra), what))
+}
+
 /// An empty vector with room for `n` items (transparent huge pages asked
 /// for as in [`huge_vec`]), or an error naming `what`.
 pub fn try_vec<T>(n: usize, what: &str) -> Result<Vec<T>, AllocError> {

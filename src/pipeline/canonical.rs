@@ -4,6 +4,7 @@
 //! do not depend on the number of blocks.
 
 use crate::extract::{EdgeMap, LevelMesh};
+use crate::mem::{AllocError, try_grow, try_reserve};
 use crate::mesh::PolyMesh;
 
 /// One level's polygons from one part of a run: the arrays of its
@@ -25,17 +26,34 @@ pub(super) struct LevelCopy {
 }
 
 impl LevelCopy {
-    /// Appends the polygons of `mesh`, `source` giving a slot's input cell.
-    pub(super) fn append(&mut self, mesh: &LevelMesh, source: impl Fn(u32) -> u32) {
+    /// Appends the polygons of `mesh`, `source` giving a slot's input cell,
+    /// or says which array could not grow (the copy then holds a prefix of
+    /// the level: the run is abandoned).
+    pub(super) fn append(
+        &mut self,
+        mesh: &LevelMesh,
+        source: impl Fn(u32) -> u32,
+    ) -> Result<(), AllocError> {
         let polygons = mesh.polygon_count();
         if polygons == 0 {
-            return;
+            return Ok(());
         }
+        let (nv, used) = (mesh.positions.len(), mesh.offsets[polygons] as usize);
+        try_grow(&mut self.keys, nv, "the sliced vertices' edge keys")?;
+        try_grow(&mut self.positions, nv, "the sliced vertices' positions")?;
+        try_grow(&mut self.values, nv, "the sliced vertices' values")?;
+        try_grow(&mut self.indices, used, "the slice polygons' corners")?;
+        try_grow(
+            &mut self.offsets,
+            polygons + 1,
+            "the slice polygons' offsets",
+        )?;
+        try_grow(&mut self.slots, polygons, "the slice polygons' slots")?;
+        try_grow(&mut self.sources, polygons, "the slice polygons' cells")?;
         let (v0, i0) = (self.positions.len() as u32, self.indices.len() as u32);
         if self.offsets.is_empty() {
             self.offsets.push(0);
         }
-        let used = mesh.offsets[polygons] as usize;
         self.keys.extend_from_slice(&mesh.edge_keys);
         self.positions.extend_from_slice(&mesh.positions);
         self.values.extend_from_slice(&mesh.values);
@@ -47,6 +65,7 @@ impl LevelCopy {
         self.sources
             .extend(mesh.cells[..polygons].iter().map(|&s| source(s)));
         self.meshes += 1;
+        Ok(())
     }
 
     /// Polygons held.
@@ -59,12 +78,14 @@ impl LevelCopy {
 /// (input cell, slot) order, stable (the parts' order, then each part's
 /// emission order), vertices welded by grid edge in first-use order. The
 /// result does not depend on the number of blocks. `levels(part, lv)` is
-/// the part's copy of level `lv`, if it has one.
+/// the part's copy of level `lv`, if it has one. The output's arrays are
+/// allocated first, fallibly: an [`AllocError`] names the one that did not
+/// fit.
 pub(super) fn canonical_mesh<'a>(
     parts: usize,
     levels: impl Fn(usize, usize) -> Option<&'a LevelCopy>,
     world: &[f64],
-) -> PolyMesh {
+) -> Result<PolyMesh, AllocError> {
     let mut m = PolyMesh {
         poly_offsets: vec![0],
         level_values: world.to_vec(),
@@ -80,12 +101,12 @@ pub(super) fn canonical_mesh<'a>(
             vertices += c.positions.len();
         }
     }
-    m.poly_offsets.reserve_exact(polygons);
-    m.poly_level.reserve_exact(polygons);
-    m.poly_cell.reserve_exact(polygons);
-    m.poly_indices.reserve_exact(corners);
-    m.positions.reserve_exact(vertices);
-    m.values.reserve_exact(vertices);
+    try_reserve(&mut m.poly_offsets, polygons, "the slice polygons' offsets")?;
+    try_reserve(&mut m.poly_level, polygons, "the slice polygons' levels")?;
+    try_reserve(&mut m.poly_cell, polygons, "the slice polygons' cells")?;
+    try_reserve(&mut m.poly_indices, corners, "the slice polygons' corners")?;
+    try_reserve(&mut m.positions, vertices, "the slice vertices' positions")?;
+    try_reserve(&mut m.values, vertices, "the slice vertices' values")?;
     let mut weld = EdgeMap::default();
     // Edge keys of this level's output vertices (the weld's values index it).
     let mut level_keys: Vec<u64> = Vec::new();
@@ -149,7 +170,7 @@ pub(super) fn canonical_mesh<'a>(
             m.poly_cell.push((key >> 32) as u32);
         }
     }
-    m
+    Ok(m)
 }
 
 #[cfg(test)]
@@ -264,7 +285,7 @@ mod tests {
                         .map(|meshes| {
                             let mut c = LevelCopy::default();
                             for mesh in meshes {
-                                c.append(mesh, source);
+                                c.append(mesh, source).unwrap();
                             }
                             c
                         })
@@ -272,7 +293,7 @@ mod tests {
                 })
                 .collect();
             let world: Vec<f64> = (0..k).map(|l| l as f64).collect();
-            let got = canonical_mesh(parts_n, |p, lv| copies[p].get(lv), &world);
+            let got = canonical_mesh(parts_n, |p, lv| copies[p].get(lv), &world).unwrap();
             let want = reference(&parts, source, k);
             assert!(
                 got.polygon_count() > 20,

@@ -72,6 +72,9 @@ pub enum PipelineError {
     /// The structure could not be built.
     #[error(transparent)]
     Build(#[from] crate::structures::BuildError),
+    /// The output (or another array the run sizes) did not fit in memory.
+    #[error(transparent)]
+    Memory(#[from] crate::mem::AllocError),
 }
 
 /// How levels are placed.
@@ -550,6 +553,19 @@ impl Runner for Split<Ciel> {
     }
 }
 
+/// Runs `f`, returning the [`crate::mem::AllocError`] a level's output
+/// unwound with when it did not fit in memory; any other panic goes on
+/// unwinding.
+fn catch_out_of_memory<T>(f: impl FnOnce() -> T) -> Result<T, crate::mem::AllocError> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(v) => Ok(v),
+        Err(p) => match p.downcast::<crate::mem::AllocError>() {
+            Ok(e) => Err(*e),
+            Err(p) => std::panic::resume_unwind(p),
+        },
+    }
+}
+
 /// Runs `req` on the structure `r` with the binding `bound`: the levels
 /// placed, the sweep (or the brute force), then its parts' statistics and
 /// pieces merged (`split`: the convex split's map, whose pieces count once
@@ -584,8 +600,10 @@ fn run(
     let on_level = |p: &mut Part, lv: usize, mesh: &LevelMesh, st: &LevelStats| {
         let i = lv - p.first;
         p.stats[i] = *st;
-        if collect {
-            p.pieces[i].append(mesh, |s| r.source(s));
+        if collect && let Err(e) = p.pieces[i].append(mesh, |s| r.source(s)) {
+            // Out of the sweep as an interruption is (the run's state is
+            // dropped on the way), then an error below.
+            std::panic::resume_unwind(Box::new(e));
         }
         if let Some(m) = split {
             cut_pieces(mesh, m, |s| r.source(s), &mut p.cut[i]);
@@ -602,28 +620,30 @@ fn run(
         axis_slot: bound.axis_slot,
     };
     req.sweep.cancel.check()?;
-    let swept = catch_interrupt(|| {
-        if req.brute_force {
-            let t = Instant::now();
-            let mut part = new_part(0..k);
-            let mut mesh = LevelMesh::default();
-            r.brute_force(&job, &mut mesh, &mut |lv, m, st| {
-                on_level(&mut part, lv, m, st)
-            });
-            timings.sweep = t.elapsed().as_secs_f64();
-            Swept {
-                parts: vec![part],
-                minima: 0,
-                state_bytes: mesh.capacity_bytes(),
+    let swept = catch_out_of_memory(|| {
+        catch_interrupt(|| {
+            if req.brute_force {
+                let t = Instant::now();
+                let mut part = new_part(0..k);
+                let mut mesh = LevelMesh::default();
+                r.brute_force(&job, &mut mesh, &mut |lv, m, st| {
+                    on_level(&mut part, lv, m, st)
+                });
+                timings.sweep = t.elapsed().as_secs_f64();
+                Swept {
+                    parts: vec![part],
+                    minima: 0,
+                    state_bytes: mesh.capacity_bytes(),
+                }
+            } else {
+                let gather = Gather {
+                    new_part: &new_part,
+                    on_level: &on_level,
+                };
+                r.sweep(&job, &gather, &mut timings)
             }
-        } else {
-            let gather = Gather {
-                new_part: &new_part,
-                on_level: &on_level,
-            };
-            r.sweep(&job, &gather, &mut timings)
-        }
-    })?;
+        })
+    })??;
     let mut stats = vec![LevelStats::default(); k];
     let mut cut: Vec<Vec<(u32, u32)>> = vec![Vec::new(); k];
     for p in &swept.parts {
@@ -635,14 +655,16 @@ fn run(
     if split.is_some() {
         count_input_cells(&mut stats, cut);
     }
-    let mesh = collect.then(|| {
-        let parts = &swept.parts;
-        canonical_mesh(
-            parts.len(),
-            |p, lv| parts[p].pieces.get(lv.checked_sub(parts[p].first)?),
-            &world,
-        )
-    });
+    let mesh = collect
+        .then(|| {
+            let parts = &swept.parts;
+            canonical_mesh(
+                parts.len(),
+                |p, lv| parts[p].pieces.get(lv.checked_sub(parts[p].first)?),
+                &world,
+            )
+        })
+        .transpose()?;
     Ok(SliceResult {
         level_values: world,
         stats,

@@ -10,7 +10,13 @@ use serde_json::Value;
 use crate::mesh::PolyMesh;
 
 use super::data::to_dict;
-use super::errors::{guard, invalid, write_error};
+use super::errors::{guard, invalid, runtime, write_error};
+
+/// `n` items for the array `what`, allocated fallibly (`MemoryError`
+/// naming it when the memory is not there).
+fn room<T>(n: usize, what: &str) -> PyResult<Vec<T>> {
+    crate::mem::try_vec(n, what).map_err(|e| runtime(e.to_string()))
+}
 
 /// What a slicing call returns.
 pub struct SliceData {
@@ -51,9 +57,8 @@ impl PySlices {
     #[getter]
     fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let m = self.mesh()?;
-        let flat: Vec<f64> = (0..m.positions.len())
-            .flat_map(|v| m.world_position(v))
-            .collect();
+        let mut flat: Vec<f64> = room(m.positions.len() * 3, "Slices.points")?;
+        flat.extend((0..m.positions.len()).flat_map(|v| m.world_position(v)));
         let a = Array2::from_shape_vec((m.positions.len(), 3), flat)
             .map_err(|e| invalid(e.to_string()))?;
         Ok(a.into_pyarray(py))
@@ -63,7 +68,8 @@ impl PySlices {
     #[getter]
     fn offsets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<i64>>> {
         let m = self.mesh()?;
-        let v: Vec<i64> = m.poly_offsets.iter().map(|&o| i64::from(o)).collect();
+        let mut v: Vec<i64> = room(m.poly_offsets.len(), "Slices.offsets")?;
+        v.extend(m.poly_offsets.iter().map(|&o| i64::from(o)));
         Ok(PyArray1::from_vec(py, v))
     }
 
@@ -71,7 +77,8 @@ impl PySlices {
     #[getter]
     fn connectivity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<i64>>> {
         let m = self.mesh()?;
-        let v: Vec<i64> = m.poly_indices.iter().map(|&o| i64::from(o)).collect();
+        let mut v: Vec<i64> = room(m.poly_indices.len(), "Slices.connectivity")?;
+        v.extend(m.poly_indices.iter().map(|&o| i64::from(o)));
         Ok(PyArray1::from_vec(py, v))
     }
 
@@ -166,7 +173,10 @@ impl PySlices {
                 "Slices.to_pyvista() needs PyVista: pip install pyvista ({e})"
             ))
         })?;
-        let mut faces = Vec::with_capacity(m.poly_indices.len() + m.polygon_count());
+        let mut faces = room(
+            m.poly_indices.len() + m.polygon_count(),
+            "the PolyData's faces",
+        )?;
         for p in 0..m.polygon_count() {
             let poly = m.polygon(p);
             faces.push(poly.len() as i64);
@@ -184,11 +194,12 @@ impl PySlices {
             .set_item(name, self.values(py)?)?;
         let cd = mesh.getattr("cell_data")?;
         cd.set_item("level", self.level(py)?)?;
-        let lv: Vec<f64> = m
-            .poly_level
-            .iter()
-            .map(|&l| m.level_values.get(l as usize).copied().unwrap_or(f64::NAN))
-            .collect();
+        let mut lv: Vec<f64> = room(m.poly_level.len(), "the PolyData's level values")?;
+        lv.extend(
+            m.poly_level
+                .iter()
+                .map(|&l| m.level_values.get(l as usize).copied().unwrap_or(f64::NAN)),
+        );
         cd.set_item("level_value", PyArray1::from_vec(py, lv))?;
         cd.set_item("cell", self.cell(py)?)?;
         Ok(mesh)

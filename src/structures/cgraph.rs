@@ -20,6 +20,7 @@ use rayon::prelude::*;
 
 use crate::cellgraph::{BitSet, CellGraph};
 use crate::grid::{Grid, Topology, hex_corner_offsets};
+use crate::mem::{try_filled, try_vec};
 use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use crate::structures::hex_lanes::{LANES, classify_hexes};
 use crate::structures::resolve::{NON_VOLUMETRIC, resolve_cells};
@@ -115,7 +116,7 @@ pub(crate) fn classify_and_orient(
 ) -> Result<Vec<CellClass>, StructureError> {
     let n = metas.len();
     let cat: &Catalog = catalog;
-    let mut class = vec![CellClass::NonVolumetric; n];
+    let mut class = try_filled(n, CellClass::NonVolumetric, "the cell classes")?;
     class
         .par_chunks_mut(CLASSIFY_CHUNK)
         .enumerate()
@@ -154,7 +155,7 @@ impl CGraph {
         let (mut metas, voff, verts) = match &grid.topology {
             Topology::Unstructured(cells) => resolve_cells(cells, &grid.points, &mut catalog)?,
             Topology::Structured { dims } => {
-                let (m, o, v) = structured_as_hexes(*dims);
+                let (m, o, v) = structured_as_hexes(*dims)?;
                 (m, Cow::Owned(o), Cow::Owned(v))
             }
         };
@@ -182,7 +183,7 @@ impl CGraph {
         }
         let cells = CellStore::build(&metas, &voff, &verts, &nstart, &nbrs);
         drop(verts);
-        let positions = grid.rebased_positions();
+        let positions = grid.rebased_positions()?;
         Ok(CGraph {
             origin: grid.origin(),
             positions,
@@ -228,11 +229,14 @@ impl CGraph {
 }
 
 /// Structured grids seen as a zoo of hexahedra (for `--structure cgraph` on IJK input).
-fn structured_as_hexes(dims: [usize; 3]) -> (Vec<u16>, Vec<u32>, Vec<u32>) {
+/// Its arrays are allocated fallibly.
+fn structured_as_hexes(dims: [usize; 3]) -> Result<(Vec<u16>, Vec<u32>, Vec<u32>), StructureError> {
     let [npi, npj, npk] = dims;
     let n = (npi - 1) * (npj - 1) * (npk - 1);
     let slab = npi * npj;
-    let mut verts = Vec::with_capacity(n * 8);
+    let mut verts = try_vec(n.saturating_mul(8), "the hexahedra's vertices")?;
+    let mut offsets = try_vec(n + 1, "the hexahedra's offsets")?;
+    offsets.extend((0..=n as u32).map(|c| c * 8));
     for k in 0..npk - 1 {
         for j in 0..npj - 1 {
             for i in 0..npi - 1 {
@@ -243,11 +247,11 @@ fn structured_as_hexes(dims: [usize; 3]) -> (Vec<u16>, Vec<u32>, Vec<u32>) {
             }
         }
     }
-    (
-        vec![builtin::HEXAHEDRON; n],
-        (0..=n as u32).map(|c| c * 8).collect(),
+    Ok((
+        try_filled(n, builtin::HEXAHEDRON, "the hexahedra's types")?,
+        offsets,
         verts,
-    )
+    ))
 }
 
 /// The vertex → incident live cells map (CSR: `start`, `nv + 1` entries,

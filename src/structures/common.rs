@@ -22,6 +22,9 @@ pub enum StructureError {
         /// Slot count.
         count: usize,
     },
+    /// An array of the structure did not fit in memory.
+    #[error(transparent)]
+    Memory(#[from] crate::mem::AllocError),
     /// A cell type the catalog cannot take.
     #[error("cell {cell}: {why}")]
     UnsupportedCell {

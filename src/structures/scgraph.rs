@@ -58,7 +58,7 @@ impl SCGraph {
             return Err(StructureError::TooLarge { count: slots });
         }
         let origin = grid.origin();
-        let positions = grid.rebased_positions();
+        let positions = grid.rebased_positions()?;
         let slab = npi * npj;
         let mut offsets = hex_corner_offsets(npi, slab).map(|o| o as u32);
         let catalog = Catalog::new();
@@ -66,7 +66,8 @@ impl SCGraph {
         let mut class_counts = [0usize; crate::structures::CELL_CLASS_COUNT];
         let hex = catalog.get(builtin::HEXAHEDRON);
         let (nci, ncj, nck) = (npi - 1, npj - 1, npk - 1);
-        let classify_all = |offsets: [u32; 8]| -> Vec<CellClass> {
+        let classify_all = |offsets: [u32; 8]| -> Result<Vec<CellClass>, StructureError> {
+            let mut out = crate::mem::try_vec(nci * ncj * nck, "the cell classes")?;
             (0..nci * ncj * nck)
                 .into_par_iter()
                 .map(|cid| {
@@ -74,9 +75,10 @@ impl SCGraph {
                     let v0 = (i + j * npi + k * slab) as u32;
                     classify_cell(hex, &offsets.map(|o| v0 + o), &grid.points)
                 })
-                .collect()
+                .collect_into_vec(&mut out);
+            Ok(out)
         };
-        let mut classes = classify_all(offsets);
+        let mut classes = classify_all(offsets)?;
         // A left-handed IJK grid gives mirrored hexahedra: read the cells
         // with K reversed (top face first) so they come out positive.
         let inverted = classes
@@ -86,7 +88,7 @@ impl SCGraph {
         let left_handed = inverted * 2 > classes.len();
         if left_handed {
             offsets = [4, 5, 6, 7, 0, 1, 2, 3].map(|i| offsets[i]);
-            classes = classify_all(offsets);
+            classes = classify_all(offsets)?;
         }
         for (cid, &class) in classes.iter().enumerate() {
             class_counts[class as usize] += 1;

@@ -10,6 +10,7 @@ use std::collections::HashMap;
 use super::VtkReadError;
 use super::common::{PolyFaces, build_cells, finish};
 use crate::grid::{Grid, Property, Topology, vtk_type};
+use crate::mem::try_vec;
 
 /// An unstructured grid in VTK's arrays.
 #[derive(Clone, Copy, Debug)]
@@ -76,8 +77,13 @@ impl Parts {
             cell,
             msg,
         };
-        let mut offsets: Vec<usize> = Vec::with_capacity(n + 1);
-        let mut conn: Vec<i64> = Vec::with_capacity(a.cells.len().saturating_sub(n));
+        let memory = |source| VtkReadError::Memory {
+            file: what.to_string(),
+            source,
+        };
+        let mut offsets: Vec<usize> = try_vec(n + 1, "the cell offsets").map_err(memory)?;
+        let mut conn: Vec<i64> =
+            try_vec(a.cells.len().saturating_sub(n), "the cell connectivity").map_err(memory)?;
         offsets.push(0usize);
         let mut pos = 0usize;
         for c in 0..n {
@@ -125,9 +131,13 @@ impl Parts {
                 format!("point id {v} is out of range ({np} points)"),
             ));
         }
+        let mut points = try_vec(a.points.len(), "the points").map_err(memory)?;
+        points.extend_from_slice(a.points);
+        let mut types = try_vec(n, "the cell types").map_err(memory)?;
+        types.extend_from_slice(a.celltypes);
         Ok(Parts {
-            points: a.points.to_vec(),
-            types: a.celltypes.to_vec(),
+            points,
+            types,
             offsets,
             conn,
             point_data,

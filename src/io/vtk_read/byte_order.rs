@@ -20,7 +20,8 @@ pub(crate) fn little_endian_hint(bytes: &[u8], ty: Scalar, be: &[f64]) -> Option
         return None;
     }
     let bad = be.iter().position(|&x| implausible(x))?;
-    let le = decode_f64(bytes, ty, false, be.len());
+    // No memory for the second reading: no hint (the values stand).
+    let le = decode_f64(bytes, ty, false, be.len(), "POINTS (little-endian)").ok()?;
     let le_bad = le.iter().filter(|&&x| implausible(x)).count();
     let bad_count = be.iter().filter(|&&x| implausible(x)).count();
     if le_bad > 0 {

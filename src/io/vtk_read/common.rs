@@ -3,6 +3,9 @@
 
 use super::VtkReadError;
 use crate::grid::{Cells, Grid, Topology, vtk_type};
+use crate::mem::{try_filled, try_vec};
+
+pub(crate) use super::decode::{decode_f64, decode_i64, decode_u32_ids};
 use crate::structures::common::split_lengths;
 
 /// A VTK scalar type.
@@ -71,121 +74,6 @@ impl Scalar {
             "Float64" => Scalar::F64,
             _ => return None,
         })
-    }
-}
-
-macro_rules! decode_chunks {
-    ($bytes:expr, $t:ty, $big:expr, $conv:expr) => {{
-        const N: usize = std::mem::size_of::<$t>();
-        // Indexed parallel decode (keeps the order; large arrays split
-        // across threads).
-        rayon::iter::ParallelIterator::collect(rayon::iter::ParallelIterator::map(
-            rayon::slice::ParallelSlice::par_chunks_exact($bytes, N),
-            |c| {
-                let mut a = [0u8; N];
-                a.copy_from_slice(c);
-                let v = if $big {
-                    <$t>::from_be_bytes(a)
-                } else {
-                    <$t>::from_le_bytes(a)
-                };
-                $conv(v)
-            },
-        ))
-    }};
-}
-
-/// Unpacks `n` bits, most significant bit first (legacy `bit` arrays).
-fn unpack_bits(bytes: &[u8], n: usize) -> impl Iterator<Item = u8> + '_ {
-    (0..n).map(move |i| bytes.get(i / 8).map_or(0, |b| (b >> (7 - (i % 8))) & 1))
-}
-
-/// Decodes binary values to f64 (`bytes.len()` must be a multiple of the
-/// size; trailing bytes are ignored). For [`Scalar::Bit`], `bits` values.
-pub(crate) fn decode_f64(bytes: &[u8], ty: Scalar, big: bool, bits: usize) -> Vec<f64> {
-    match ty {
-        Scalar::Bit => unpack_bits(bytes, bits).map(f64::from).collect(),
-        Scalar::I8 => bytes.iter().map(|&b| f64::from(b as i8)).collect(),
-        Scalar::U8 => bytes.iter().map(|&b| f64::from(b)).collect(),
-        Scalar::I16 => decode_chunks!(bytes, i16, big, f64::from),
-        Scalar::U16 => decode_chunks!(bytes, u16, big, f64::from),
-        Scalar::I32 => decode_chunks!(bytes, i32, big, f64::from),
-        Scalar::U32 => decode_chunks!(bytes, u32, big, f64::from),
-        Scalar::I64 => decode_chunks!(bytes, i64, big, |v: i64| v as f64),
-        Scalar::U64 => decode_chunks!(bytes, u64, big, |v: u64| v as f64),
-        Scalar::F32 => decode_chunks!(bytes, f32, big, f64::from),
-        Scalar::F64 => decode_chunks!(bytes, f64, big, |v: f64| v),
-    }
-}
-
-/// Decodes binary integer values to i64. Floating-point types are refused;
-/// `UInt64` values above `i64::MAX` are clamped to `i64::MAX` (they are
-/// rejected later as out-of-range ids).
-pub(crate) fn decode_i64(
-    bytes: &[u8],
-    ty: Scalar,
-    big: bool,
-    bits: usize,
-) -> Result<Vec<i64>, String> {
-    Ok(match ty {
-        Scalar::Bit => unpack_bits(bytes, bits).map(i64::from).collect(),
-        Scalar::I8 => bytes.iter().map(|&b| i64::from(b as i8)).collect(),
-        Scalar::U8 => bytes.iter().map(|&b| i64::from(b)).collect(),
-        Scalar::I16 => decode_chunks!(bytes, i16, big, i64::from),
-        Scalar::U16 => decode_chunks!(bytes, u16, big, i64::from),
-        Scalar::I32 => decode_chunks!(bytes, i32, big, i64::from),
-        Scalar::U32 => decode_chunks!(bytes, u32, big, i64::from),
-        Scalar::I64 => decode_chunks!(bytes, i64, big, |v: i64| v),
-        Scalar::U64 => decode_chunks!(bytes, u64, big, |v: u64| i64::try_from(v)
-            .unwrap_or(i64::MAX)),
-        Scalar::F32 | Scalar::F64 => {
-            return Err(format!("{ty:?} values where integers are required"));
-        }
-    })
-}
-
-/// Decodes binary integer values straight to u32 when every one is in
-/// `0..u32::MAX` (ids and counts); `None` otherwise (the caller then takes
-/// [`decode_i64`] and names the bad value).
-pub(crate) fn decode_u32_ids(bytes: &[u8], ty: Scalar, big: bool) -> Option<Vec<u32>> {
-    use rayon::prelude::*;
-    /// Values per parallel task.
-    const BLOCK: usize = 1 << 16;
-    macro_rules! narrow {
-        ($t:ty) => {{
-            const N: usize = std::mem::size_of::<$t>();
-            let mut out = vec![0u32; bytes.len() / N];
-            // Through i64 then u64: negatives and values past u32::MAX - 1
-            // (including u64 values past i64::MAX) all land at or above
-            // u32::MAX.
-            let ok = out
-                .par_chunks_mut(BLOCK)
-                .zip(bytes.par_chunks(BLOCK * N))
-                .map(|(o, b)| {
-                    let mut ok = true;
-                    for (d, c) in o.iter_mut().zip(b.chunks_exact(N)) {
-                        let mut a = [0u8; N];
-                        a.copy_from_slice(c);
-                        let v = if big {
-                            <$t>::from_be_bytes(a)
-                        } else {
-                            <$t>::from_le_bytes(a)
-                        } as i64 as u64;
-                        ok &= v < u32::MAX as u64;
-                        *d = v as u32;
-                    }
-                    ok
-                })
-                .reduce(|| true, |a, b| a & b);
-            ok.then_some(out)
-        }};
-    }
-    match ty {
-        Scalar::I32 => narrow!(i32),
-        Scalar::U32 => narrow!(u32),
-        Scalar::I64 => narrow!(i64),
-        Scalar::U64 => narrow!(u64),
-        _ => None,
     }
 }
 
@@ -581,12 +469,20 @@ pub(crate) fn build_cells<C: StreamValue + Sync, T: StreamValue + Sync>(
         cb += p.connectivity.len();
         fb += p.face_stream.len();
     }
+    let memory = |source| VtkReadError::Memory {
+        file: file.to_string(),
+        source,
+    };
     let mut cells = Cells {
-        types: vec![0; n],
-        offsets: vec![0; n + 1],
-        connectivity: vec![0; cb],
-        face_offsets: if any_poly { vec![0; n + 1] } else { Vec::new() },
-        face_stream: vec![0; fb],
+        types: try_filled(n, 0, "the cell types").map_err(memory)?,
+        offsets: try_filled(n + 1, 0, "the cell offsets").map_err(memory)?,
+        connectivity: try_filled(cb, 0, "the cell connectivity").map_err(memory)?,
+        face_offsets: if any_poly {
+            try_filled(n + 1, 0, "the polyhedra's face offsets").map_err(memory)?
+        } else {
+            Vec::new()
+        },
+        face_stream: try_filled(fb, 0, "the polyhedra's faces").map_err(memory)?,
     };
     cells.offsets[n] = cb as u32;
     if any_poly {
@@ -704,12 +600,18 @@ fn build_cell_range<C: StreamValue, T: StreamValue>(
     Ok(cells)
 }
 
-/// Groups a flat coordinate vector into points (`flat.len()` must be a multiple of 3).
-pub(crate) fn to_points(flat: &[f64]) -> Vec<[f64; 3]> {
+/// Groups a flat coordinate vector into points (`flat.len()` must be a
+/// multiple of 3) in `file`; the points are allocated first, fallibly.
+pub(crate) fn to_points(flat: &[f64], file: &str) -> Result<Vec<[f64; 3]>, VtkReadError> {
     use rayon::prelude::*;
+    let mut out = try_vec(flat.len() / 3, "the points").map_err(|source| VtkReadError::Memory {
+        file: file.to_string(),
+        source,
+    })?;
     flat.par_chunks_exact(3)
         .map(|c| [c[0], c[1], c[2]])
-        .collect()
+        .collect_into_vec(&mut out);
+    Ok(out)
 }
 
 /// Number of cells of a structured grid with point dims `d`, or `None` on overflow.
@@ -829,7 +731,7 @@ mod tests {
                     .map(|&v| v as u32)
                     .collect();
                 assert_eq!(
-                    decode_u32_ids(&good, ty, big),
+                    decode_u32_ids(&good, ty, big, "ids").unwrap(),
                     Some(want),
                     "{ty:?} big {big}"
                 );
@@ -839,7 +741,11 @@ mod tests {
                     }
                     let mut b = good.clone();
                     b.extend(enc(bad));
-                    assert_eq!(decode_u32_ids(&b, ty, big), None, "{ty:?} {bad}");
+                    assert_eq!(
+                        decode_u32_ids(&b, ty, big, "ids").unwrap(),
+                        None,
+                        "{ty:?} {bad}"
+                    );
                 }
             }
         }

@@ -228,7 +228,7 @@ impl<'a> Parser<'a> {
     ) -> Result<Vec<f64>, VtkReadError> {
         if self.binary {
             let bytes = self.binary_bytes(n, ty, what, hdr)?;
-            return Ok(decode_f64(bytes, ty, true, n));
+            return decode_f64(bytes, ty, true, n, what).map_err(|m| self.err(hdr, m.to_string()));
         }
         let mut v = Vec::with_capacity(self.cap(n));
         for i in 0..n {
@@ -584,7 +584,8 @@ impl<'a> Parser<'a> {
         }
         let v = if self.binary {
             let bytes = self.binary_bytes(total, ty, "POINTS", kw)?;
-            let v = decode_f64(bytes, ty, true, total);
+            let v = decode_f64(bytes, ty, true, total, "POINTS")
+                .map_err(|m| self.err(kw, m.to_string()))?;
             if let Some(why) = super::byte_order::little_endian_hint(bytes, ty, &v) {
                 return Err(self.err(kw, why));
             }
@@ -723,7 +724,7 @@ impl<'a> Parser<'a> {
         let Some(dataset) = dataset else {
             return Err(self.err(self.lx.pos, "no DATASET section"));
         };
-        let pts = to_points(&points.map(|p| p.1).unwrap_or_default());
+        let pts = to_points(&points.map(|p| p.1).unwrap_or_default(), self.file)?;
         let topology = match dataset {
             Dataset::Structured => {
                 let Some((dp, d)) = dims else {

@@ -35,6 +35,7 @@
 mod arrays;
 mod byte_order;
 mod common;
+mod decode;
 mod explicit;
 mod legacy;
 mod xml;
@@ -57,6 +58,14 @@ pub enum VtkReadError {
         file: String,
         /// The I/O error.
         source: std::io::Error,
+    },
+    /// An array the file sizes did not fit in memory.
+    #[error("{file}: {source}")]
+    Memory {
+        /// File name.
+        file: String,
+        /// What could not be allocated, and how much.
+        source: crate::mem::AllocError,
     },
     /// The file name does not end in `.vtk`, `.vtu` or `.vts`.
     #[error("{file}: unsupported file extension '{ext}' (expected .vtk, .vtu or .vts)")]

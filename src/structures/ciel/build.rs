@@ -437,7 +437,7 @@ impl Ciel {
         let cell_lookup = cell_lookup(&cell_start, total);
         Ok(Ciel {
             origin: grid.origin(),
-            positions: grid.rebased_positions(),
+            positions: grid.rebased_positions()?,
             origins,
             mate_faces: mate_face,
             mate_cells: mate_cell,

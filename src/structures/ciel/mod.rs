@@ -168,6 +168,9 @@ pub enum CielError {
         /// What is wrong.
         why: String,
     },
+    /// An array of the structure did not fit in memory.
+    #[error(transparent)]
+    Memory(#[from] crate::mem::AllocError),
     /// Too many vertices or half-edges for the u32 layout.
     #[error("grid too large for CIEL: {0}")]
     TooLarge(String),
@@ -212,6 +215,7 @@ impl From<CielError> for StructureError {
     fn from(e: CielError) -> Self {
         match e {
             CielError::NoCells => StructureError::NoCells,
+            CielError::Memory(e) => StructureError::Memory(e),
             CielError::FaceStream { cell, .. }
             | CielError::ShortFace { cell, .. }
             | CielError::RepeatedFaceVertex { cell, .. }

@@ -440,7 +440,7 @@ impl CpGraph {
             counts,
             map,
         };
-        g.positions = rebased(&points, g.origin);
+        g.positions = rebased(&points, g.origin)?;
         Ok(g)
     }
 }

@@ -22,7 +22,8 @@ pub(super) fn base64_decode(text: &[u8]) -> Result<Vec<u8>, String> {
             _ => return None,
         } as u32)
     }
-    let mut out = Vec::with_capacity(text.len() / 4 * 3 + 3);
+    let mut out = crate::mem::try_vec(text.len() / 4 * 3 + 3, "the base64-decoded bytes")
+        .map_err(|e| e.to_string())?;
     let mut quad = [0u8; 4];
     let mut n = 0;
     let flush = |quad: &[u8; 4], n: usize, out: &mut Vec<u8>| -> Result<(), String> {
@@ -236,7 +237,8 @@ impl<'a> Ctx<'a, '_> {
                         expect,
                     ));
                 }
-                let mut buf = vec![0u8; expect];
+                let mut buf = crate::mem::try_filled(expect, 0u8, "an LZ4 block")
+                    .map_err(|e| fail(e.to_string()))?;
                 let n = lz4_flex::block::decompress_into(blk, &mut buf)
                     .map_err(|e| fail(e.to_string()))?;
                 out.extend_from_slice(&buf[..n.min(expect)]);
@@ -366,7 +368,8 @@ impl<'a> Ctx<'a, '_> {
             Payload::Text(t) => self.text_values(e, &t, parse_f64, "number"),
             Payload::Bytes(b) => {
                 self.check_bytes(e, &b, ty)?;
-                Ok(decode_f64(&b, ty, self.big, 0))
+                decode_f64(&b, ty, self.big, 0, "the decoded values")
+                    .map_err(|m| self.xml_err(label(e), m.to_string()))
             }
         }
     }
@@ -393,7 +396,8 @@ impl<'a> Ctx<'a, '_> {
             Payload::Text(_) => Ok(None),
             Payload::Bytes(b) => {
                 self.check_bytes(e, &b, ty)?;
-                Ok(decode_u32_ids(&b, ty, self.big))
+                decode_u32_ids(&b, ty, self.big, "the decoded ids")
+                    .map_err(|m| self.xml_err(label(e), m.to_string()))
             }
         }
     }

@@ -178,7 +178,7 @@ impl<'a> Ctx<'a, '_> {
         let point_data = self.properties(self.child(piece, "PointData"), np, "NumberOfPoints")?;
         let cell_data = self.properties(self.child(piece, "CellData"), nc, "NumberOfCells")?;
         Ok(Grid {
-            points: to_points(&points),
+            points: to_points(&points, self.file)?,
             topology: Topology::Unstructured(cells),
             point_data,
             cell_data,
@@ -479,7 +479,7 @@ impl<'a> Ctx<'a, '_> {
         let point_data = self.properties(self.child(piece, "PointData"), np, "point")?;
         let cell_data = self.properties(self.child(piece, "CellData"), nc, "cell")?;
         Ok(Grid {
-            points: to_points(&points),
+            points: to_points(&points, self.file)?,
             topology: Topology::Structured { dims },
             point_data,
             cell_data,
