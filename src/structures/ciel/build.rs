@@ -26,6 +26,7 @@ use super::{
     NONE, VERTEX_MASK, structured_as_cells,
 };
 use crate::grid::{Cells, Grid, Topology, is_lower_dimensional, vtk_type};
+use crate::mem::try_filled;
 use crate::metacell::{Catalog, VOXEL_TO_HEX, builtin};
 use crate::structures::common::{CellClass, classify_cell, is_sweepable, split_lengths};
 use crate::structures::polyhedron::{Scratch, check_cell, parse_faces_into};
@@ -277,10 +278,10 @@ impl CellPhase {
             return Err(CielError::TooLarge(format!("{he_bound} half-edges")));
         }
         let mut phase = CellPhase {
-            origins: vec![0u32; he_bound],
-            mate_face: vec![0i16; he_bound],
-            cell_start: vec![0u32; n + 1],
-            faces: vec![[0; 4]; face_bound],
+            origins: try_filled(he_bound, 0u32, "CIEL's half-edge origins")?,
+            mate_face: try_filled(he_bound, 0i16, "CIEL's half-edge mates")?,
+            cell_start: try_filled(n + 1, 0u32, "CIEL's cell starts")?,
+            faces: try_filled(face_bound, [0; 4], "CIEL's faces")?,
             counts: CielCounts::default(),
             non_convex_cells: Vec::new(),
         };

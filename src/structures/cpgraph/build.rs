@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use super::{CpCounts, CpGraph, EXPLICIT, IjkLayout};
 use crate::grid::{Cells, Grid, Topology, origin_of, rebased};
+use crate::mem::try_filled;
 use crate::metacell::{Catalog, builtin};
 use crate::structures::cgraph::classify_and_orient;
 use crate::structures::convex_split::{SplitMap, SplitPieces};
@@ -280,15 +281,15 @@ impl Slots {
         coder: &mut Coder,
         hidden: Option<&[bool]>,
         metas: usize,
-    ) -> Self {
+    ) -> Result<Self, StructureError> {
         let n = r.metas.len();
         let pieces = (0..n).filter(|&c| r.is_split(r.source(c))).count();
         let total = shape.lattice + pieces;
         let mut s = Slots {
             kept: BitSet::new(shape.lattice),
             piece_cell: Vec::with_capacity(pieces),
-            anchor: vec![0; total],
-            stencil: vec![EXPLICIT; total],
+            anchor: try_filled(total, 0, "the corner-point graph's slot anchors")?,
+            stencil: try_filled(total, EXPLICIT, "the corner-point graph's slot stencils")?,
             live: BitSet::new(total),
             explicit: Vec::new(),
             class_counts: [0; crate::structures::CELL_CLASS_COUNT],
@@ -334,7 +335,7 @@ impl Slots {
             s.place(r, coder, c, slot, col);
         }
         s.counts.stencils = coder.stencils.len();
-        s
+        Ok(s)
     }
 
     /// Stores live cell `c` in `slot` (of column `col`): by stencil when
@@ -404,8 +405,8 @@ impl CpGraph {
             return Err(StructureError::TooLarge { count: total });
         }
         let mut coder = Coder::new(&r, &shape);
-        let s = Slots::fill(&r, &shape, &mut coder, hidden, catalog.metas.len());
-        let (links, sums) = link(&r, &shape, &s, total);
+        let s = Slots::fill(&r, &shape, &mut coder, hidden, catalog.metas.len())?;
+        let (links, sums) = link(&r, &shape, &s, total)?;
         drop(r);
         let counts = CpCounts {
             faces: sums[0],
@@ -487,14 +488,18 @@ fn resolve_split<'a>(
 
 /// Per lattice slot, the (split) cell placed there: only read at live
 /// slots, which always hold one.
-fn cells_at(r: &Resolved, lattice: usize) -> Vec<u32> {
-    let mut at = vec![u32::MAX; lattice];
+fn cells_at(r: &Resolved, lattice: usize) -> Result<Vec<u32>, StructureError> {
+    let mut at = try_filled(
+        lattice,
+        u32::MAX,
+        "the corner-point graph's cell of each slot",
+    )?;
     for c in 0..r.metas.len() {
         if !r.is_split(r.source(c)) {
             at[r.home(c)] = c as u32;
         }
     }
-    at
+    Ok(at)
 }
 
 /// Links IJK neighbours that share a vertex and counts the faces (faces,
@@ -504,10 +509,15 @@ fn cells_at(r: &Resolved, lattice: usize) -> Vec<u32> {
 /// whichever side asks. The cells' ids are read from the (split) grid's
 /// connectivity, slot by slot in order, rather than decoded through the
 /// stencil table, which is read at random.
-fn link(r: &Resolved, shape: &Shape, s: &Slots, slots: usize) -> (Vec<u8>, [usize; 4]) {
+fn link(
+    r: &Resolved,
+    shape: &Shape,
+    s: &Slots,
+    slots: usize,
+) -> Result<(Vec<u8>, [usize; 4]), StructureError> {
     let lattice = shape.lattice;
-    let at = cells_at(r, lattice);
-    let mut up = vec![0u8; lattice];
+    let at = cells_at(r, lattice)?;
+    let mut up = try_filled(lattice, 0u8, "the corner-point graph's upward links")?;
     let deltas = [1, shape.npi, shape.slab];
     let sums = up
         .par_chunks_mut(1 << 14)
@@ -523,7 +533,7 @@ fn link(r: &Resolved, shape: &Shape, s: &Slots, slots: usize) -> (Vec<u8>, [usiz
             || [0; 4],
             |x, y| [x[0] + y[0], x[1] + y[1], x[2] + y[2], x[3] + y[3]],
         );
-    let mut links = vec![0u8; slots];
+    let mut links = try_filled(slots, 0u8, "the corner-point graph's links")?;
     links[..lattice]
         .par_chunks_mut(1 << 14)
         .enumerate()
@@ -539,7 +549,7 @@ fn link(r: &Resolved, shape: &Shape, s: &Slots, slots: usize) -> (Vec<u8>, [usiz
                 *o = bits;
             }
         });
-    (links, sums)
+    Ok((links, sums))
 }
 
 /// The +i, +j, +k link bits of lattice `slot` (a neighbour that shares a
