@@ -554,3 +554,42 @@ fn class2_window_screenshot_in_a_window_is_atomic() {
     assert_eq!(std::fs::read(&shot).unwrap(), OLD);
     assert_eq!(temporaries(&d), Vec::<String>::new());
 }
+
+/// `slice -o MESH --stats JSON` is one output pair: the statistics are
+/// written in full before the mesh replaces anything and renamed after it,
+/// so a failure of either (here the statistics, larger than the mesh, do
+/// not fit a disk the mesh fits) leaves both old files as they were.
+#[test]
+fn class3_a_slice_and_its_statistics_are_replaced_together_or_not_at_all() {
+    let d = Dir::new("pair");
+    let grid = d.grid();
+    let (mesh, stats) = (d.s("out.ply"), d.s("out.json"));
+    // 2,001 levels, nearly all outside the grid: a small mesh, long stats.
+    let a = args(&[
+        "slice",
+        &grid,
+        "--axis",
+        "z",
+        "--values",
+        "-1000:1000:1",
+        "-o",
+        &mesh,
+        "--stats",
+        &stats,
+    ]);
+    let o = run(&a, None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let size = |p: &str| std::fs::metadata(p).unwrap().len();
+    let (m, s) = (size(&mesh), size(&stats));
+    assert!(s > m + 64, "statistics {s} bytes, mesh {m} bytes");
+    std::fs::write(&mesh, OLD).unwrap();
+    std::fs::write(&stats, OLD).unwrap();
+    let limit = (m + s) / 2;
+    let msg = format!("cannot write {stats}");
+    all_ok(
+        refused(&d, &a, Some(limit), &[&msg, "File too large"])
+            .err()
+            .into_iter()
+            .collect(),
+    );
+}

@@ -156,6 +156,13 @@ pub(crate) fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
         );
     }
     let stats = stats_json(&r, &s, &grid, load_s, build_s, &name, &field);
+    // The statistics are written in full before the mesh replaces anything
+    // and renamed after it: a failure of either leaves both files as they
+    // were.
+    let stats_file = match &a.stats {
+        Some(p) => Some((p, super::write::prepare_json(p, &stats)?)),
+        None => None,
+    };
     if let Some(out) = &a.output {
         let mesh = r.mesh.as_ref().expect("collected");
         let flat;
@@ -177,8 +184,9 @@ pub(crate) fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
         }
         sp.finish_and_clear();
     }
-    if let Some(p) = &a.stats {
-        super::write::write_json(p, &stats)?;
+    if let Some((p, f)) = stats_file {
+        f.commit()
+            .with_context(|| format!("cannot write {}", p.display()))?;
     }
     if !quiet {
         let t = &stats["totals"];

@@ -22,11 +22,17 @@ pub fn init_beside(path: &Path) -> std::path::PathBuf {
     })
 }
 
-/// Writes `v` as pretty JSON to `path` atomically.
-pub fn write_json(path: &Path, v: &Value) -> Result<()> {
+/// Writes `v` as pretty JSON into a temporary file beside `path`, flushed,
+/// for the caller to commit once the outputs written with it are in place
+/// (dropped uncommitted, it is removed and `path` stays as it was).
+pub fn prepare_json(path: &Path, v: &Value) -> Result<atomic::AtomicFile> {
+    let ctx = || format!("cannot write {}", path.display());
     let text = serde_json::to_string_pretty(v)?;
-    atomic::write_bytes(path, text.as_bytes())
-        .with_context(|| format!("cannot write {}", path.display()))
+    let mut f = atomic::AtomicFile::create(path).with_context(ctx)?;
+    f.write_all(text.as_bytes())
+        .and_then(|_| f.flush())
+        .with_context(ctx)?;
+    Ok(f)
 }
 
 /// Writes a corner-point grid as the extension `ext` says: GRDECL text
