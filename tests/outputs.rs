@@ -231,37 +231,23 @@ fn writers(grid: &str, out: &dyn Fn(&str) -> String) -> Vec<Vec<String>> {
             &out("png"),
         ])
     };
+    let slice = |flag: &str, ext: &str| {
+        args(&[
+            "slice",
+            grid,
+            "--axis",
+            "z",
+            "--count",
+            "4",
+            flag,
+            &out(ext),
+        ])
+    };
+    let faulted = |ext: &str| args(&["generate", "faulted", "--dims", "3,3,2", "-o", &out(ext)]);
     vec![
-        args(&[
-            "slice",
-            grid,
-            "--axis",
-            "z",
-            "--count",
-            "4",
-            "-o",
-            &out("vtp"),
-        ]),
-        args(&[
-            "slice",
-            grid,
-            "--axis",
-            "z",
-            "--count",
-            "4",
-            "-o",
-            &out("ply"),
-        ]),
-        args(&[
-            "slice",
-            grid,
-            "--axis",
-            "z",
-            "--count",
-            "4",
-            "--stats",
-            &out("json"),
-        ]),
+        slice("-o", "vtp"),
+        slice("-o", "ply"),
+        slice("--stats", "json"),
         args(&[
             "render",
             grid,
@@ -272,23 +258,9 @@ fn writers(grid: &str, out: &dyn Fn(&str) -> String) -> Vec<Vec<String>> {
             "-o",
             &out("png"),
         ]),
-        args(&[
-            "generate",
-            "faulted",
-            "--dims",
-            "3,3,2",
-            "-o",
-            &out("grdecl"),
-        ]),
-        args(&[
-            "generate",
-            "faulted",
-            "--dims",
-            "3,3,2",
-            "-o",
-            &out("egrid"),
-        ]),
-        args(&["generate", "faulted", "--dims", "3,3,2", "-o", &out("vtu")]),
+        faulted("grdecl"),
+        faulted("egrid"),
+        faulted("vtu"),
         args(&["generate", "warped", "--dims", "3,3,3", "-o", &out("vts")]),
         args(&["generate", "zoo", "--cells", "50", "-o", &out("vtu")]),
         args(&["generate", "voronoi", "--cells", "20", "-o", &out("vtu")]),
