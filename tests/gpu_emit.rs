@@ -8,10 +8,10 @@ mod gpu_common;
 
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::{warped, zoo};
-use stratasweep::gpu::frame::{FrameOutput, canonical};
+use stratasweep::gpu::compute::frame::{FrameOutput, canonical};
+use stratasweep::gpu::compute::slice::{Emitter, prepare, slice_on};
+use stratasweep::gpu::compute::{emit::GpuEmitter, twin};
 use stratasweep::gpu::shared::OutVertex;
-use stratasweep::gpu::slice::{Emitter, prepare, slice_on};
-use stratasweep::gpu::{emit::GpuEmitter, twin};
 use stratasweep::grid::Grid;
 use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
 use stratasweep::structures::{Structure, StructureChoice};
@@ -426,7 +426,7 @@ fn interpolated_gradients_follow_the_analytic_normal() {
             ..req(FieldSpec::Property("d".into()), 1, 1, false)
         };
         let mut p = prepare(&grid, &s, &r).unwrap();
-        p.grid.grad = stratasweep::gpu::gradient::vertex_gradients(&p.grid);
+        p.grid.grad = stratasweep::gpu::compute::gradient::vertex_gradients(&p.grid);
         let tw = twin::run(&p.grid, &p.frame, false);
         assert_eq!(tw.normals.len(), tw.vertices.len(), "{name}");
         let o = grid.origin();

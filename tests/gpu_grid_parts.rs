@@ -1,5 +1,5 @@
 //! Grids over the storage-binding limit: the grid buffers split into parts
-//! (`gpu::grid_parts`) emit exactly the triangles of the whole grid.
+//! (`gpu::compute::grid_parts`) emit exactly the triangles of the whole grid.
 //! Host side: the CPU twin run part by part equals the twin on the whole
 //! grid bit for bit (S-CGraph windows and CGraph vertex subsets, vertex and
 //! cell attributes, iso gradients). Device side: with a small part budget
@@ -12,15 +12,15 @@ mod gpu_common;
 
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::{warped, zoo};
+use stratasweep::gpu::compute::emit::{GpuEmitter, emit_chunked};
+use stratasweep::gpu::compute::frame::canonical;
+use stratasweep::gpu::compute::gradient::vertex_gradients;
+use stratasweep::gpu::compute::grid_parts::{largest_buffer, split_frame, split_grid};
+use stratasweep::gpu::compute::slice::{Emitter, prepare, slice_on};
+use stratasweep::gpu::compute::tables::{Frame, GridBuffers, slot_values};
+use stratasweep::gpu::compute::twin;
 use stratasweep::gpu::context::{ContextOptions, GpuContext};
-use stratasweep::gpu::emit::{GpuEmitter, emit_chunked};
-use stratasweep::gpu::frame::canonical;
-use stratasweep::gpu::gradient::vertex_gradients;
-use stratasweep::gpu::grid_parts::{largest_buffer, split_frame, split_grid};
 use stratasweep::gpu::render::{RenderOptions, Renderer};
-use stratasweep::gpu::slice::{Emitter, prepare, slice_on};
-use stratasweep::gpu::tables::{Frame, GridBuffers, slot_values};
-use stratasweep::gpu::twin;
 use stratasweep::grid::Grid;
 use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
 use stratasweep::structures::{Structure, StructureChoice};
@@ -192,7 +192,8 @@ fn twin_over_parts_equals_twin_over_the_whole_grid() {
             assert_eq!(polys, whole.polygons(lv), "{} level {lv}: polygons", c.0);
             if c.6 {
                 let a = whole.canonical_level_with_normals(lv);
-                let b = stratasweep::gpu::frame::canonical_with_normals(&merged, &merged_n);
+                let b =
+                    stratasweep::gpu::compute::frame::canonical_with_normals(&merged, &merged_n);
                 assert!(a == b, "{} level {lv}: triangles with normals differ", c.0);
             } else {
                 assert!(

@@ -9,9 +9,9 @@ mod gpu_common;
 
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::warped;
+use stratasweep::gpu::compute::slice::{Emitter, GpuSliceError, slice_on};
 use stratasweep::gpu::context::{ContextOptions, GpuContext, GpuError};
 use stratasweep::gpu::render::{RenderOptions, Renderer};
-use stratasweep::gpu::slice::{Emitter, GpuSliceError, slice_on};
 use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
 use stratasweep::structures::{Structure, StructureChoice};
 

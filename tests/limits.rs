@@ -178,14 +178,14 @@ fn property_names_match_regardless_of_case_and_misses_suggest_a_name() {
     );
 }
 
-/// The sweep behind `render` and `slice --device gpu` (`gpu::tables::
+/// The sweep behind `render` and `slice --device gpu` (`gpu::compute::tables::
 /// sweep_frame`, CPU only) stops between levels too: a render's Ctrl-C
 /// does not wait for its whole sweep.
 #[test]
 fn the_render_sweep_is_cancelled_between_levels() {
     use stratasweep::cellgraph::CellGraph;
     use stratasweep::field::AxisField;
-    use stratasweep::gpu::tables::sweep_frame;
+    use stratasweep::gpu::compute::tables::sweep_frame;
     let g = stratasweep::generate::warped([48, 48, 48], 1);
     let Structure::SCGraph(s) = Structure::build(&g, StructureChoice::SCGraph).unwrap() else {
         panic!("not an S-CGraph");

@@ -2,11 +2,11 @@
 
 use anyhow::{Context, Result};
 use clap::ValueEnum;
+use stratasweep::gpu::compute::slice::Emitter;
+use stratasweep::gpu::compute::slice::slice_on;
 use stratasweep::gpu::context::ContextOptions;
 use stratasweep::gpu::context::GpuContext;
 use stratasweep::gpu::context::GpuError;
-use stratasweep::gpu::slice::Emitter;
-use stratasweep::gpu::slice::slice_on;
 use stratasweep::grid::Grid;
 use stratasweep::pipeline::SliceRequest;
 use stratasweep::pipeline::SliceResult;

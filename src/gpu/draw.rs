@@ -7,7 +7,7 @@
 use wgpu::util::DeviceExt;
 
 use super::camera::OrbitCamera;
-use super::emit::GpuEmitter;
+use super::compute::emit::GpuEmitter;
 use super::pre_pass::{PreDraw, SUB_SLABS, ScalarTargets, encode_pre};
 use super::preintegrate::{PRE_SIZE, preintegrated_table};
 use super::render::{DEPTH, Image, Mode, RenderError, Renderer, SliceSet, Transfer};

@@ -11,12 +11,12 @@ use crate::mesh::PolyMesh;
 use crate::pipeline::slice;
 use crate::structures::Structure;
 
+use super::compute::emit::GpuEmitter;
+use super::compute::frame::FrameOutput;
+use super::compute::tables::GridBuffers;
 use super::context::GpuContext;
-use super::emit::GpuEmitter;
-use super::frame::FrameOutput;
 use super::render::{RenderError, SliceKey, SliceSet, emit_slices, shown_range};
 use super::shared::{ControlLayout, DrawArgs, OutVertex};
-use super::tables::GridBuffers;
 
 /// Per mesh vertex: the area-weighted mean of its polygons' normals (the
 /// mesh is welded by grid edge), each polygon's normal flipped to agree

@@ -9,12 +9,9 @@
 
 pub mod boundary;
 pub mod camera;
+pub mod compute;
 pub mod context;
 pub mod draw;
-pub mod emit;
-pub mod frame;
-pub mod gradient;
-pub mod grid_parts;
 pub mod host_slices;
 pub mod ijk_field;
 pub mod iso_cache;
@@ -28,7 +25,4 @@ pub mod scene;
 pub mod shaders;
 pub mod shared;
 pub mod shown;
-pub mod slice;
-pub mod tables;
 pub mod transfer;
-pub mod twin;

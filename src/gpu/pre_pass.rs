@@ -25,7 +25,7 @@
 //! slice to the exit, and whole rays that meet no slice are marched
 //! through the property's 3D texture in index space (group 2).
 
-use super::emit::GpuEmitter;
+use super::compute::emit::GpuEmitter;
 use super::shared::{ARGS_WORDS, ControlLayout};
 
 /// Format of the per-slice scalar targets: (value, its derivative along

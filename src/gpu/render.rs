@@ -24,15 +24,15 @@ use crate::pipeline::{LevelSpec, PipelineError, SliceRequest, vertex_property};
 use crate::structures::Structure;
 
 pub use super::camera::{FRAME_MARGIN, frame_camera};
+use super::compute::emit::{GpuEmitter, emit_chunked};
+use super::compute::gradient::vertex_gradients;
+use super::compute::slice::{prepare, prepare_unswept};
+use super::compute::tables::{Frame, slot_values};
 use super::context::{GpuContext, GpuError};
-use super::emit::{GpuEmitter, emit_chunked};
-use super::gradient::vertex_gradients;
 use super::ijk_field::IjkField;
 use super::pre_pass::{BoundaryMesh, PrePipeline};
 use super::shaders;
 use super::shown::{check_shown_property, property_range, shown_property};
-use super::slice::{prepare, prepare_unswept};
-use super::tables::{Frame, slot_values};
 pub use super::transfer::{
     COLORMAPS, LUT_VEC4S, Transfer, TransferError, TransferPoint, TransferSource,
 };

@@ -11,8 +11,8 @@ use pyo3::prelude::*;
 
 use crate::cancel::Cancel;
 use crate::field::FieldSpec;
+use crate::gpu::compute::slice::{Emitter, GpuSliceError, slice_on};
 use crate::gpu::context::{ContextOptions, GpuContext, GpuError};
-use crate::gpu::slice::{Emitter, GpuSliceError, slice_on};
 use crate::limits;
 use crate::pipeline::{LevelSpec, SliceRequest, SliceResult, slice as sweep};
 use crate::report::{flatten_by_cell, stats_json};

@@ -7,11 +7,11 @@
 use crate::extract::face_above_connected;
 
 use super::frame::FrameOutput;
-use super::shared::{
+use super::tables::{Frame, GridBuffers};
+use crate::gpu::shared::{
     ATTR_CELL, ATTR_VERTEX, ControlLayout, DrawArgs, EmitParams, Entry, META_WORDS, MetaInfo,
     OutVertex,
 };
-use super::tables::{Frame, GridBuffers};
 
 /// Per-invocation state: the current cell's vertex ids and φ.
 struct Cell {

@@ -9,12 +9,12 @@ use std::time::Instant;
 
 use wgpu::util::DeviceExt;
 
-use super::context::{GpuContext, GpuError};
 use super::frame::FrameOutput;
 use super::grid_parts::{GridPart, split_frame, split_grid};
-use super::shaders;
-use super::shared::{ControlLayout, EmitParams, OutVertex};
 use super::tables::{Frame, GridBuffers, dispatch_size, emit_params};
+use crate::gpu::context::{GpuContext, GpuError};
+use crate::gpu::shaders;
+use crate::gpu::shared::{ControlLayout, EmitParams, OutVertex};
 
 /// Storage buffers bound by the compute passes (bindings 1..=12).
 pub const STORAGE_BINDINGS: u32 = 12;
@@ -344,7 +344,7 @@ impl<'c> GpuEmitter<'c> {
 
     /// An emitter whose output was made on the host (the CPU sweep's
     /// polygons of a grid the GPU tables cannot express, see
-    /// [`super::host_slices`]): `out`'s triangles and control words
+    /// `gpu::render::host_slices`): `out`'s triangles and control words
     /// uploaded as if the passes had written them; with `normals`, `out`'s
     /// per-corner normals (zero when it has none: the render pass then
     /// shades with the facet normal).
@@ -839,7 +839,7 @@ impl GpuEmitter<'_> {
         let t1 = Instant::now();
         // Count, scan and emit over the binned entries.
         let groups = dispatch_size(n, maxx);
-        p.row_width = groups.0 * super::shared::WORKGROUP;
+        p.row_width = groups.0 * crate::gpu::shared::WORKGROUP;
         q.write_buffer(&self.params[0], 0, bytemuck::bytes_of(&p));
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.dispatch(&mut enc, &bg, &self.count.clone(), groups);

@@ -4,8 +4,8 @@
 
 use crate::sweep::LevelStats;
 
-use super::shared::{ControlLayout, DrawArgs, OutVertex};
 use super::tables::Frame;
+use crate::gpu::shared::{ControlLayout, DrawArgs, OutVertex};
 
 /// The output of one frame.
 #[derive(Clone, Debug, Default)]

@@ -12,8 +12,8 @@
 
 use crate::metacell::MAX_META_VERTICES;
 
-use super::shared::{Entry, META_WORDS};
 use super::tables::{Frame, GridBuffers};
+use crate::gpu::shared::{Entry, META_WORDS};
 
 /// One part: its own buffers (local slots `0..slot_hi - slot_lo`, local
 /// vertex ids) and the global slot range it covers.

@@ -14,9 +14,9 @@ use crate::pipeline::{bind, level_value, level_warnings, live_range, place_level
 use crate::structures::Structure;
 use crate::sweep::{CellGraph, LevelStats};
 
-use super::context::{GpuContext, GpuError};
 use super::emit::{EmitTimings, GpuEmitter, emit_chunked};
 use super::tables::{Frame, GridBuffers, sweep_frame};
+use crate::gpu::context::{GpuContext, GpuError};
 
 /// Errors of the GPU slicing path.
 #[derive(Debug, Error)]

@@ -10,7 +10,7 @@ use crate::metacell::{Catalog, MAX_META_VERTICES, builtin};
 use crate::structures::scgraph::SCGraph;
 use crate::sweep::{CellGraph, LevelStats, Sweeper};
 
-use super::shared::{
+use crate::gpu::shared::{
     ATTR_CELL, ATTR_NONE, ATTR_VERTEX, EmitParams, Entry, META_WORDS, MetaInfo, TableSections,
     WORKGROUP,
 };
