@@ -1,4 +1,4 @@
-//! The outer surface (`gpu::boundary`) of real grids from `STRATASWEEP_DATA`:
+//! The outer surface (`gpu::render::preintegrated::boundary`) of real grids from `STRATASWEEP_DATA`:
 //! Reek (corner-point, faulted, 20 inactive cells) and the GEOS PEBI grid
 //! (polyhedra). Closed (every directed edge matched by its reverse), and
 //! its volume by the divergence theorem equals the grid's bulk volume.
@@ -6,7 +6,7 @@
 mod common;
 use common::data_dir;
 
-use stratasweep::gpu::boundary::{Surface, outer_surface};
+use stratasweep::gpu::render::preintegrated::boundary::{Surface, outer_surface};
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]

@@ -1,5 +1,5 @@
 //! Pre-integrated volume mode on unstructured grids, whose ray entry and
-//! exit now come from the outer surface of any grid (`gpu::boundary`):
+//! exit now come from the outer surface of any grid (`gpu::render::preintegrated::boundary`):
 //! against a CPU integration along the ray (as `gpu_preintegrate.rs` does
 //! for an IJK box). The value is linear in z, so between slices the slab
 //! is exact, and what is left is where the ray enters and leaves.

@@ -1,5 +1,5 @@
 //! Grids the GPU tables cannot express (CIEL: Voronoi polyhedra) are drawn
-//! from the CPU sweep's polygons (`gpu::host_slices`). Checked: the
+//! from the CPU sweep's polygons (`gpu::render::host_slices`). Checked: the
 //! uploaded per-level polygons, triangles and areas equal the CPU
 //! pipeline's statistics; a warped grid forced onto CIEL (host polygons)
 //! renders like the same grid on the S-CGraph (GPU emission), an
@@ -13,7 +13,9 @@ mod gpu_common;
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::warped;
 use stratasweep::gpu::context::{ContextOptions, GpuContext};
-use stratasweep::gpu::host_slices::{level_chunks, mesh_levels, mesh_output, vertex_normals};
+use stratasweep::gpu::render::host_slices::{
+    level_chunks, mesh_levels, mesh_output, vertex_normals,
+};
 use stratasweep::gpu::render::{Mode, RenderOptions, Renderer};
 use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
 use stratasweep::structures::{Structure, StructureChoice};

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use stratasweep::generate::warped;
 use stratasweep::gpu::render::{Mode, RenderOptions, Renderer};
-use stratasweep::gpu::scene::Scene;
+use stratasweep::gpu::view::scene::Scene;
 use stratasweep::structures::{Structure, StructureChoice};
 
 #[test]

@@ -1,4 +1,4 @@
-//! Pre-integration in IJK index space (`gpu::ijk_field`) against a CPU
+//! Pre-integration in IJK index space (`gpu::render::preintegrated::ijk_field`) against a CPU
 //! integration along the ray, on fields that vary inside a slab: a point
 //! property that is a sine in z (the grid's own field: linear between the
 //! lattice's nodes), and a cell property constant per K layer. The same
@@ -10,9 +10,8 @@
 
 mod gpu_common;
 
-use stratasweep::gpu::render::{
-    CellFinding, Image, Mode, RenderOptions, Renderer, Transfer, slice_key,
-};
+use stratasweep::gpu::render::slice_cache::slice_key;
+use stratasweep::gpu::render::{CellFinding, Image, Mode, RenderOptions, Renderer, Transfer};
 use stratasweep::grid::{Grid, Property, Topology};
 use stratasweep::structures::{Structure, StructureChoice};
 
@@ -334,7 +333,7 @@ fn reek_preintegrated_slices_have_no_holes() {
     let s = Structure::build_with(&l.grid, StructureChoice::Auto, l.ijk.as_ref()).unwrap();
     assert!(matches!(s, Structure::CpGraph(_)));
     let (lo, hi) = l.grid.bounds();
-    let z_scale = stratasweep::gpu::camera::default_z_scale(lo, hi);
+    let z_scale = stratasweep::gpu::render::camera::default_z_scale(lo, hi);
     let render = |slices: usize, pre: bool| {
         let o = RenderOptions {
             property: Some("PORO".into()),

@@ -236,7 +236,7 @@ fn cell_property_gives_flat_colour_per_polygon() {
     let (w, h) = (80u32, 40u32);
     // Orthographic window: the box is 2W × 4 across, the image aspect 2,
     // so the height limits: half-height 2·margin, half-width twice that.
-    let hh = 2.0 * stratasweep::gpu::render::FRAME_MARGIN as f64;
+    let hh = 2.0 * stratasweep::gpu::render::camera::FRAME_MARGIN as f64;
     let hw = hh * w as f64 / h as f64;
     let world = |x: u32, y: u32| {
         (
@@ -362,7 +362,7 @@ fn isosphere_shading_follows_the_analytic_normal() {
     let (cx, cy, rad) = (sx / n, sy / n, (n / std::f64::consts::PI).sqrt());
     // The framing: the cube fills the image up to the margin, so the
     // sphere's radius is 0.6 / (1 · margin) of the half-image.
-    let want_rad = 0.6 / stratasweep::gpu::render::FRAME_MARGIN as f64 * 48.0;
+    let want_rad = 0.6 / stratasweep::gpu::render::camera::FRAME_MARGIN as f64 * 48.0;
     eprintln!("silhouette: centre ({cx:.2}, {cy:.2}), radius {rad:.2} px (framing: {want_rad:.2})");
     assert!((cx - 48.0).abs() < 0.5 && (cy - 48.0).abs() < 0.5);
     assert!(
@@ -702,7 +702,7 @@ fn a_grid_without_properties_far_from_the_origin_renders_as_at_the_origin() {
 /// one, else none (the slice position). No GPU needed.
 #[test]
 fn the_default_property_is_the_first_that_varies() {
-    use stratasweep::gpu::shown::default_property;
+    use stratasweep::gpu::render::shown::default_property;
     let mut g = warped([3, 3, 3], 1);
     g.point_data.clear();
     assert_eq!(default_property(&g), None);

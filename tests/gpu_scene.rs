@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use stratasweep::generate::warped;
 use stratasweep::gpu::render::{Mode, RenderOptions, Renderer, Transfer};
-use stratasweep::gpu::scene::Scene;
+use stratasweep::gpu::view::scene::Scene;
 use stratasweep::grid::{Grid, Property, Topology};
 use stratasweep::structures::{Structure, StructureChoice};
 

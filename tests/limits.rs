@@ -173,7 +173,7 @@ fn property_names_match_regardless_of_case_and_misses_suggest_a_name() {
         ..Default::default()
     };
     assert_eq!(
-        stratasweep::gpu::shown::shown_property(&g, &o),
+        stratasweep::gpu::render::shown::shown_property(&g, &o),
         Some(name.clone())
     );
 }

@@ -12,11 +12,11 @@ mod gpu_common;
 
 use std::process::Command;
 
+use stratasweep::gpu::render::checks::{check_modes, check_options};
+use stratasweep::gpu::render::transfer::LUT_KNOTS;
 use stratasweep::gpu::render::{
-    Mode, RenderError, RenderOptions, Renderer, Transfer, TransferSource, check_modes,
-    check_options,
+    Mode, RenderError, RenderOptions, Renderer, Transfer, TransferSource,
 };
-use stratasweep::gpu::transfer::LUT_KNOTS;
 use stratasweep::grid::{Grid, Property, Topology};
 use stratasweep::structures::{Structure, StructureChoice};
 

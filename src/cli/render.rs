@@ -110,7 +110,7 @@ fn pre_fallback(
     grid: &stratasweep::grid::Grid,
     o: &stratasweep::gpu::render::RenderOptions,
 ) -> Option<String> {
-    use stratasweep::gpu::render::{slice_key, slicing_axis};
+    use stratasweep::gpu::render::{camera::slicing_axis, slice_cache::slice_key};
     if !r.preintegrated() || o.mode != Mode::Volume {
         return None;
     }

@@ -7,10 +7,9 @@
 //! name or a JSON file.
 
 use anyhow::{Context, Result, bail};
-use stratasweep::gpu::render::{
-    Image, Mode, RenderOptions, Transfer, TransferSource, check_modes, check_options,
-};
-use stratasweep::gpu::shown::{property_range, shown_property};
+use stratasweep::gpu::render::checks::{check_modes, check_options};
+use stratasweep::gpu::render::shown::{property_range, shown_property};
+use stratasweep::gpu::render::{Image, Mode, RenderOptions, Transfer, TransferSource};
 use stratasweep::grid::Grid;
 
 use super::scene_args::SceneArgs;

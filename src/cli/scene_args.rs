@@ -5,7 +5,7 @@
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 
-use stratasweep::gpu::camera::default_z_scale;
+use stratasweep::gpu::render::camera::default_z_scale;
 use stratasweep::gpu::render::{CellFinding, Mode, RenderOptions};
 use stratasweep::grid::Grid;
 

@@ -9,9 +9,9 @@ use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
 
 use crate::gpu::context::{ContextOptions, GpuContext};
+use crate::gpu::render::checks::check_options;
 use crate::gpu::render::{
     CellFinding, Mode, RenderError, RenderOptions, Renderer, Transfer, TransferSource,
-    check_options,
 };
 use crate::structures::StructureChoice;
 

@@ -16,8 +16,8 @@ use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
 use stratasweep::gpu::context::GpuContext;
-use stratasweep::gpu::present::Compositor;
-use stratasweep::gpu::scene::{FrameInfo, Scene};
+use stratasweep::gpu::view::present::Compositor;
+use stratasweep::gpu::view::scene::{FrameInfo, Scene};
 
 use super::overlay::{Overlay, read_rgba8};
 use super::panel::{Action, Panel, motion_lod};

@@ -16,10 +16,11 @@ use serde_json::json;
 use winit::event_loop::EventLoop;
 
 use stratasweep::gpu::context::GpuContext;
-use stratasweep::gpu::render::{
-    Image, RenderOptions, Renderer, slice_key, slicing_axis, transfer_for,
-};
-use stratasweep::gpu::scene::Scene;
+use stratasweep::gpu::render::camera::slicing_axis;
+use stratasweep::gpu::render::options::transfer_for;
+use stratasweep::gpu::render::slice_cache::slice_key;
+use stratasweep::gpu::render::{Image, RenderOptions, Renderer};
+use stratasweep::gpu::view::scene::Scene;
 use stratasweep::grid::Grid;
 use stratasweep::structures::StructureChoice;
 

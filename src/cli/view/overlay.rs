@@ -186,7 +186,7 @@ pub fn paint_legend(p: &Painter, rect: Rect, l: &Legend) {
 /// Paints the X, Y and Z axes from the lowest corner of the grid's bounding
 /// box (display space extents `ext`, centred on the local origin) as seen
 /// through `view_proj` (display → clip), in a viewport of `size` points.
-/// The box's edges are drawn by the present pass (`gpu::outline`), the
+/// The box's edges are drawn by the present pass (`gpu::view::outline`), the
 /// hidden ones under the scene.
 pub fn paint_outline(p: &Painter, view_proj: Mat4, ext: Vec3, size: Vec2) {
     let corner = |i: usize| {

@@ -6,8 +6,10 @@ use anyhow::Result;
 use egui::{Align2, Color32, vec2};
 use glam::Vec3;
 
-use stratasweep::gpu::render::{COLORMAPS, Mode, mean_cell_size};
-use stratasweep::gpu::scene::{FrameInfo, Scene};
+use stratasweep::gpu::render::Mode;
+use stratasweep::gpu::render::options::mean_cell_size;
+use stratasweep::gpu::render::transfer::COLORMAPS;
+use stratasweep::gpu::view::scene::{FrameInfo, Scene};
 
 use super::overlay::{LEGEND_SIZE, Legend, paint_legend, paint_outline};
 

@@ -1,7 +1,7 @@
 //! Index-space coordinates of a corner-point graph (no wgpu): per vertex
 //! its lattice node `(i, j, k)`, and per IJK cell its input cell, for the
-//! pre-integrated volume pass (`gpu::ijk_field`; its outer surface, over
-//! every live cell: `gpu::boundary::graph_boundary_triangles`).
+//! pre-integrated volume pass (`gpu::render::preintegrated::ijk_field`; its outer surface, over
+//! every live cell: `gpu::render::preintegrated::boundary::graph_boundary_triangles`).
 //!
 //! A hexahedron in column `(i, j)`, layer `k` has its local vertex `l` on
 //! pillar corner `corner_pillar[l]` and at node layer `k` or `k + 1`: the

@@ -8,7 +8,7 @@
 //! `1 − (1 − α)^(r/m)` each, composited front to back. A slab of constant
 //! value gives exactly the plain mode's `1 − (1 − α)^r`.
 
-use super::render::Transfer;
+use crate::gpu::render::transfer::Transfer;
 
 /// Entries per side of the table (`PRE_SIZE` in `wgsl/render.wgsl`).
 pub const PRE_SIZE: usize = 128;
@@ -63,7 +63,7 @@ pub fn preintegrated_table(t: &Transfer, r: f64) -> Vec<[f32; 4]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::render::TransferPoint;
+    use crate::gpu::render::transfer::TransferPoint;
 
     fn ramp() -> Transfer {
         Transfer {

@@ -1,8 +1,10 @@
 //! What a render shows: the property (named, or the first that varies)
 //! and the checks that refuse a render that could only be blank.
 
-use super::render::{Mode, RenderError, RenderOptions};
 use crate::grid::{Grid, Property};
+
+use super::error::RenderError;
+use super::options::{Mode, RenderOptions};
 
 /// The property shown by `o` on `grid`: the named one, else
 /// [`default_property`].

@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 
-use super::camera::OrbitCamera;
+use crate::gpu::render::camera::OrbitCamera;
 
 /// One line corner: clip position and straight RGBA.
 pub type LineVertex = [f32; 8];
@@ -58,7 +58,7 @@ pub fn box_edges(cam: &OrbitCamera, rgba: [f32; 4]) -> (Vec<LineVertex>, Vec<Lin
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::camera::Framing;
+    use crate::gpu::render::camera::Framing;
 
     #[test]
     fn a_box_seen_off_axis_hides_three_edges() {

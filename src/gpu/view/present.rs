@@ -2,11 +2,12 @@
 //! target composited over the background into a window surface (or any
 //! 8-bit target), straight RGBA like `render`'s PNG.
 
-use super::camera::OrbitCamera;
-use super::context::{GpuContext, GpuError};
-use super::draw::OffscreenTarget;
+use crate::gpu::context::{GpuContext, GpuError};
+use crate::gpu::render::camera::OrbitCamera;
+use crate::gpu::render::renderer::OffscreenTarget;
+use crate::gpu::shaders::{self, PRESENT};
+
 use super::outline::box_edges;
-use super::shaders::{self, PRESENT};
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]

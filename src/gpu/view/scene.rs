@@ -12,20 +12,18 @@ use std::sync::Arc;
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
 use std::time::Instant;
 
-use glam::Vec3;
-
 use crate::grid::Grid;
 use crate::structures::Structure;
 
-use super::camera::{Framing, OrbitCamera};
-use super::context::GpuContext;
-use super::draw::{DrawBindings, FrameSetup, OffscreenTarget};
-use super::host_slices::build_slices;
-use super::iso_cache::{IsoLevels, build_levels};
-use super::render::{
-    Image, Mode, RenderError, RenderOptions, Renderer, SliceKey, SliceSet, Transfer, slice_key,
-    slicing_axis, transfer_for, unit_distance,
-};
+use crate::gpu::context::GpuContext;
+use crate::gpu::render::camera::{OrbitCamera, fit_camera, slicing_axis};
+use crate::gpu::render::frame_setup::{DrawBindings, FrameSetup};
+use crate::gpu::render::host_slices::build_slices;
+use crate::gpu::render::iso_cache::{IsoLevels, build_levels};
+use crate::gpu::render::options::{transfer_for, unit_distance};
+use crate::gpu::render::renderer::OffscreenTarget;
+use crate::gpu::render::slice_cache::{SliceKey, SliceSet, slice_key};
+use crate::gpu::render::{Image, Mode, RenderError, RenderOptions, Renderer, Transfer};
 
 /// What the worker builds: an axis's slices, or the missing isosurfaces.
 enum Built {
@@ -402,40 +400,4 @@ impl Drop for Scene {
             let _ = p.worker.join();
         }
     }
-}
-
-/// `render`'s camera for `o` on `grid` with exaggeration `z_scale`.
-pub fn fit_camera(
-    grid: &Grid,
-    o: &RenderOptions,
-    z_scale: f64,
-) -> Result<OrbitCamera, RenderError> {
-    let d = Vec3::from_array(o.view_dir.map(|c| c as f32));
-    if !d.is_finite() || d.length() <= 0.0 {
-        return Err(RenderError::Options(
-            "the view direction must be a non-zero vector".into(),
-        ));
-    }
-    let d = d.normalize();
-    let up = match o.up {
-        Some(u) => Vec3::from_array(u.map(|c| c as f32)),
-        None if d.z.abs() > 0.99 => Vec3::Y,
-        None => Vec3::Z,
-    };
-    if up.cross(d).length() < 1e-6 {
-        return Err(RenderError::Options(
-            "the up vector must not be parallel to the view direction".into(),
-        ));
-    }
-    let (lo, hi) = grid.bounds();
-    Ok(OrbitCamera::fit(&Framing {
-        points: &grid.points,
-        origin: grid.origin(),
-        ext: Vec3::from_array([0, 1, 2].map(|a| (hi[a] - lo[a]) as f32)),
-        dir: d,
-        up,
-        aspect: o.size.0 as f32 / o.size.1 as f32,
-        perspective: o.perspective,
-        z_scale: z_scale as f32,
-    }))
 }

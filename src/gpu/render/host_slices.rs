@@ -11,12 +11,15 @@ use crate::mesh::PolyMesh;
 use crate::pipeline::slice;
 use crate::structures::Structure;
 
-use super::compute::emit::GpuEmitter;
-use super::compute::frame::FrameOutput;
-use super::compute::tables::GridBuffers;
-use super::context::GpuContext;
-use super::render::{RenderError, SliceKey, SliceSet, emit_slices, shown_range};
-use super::shared::{ControlLayout, DrawArgs, OutVertex};
+use crate::gpu::compute::emit::GpuEmitter;
+use crate::gpu::compute::frame::FrameOutput;
+use crate::gpu::compute::tables::GridBuffers;
+use crate::gpu::context::GpuContext;
+use crate::gpu::shared::{ControlLayout, DrawArgs, OutVertex};
+
+use super::emit_slices::{emit_slices, shown_range, slice_request};
+use super::error::RenderError;
+use super::slice_cache::{SliceKey, SliceSet};
 
 /// Per mesh vertex: the area-weighted mean of its polygons' normals (the
 /// mesh is welded by grid edge), each polygon's normal flipped to agree
@@ -195,7 +198,7 @@ pub fn build_host_slices<'c>(
         ));
     }
     // A cell property colours each polygon flat, as on the GPU path.
-    let (mut req, cell_values) = super::render::slice_request(grid, k);
+    let (mut req, cell_values) = slice_request(grid, k);
     req.collect_mesh = true;
     let r = slice(grid, s, &req, &|_| {})?;
     let levels = r.level_values.len();

@@ -23,7 +23,7 @@ use crate::structures::Structure;
 use crate::structures::cpgraph::CpGraph;
 use crate::structures::scgraph::SCGraph;
 
-use super::context::GpuContext;
+use crate::gpu::context::GpuContext;
 
 /// Texel value of a hidden cell (`NO_VALUE` in `wgsl/render.wgsl`).
 pub const NO_CELL: f32 = -3.0e38;

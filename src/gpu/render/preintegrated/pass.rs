@@ -11,7 +11,7 @@
 //! value follows the cubic Hermite curve of the two ends' values and
 //! derivatives (the attribute's gradient rides on the slices as normals),
 //! composited as `SUB_SLABS` sub-slabs, each from the pre-integrated table
-//! ([`super::preintegrate`]) built for a sub-slab. Where no far slice
+//! ([`super::table`]) built for a sub-slab. Where no far slice
 //! covers the pixel, half a slab extrapolated along the derivative. Every
 //! pass also writes the nearest slice so far into a third target; a last
 //! full-screen pass puts the half slab in front of the nearest slice over
@@ -25,8 +25,8 @@
 //! slice to the exit, and whole rays that meet no slice are marched
 //! through the property's 3D texture in index space (group 2).
 
-use super::compute::emit::GpuEmitter;
-use super::shared::{ARGS_WORDS, ControlLayout};
+use crate::gpu::compute::emit::GpuEmitter;
+use crate::gpu::shared::{ARGS_WORDS, ControlLayout};
 
 /// Format of the per-slice scalar targets: (value, its derivative along
 /// the ray per display unit, the ray distance, 1).
@@ -84,8 +84,8 @@ impl PrePipeline {
             bind_group_layouts: &[Some(params), Some(&far_layout), Some(&field_layout)],
             immediate_size: 0,
         });
-        let vertices = super::shared::out_vertex_layout();
-        let normals = super::shared::normal_layout();
+        let vertices = crate::gpu::shared::out_vertex_layout();
+        let normals = crate::gpu::shared::normal_layout();
         let over = Some(wgpu::ColorTargetState {
             format,
             blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),

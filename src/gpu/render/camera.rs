@@ -1,6 +1,8 @@
 //! Cameras of the renderer: the tight fit of a grid seen along a direction
-//! (`render`'s camera, [`frame_camera`]) and the [`OrbitCamera`] that the
-//! viewer turns, pans and zooms from that same fit. No wgpu here.
+//! (`render`'s camera, [`frame_camera`], [`fit_camera`] for a render's
+//! options) and the [`OrbitCamera`] that the viewer turns, pans and zooms
+//! from that same fit; the slicing axis of a view direction
+//! ([`slicing_axis`]). No wgpu here.
 //!
 //! Vertical exaggeration: the scene is drawn in *display* space, the grid's
 //! local frame with z multiplied by the z-scale `S`. Directions, the eye and
@@ -10,6 +12,11 @@
 use glam::camera::rh::proj::directx::{orthographic, perspective};
 use glam::camera::rh::view::look_at_mat4;
 use glam::{Mat4, Vec3};
+
+use crate::grid::Grid;
+
+use super::error::RenderError;
+use super::options::RenderOptions;
 
 /// Margin around the projected grid: the window is 5 % wider (or taller)
 /// than the side of the projected points that limits the fit.
@@ -336,6 +343,49 @@ pub fn default_z_scale(lo: [f64; 3], hi: [f64; 3]) -> f64 {
         }
     }
     best
+}
+
+/// The slicing axis for a display-space view direction: `argmax |d·e_i|`.
+pub fn slicing_axis(d: Vec3) -> usize {
+    (0..3)
+        .max_by(|&a, &b| d[a].abs().total_cmp(&d[b].abs()))
+        .unwrap_or(2)
+}
+
+/// `render`'s camera for `o` on `grid` with exaggeration `z_scale`.
+pub fn fit_camera(
+    grid: &Grid,
+    o: &RenderOptions,
+    z_scale: f64,
+) -> Result<OrbitCamera, RenderError> {
+    let d = Vec3::from_array(o.view_dir.map(|c| c as f32));
+    if !d.is_finite() || d.length() <= 0.0 {
+        return Err(RenderError::Options(
+            "the view direction must be a non-zero vector".into(),
+        ));
+    }
+    let d = d.normalize();
+    let up = match o.up {
+        Some(u) => Vec3::from_array(u.map(|c| c as f32)),
+        None if d.z.abs() > 0.99 => Vec3::Y,
+        None => Vec3::Z,
+    };
+    if up.cross(d).length() < 1e-6 {
+        return Err(RenderError::Options(
+            "the up vector must not be parallel to the view direction".into(),
+        ));
+    }
+    let (lo, hi) = grid.bounds();
+    Ok(OrbitCamera::fit(&Framing {
+        points: &grid.points,
+        origin: grid.origin(),
+        ext: Vec3::from_array([0, 1, 2].map(|a| (hi[a] - lo[a]) as f32)),
+        dir: d,
+        up,
+        aspect: o.size.0 as f32 / o.size.1 as f32,
+        perspective: o.perspective,
+        z_scale: z_scale as f32,
+    }))
 }
 
 #[cfg(test)]

@@ -2,15 +2,17 @@
 //! several isovalues sweeps and emits that level only; the others stay on
 //! the GPU. Each level is its own [`SliceSet`] (built by [`build_slices`]
 //! with that single value); a frame draws the wanted levels' sets in one
-//! depth-tested pass ([`super::render::Renderer::encode_sets`]).
+//! depth-tested pass ([`super::Renderer::encode_sets`]).
 
 use crate::grid::Grid;
 use crate::pipeline::LevelSpec;
 use crate::structures::Structure;
 
-use super::context::GpuContext;
+use crate::gpu::context::GpuContext;
+
+use super::error::RenderError;
 use super::host_slices::build_slices;
-use super::render::{RenderError, SliceKey, SliceSet};
+use super::slice_cache::{SliceKey, SliceSet};
 
 /// Per-isovalue surfaces of one property.
 #[derive(Default)]
