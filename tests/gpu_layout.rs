@@ -32,7 +32,12 @@ fn every_wgsl_file_is_used() {
         shaders::SCAN,
         shaders::EMIT,
         shaders::BIN,
-        shaders::RENDER,
+        shaders::DRAW,
+        shaders::SLICES,
+        shaders::PRE,
+        shaders::PRE_SLAB,
+        shaders::PRE_SURFACE,
+        shaders::PRE_FRONT,
         shaders::PRESENT,
     ];
     for f in files {

@@ -1,5 +1,5 @@
 //! Transfer functions over the data's range: the lookup table the shader
-//! reads (decoded here as `transfer` in `wgsl/render.wgsl` reads it) equals
+//! reads (decoded here as `transfer` in `wgsl/shared/draw.wgsl` reads it) equals
 //! `Transfer::eval` over the data, with a control point far outside the
 //! data, a narrow spike inside it and values near ±f64::MAX; rendered
 //! images (llvmpipe) keep the colours and the spike; JSON errors are
@@ -20,7 +20,7 @@ use stratasweep::gpu::render::{
 use stratasweep::grid::{Grid, Property, Topology};
 use stratasweep::structures::{Structure, StructureChoice};
 
-/// The shader's lookup (`transfer` in `wgsl/render.wgsl`) on the host, in
+/// The shader's lookup (`transfer` in `wgsl/shared/draw.wgsl`) on the host, in
 /// f32 as on the GPU.
 fn lut_eval(lut: &[[f32; 4]], v: f32) -> [f32; 4] {
     let n = lut[0][0] as usize;

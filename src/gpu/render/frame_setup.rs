@@ -123,7 +123,7 @@ impl DrawBindings {
 }
 
 /// |cos| of the angle between the view direction and the slicing axis
-/// (at least 1e-3, as `view_cos` in `wgsl/render.wgsl`).
+/// (at least 1e-3, as `view_cos` in `wgsl/shared/pre.wgsl`).
 fn view_cos(p: &RenderParams) -> f32 {
     let d: f32 = (0..3).map(|i| p.view_dir[i] * p.axis[i]).sum();
     d.abs().max(1e-3)

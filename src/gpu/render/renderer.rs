@@ -83,15 +83,8 @@ impl<'c> Renderer<'c> {
     /// blend it, else Rgba16Float).
     pub fn new(ctx: &'c GpuContext) -> Result<Self, RenderError> {
         let format = target_format(ctx)?;
-        let src = shaders::render_source();
-        shaders::validate("render.wgsl", &src)
-            .map_err(|e| GpuError::Device(format!("invalid shader {e}")))?;
-        let module = ctx
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("render.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(src.into()),
-            });
+        let src = shaders::render_source(shaders::SLICES);
+        let module = shaders::module(&ctx.device, "slices.wgsl", &src)?;
         let layout = bind_group_layout(&ctx.device);
         let pl = ctx
             .device
@@ -145,7 +138,7 @@ impl<'c> Renderer<'c> {
         };
         let over = Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
         let blend = make(over, false, false, "fs");
-        let pre = PrePipeline::new(&ctx.device, &module, &layout, format);
+        let pre = PrePipeline::new(&ctx.device, &layout, format)?;
         let iso = make(None, true, true, "fs");
         ctx.check()?;
         Ok(Renderer {

@@ -8,12 +8,12 @@
 //! the range, at their exact positions, so a control point far outside
 //! the data does not squeeze the data into one entry and a narrow spike
 //! inside the data is kept. The shader finds a value's knot interval by
-//! binary search (`transfer` in `wgsl/render.wgsl`).
+//! binary search (`transfer` in `wgsl/shared/draw.wgsl`).
 
 use serde_json::Value;
 use thiserror::Error;
 
-/// Knots the lookup table holds (`LUT_KNOTS` in `wgsl/render.wgsl`): the
+/// Knots the lookup table holds (`LUT_KNOTS` in `wgsl/shared/draw.wgsl`): the
 /// data range's two ends and up to [`MAX_POINTS`] control points.
 pub const LUT_KNOTS: usize = 1024;
 

@@ -3,7 +3,7 @@
 //!
 //! A point property gets one texel per vertex (texel `(i, j, k)` is vertex
 //! `i + npi·(j + npj·k)`), sampled with the hardware's trilinear filter in
-//! `wgsl/render.wgsl`: the grid's own trilinear field in index space
+//! `wgsl/shared/pre.wgsl`: the grid's own trilinear field in index space
 //! (`R32Float`, so the adapter must have `FLOAT32_FILTERABLE`). A cell
 //! property gets one texel per cell, read as the exact piecewise-constant
 //! field; hidden cells hold [`NO_CELL`] (transparent). The slices carry
@@ -25,7 +25,7 @@ use crate::structures::scgraph::SCGraph;
 
 use crate::gpu::context::GpuContext;
 
-/// Texel value of a hidden cell (`NO_VALUE` in `wgsl/render.wgsl`).
+/// Texel value of a hidden cell (`NO_VALUE` in `wgsl/shared/pre.wgsl`).
 pub const NO_CELL: f32 = -3.0e38;
 
 /// What the texels are.

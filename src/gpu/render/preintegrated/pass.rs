@@ -26,6 +26,8 @@
 //! through the property's 3D texture in index space (group 2).
 
 use crate::gpu::compute::emit::GpuEmitter;
+use crate::gpu::context::GpuError;
+use crate::gpu::shaders;
 use crate::gpu::shared::{ARGS_WORDS, ControlLayout};
 
 /// Format of the per-slice scalar targets: (value, its derivative along
@@ -36,12 +38,12 @@ pub const SCALAR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// `(i, j, k)` on IJK grids).
 pub const BOUNDARY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
-/// Sub-slabs per slab (`SUB_SLABS` in `wgsl/render.wgsl`): the table is
+/// Sub-slabs per slab (`SUB_SLABS` in `wgsl/shared/pre.wgsl`): the table is
 /// built for slabs `1 / SUB_SLABS` of the slice spacing thick.
 pub const SUB_SLABS: u32 = 4;
 
 /// The scalar targets' clear value: "no slice covers this pixel"
-/// (`NO_VALUE` in `wgsl/render.wgsl`).
+/// (`NO_VALUE` in `wgsl/shared/pre.wgsl`).
 pub const NO_VALUE: f64 = -3.0e38;
 
 /// The pre-integrated pipelines and the layout of their texture binding.
@@ -66,14 +68,18 @@ pub struct PrePipeline {
 }
 
 impl PrePipeline {
-    /// Builds `fs_pre` of `module` over group 0 `params` (the render
-    /// pass's parameters, LUT and table) and the far-slice group.
+    /// Builds the slab, front and outer-surface passes over group 0
+    /// `params` (the render pass's parameters, LUT and table), the
+    /// far-slice group and the field group.
     pub fn new(
         device: &wgpu::Device,
-        module: &wgpu::ShaderModule,
         params: &wgpu::BindGroupLayout,
         format: wgpu::TextureFormat,
-    ) -> Self {
+    ) -> Result<Self, GpuError> {
+        let module = |name, pass| shaders::module(device, name, &shaders::pre_source(pass));
+        let slab = module("pre_slab.wgsl", shaders::PRE_SLAB)?;
+        let front = module("pre_front.wgsl", shaders::PRE_FRONT)?;
+        let surface = module("pre_surface.wgsl", shaders::PRE_SURFACE)?;
         let far_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("far slice"),
             entries: &[texture_entry(0), texture_entry(1), texture_entry(2)],
@@ -96,7 +102,11 @@ impl PrePipeline {
             blend: None,
             write_mask: wgpu::ColorWrites::ALL,
         });
-        let make = |vs: &str, fs: &str, buffers: &[Option<wgpu::VertexBufferLayout>], targets| {
+        let make = |module: &wgpu::ShaderModule,
+                    vs: &str,
+                    fs: &str,
+                    buffers: &[Option<wgpu::VertexBufferLayout>],
+                    targets| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(fs),
                 layout: Some(&layout),
@@ -122,14 +132,15 @@ impl PrePipeline {
         let slice_targets = [over.clone(), scalar.clone(), scalar];
         let front_targets = [over];
         let pipeline = make(
+            &slab,
             "vs_iso",
             "fs_pre",
             &[Some(vertices), Some(normals)],
             &slice_targets,
         );
-        let front = make("vs_full", "fs_front", &[], &front_targets);
-        let boundary = [true, false].map(|near| boundary_pipeline(device, module, params, near));
-        PrePipeline {
+        let front = make(&front, "vs_full", "fs_front", &[], &front_targets);
+        let boundary = [true, false].map(|near| boundary_pipeline(device, &surface, params, near));
+        Ok(PrePipeline {
             pipeline,
             front,
             boundary,
@@ -137,7 +148,7 @@ impl PrePipeline {
             field_layout,
             empty_field: super::ijk_field::empty_field(device),
             sampler: super::ijk_field::field_sampler(device),
-        }
+        })
     }
 }
 

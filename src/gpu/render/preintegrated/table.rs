@@ -1,7 +1,7 @@
 //! Pre-integrated transfer functions (no wgpu): the colour and opacity of
 //! a slab whose value goes linearly from `front` to `back`, integrated
 //! along the slab once per (front, back) pair into a `PRE_SIZE²` table
-//! (`wgsl/render.wgsl`'s `fs_pre` reads it bilinearly).
+//! (`wgsl/pre_slab.wgsl`'s `fs_pre` reads it bilinearly).
 //!
 //! The slab is `r` unit distances thick (spacing over unit distance, on the
 //! axis); opacities are per unit distance, so `m` sub-steps of a slab get
@@ -10,7 +10,7 @@
 
 use crate::gpu::render::transfer::Transfer;
 
-/// Entries per side of the table (`PRE_SIZE` in `wgsl/render.wgsl`).
+/// Entries per side of the table (`PRE_SIZE` in `wgsl/shared/pre.wgsl`).
 pub const PRE_SIZE: usize = 128;
 
 /// Sub-steps per slab.
