@@ -7,7 +7,7 @@
 use crate::gpu::compute::emit::{GpuEmitter, emit_chunked};
 use crate::gpu::compute::gradient::vertex_gradients;
 use crate::gpu::compute::slice::{prepare, prepare_unswept};
-use crate::gpu::compute::tables::{Frame, slot_values};
+use crate::gpu::compute::tables::{Frame, GridBuffers, slot_values};
 use crate::gpu::context::{GpuContext, GpuError};
 use crate::gpu::shared::Entry;
 use crate::grid::Grid;
@@ -70,27 +70,7 @@ pub fn emit_slices<'c>(
         true => prepare_unswept(grid, s, &req)?,
         false => prepare(grid, s, &req)?,
     };
-    if let Some(v) = &cell_values {
-        p.grid.attr = match s {
-            Structure::SCGraph(g) => slot_values(g, v),
-            Structure::CGraph(g) => slot_values(g, v),
-            Structure::CpGraph(g) => slot_values(g.as_ref(), v),
-            // `prepare` already refused CIEL grids.
-            Structure::Ciel(_) => {
-                return Err(PipelineError::Unsupported(
-                    "the GPU path does not take CIEL grids".into(),
-                )
-                .into());
-            }
-        };
-        p.grid.attr_per_cell = true;
-    }
-    // Values beyond f32 (or near its limit) clamped, so that no
-    // interpolation on the GPU makes a NaN (the LUT's range is clamped alike).
-    let limit = VALUE_LIMIT;
-    for a in p.grid.attr.iter_mut() {
-        *a = a.clamp(-limit, limit);
-    }
+    shown_values(s, cell_values.as_deref(), &mut p.grid)?;
     let mut cp_boundary = None;
     let (field, field_fallback) = match k.attr_gradient && !k.iso {
         true => match IjkField::new(ctx, grid, s, property.as_deref()) {
@@ -164,6 +144,37 @@ pub fn emit_slices<'c>(
         field,
         field_fallback,
     })
+}
+
+/// The values the slices carry in `g`: the cell values per slot when the
+/// shown property is a cell property, then every value clamped into f32.
+fn shown_values(
+    s: &Structure,
+    cell_values: Option<&[f64]>,
+    g: &mut GridBuffers,
+) -> Result<(), RenderError> {
+    if let Some(v) = cell_values {
+        g.attr = match s {
+            Structure::SCGraph(c) => slot_values(c, v),
+            Structure::CGraph(c) => slot_values(c, v),
+            Structure::CpGraph(c) => slot_values(c.as_ref(), v),
+            // `prepare` already refused CIEL grids.
+            Structure::Ciel(_) => {
+                return Err(PipelineError::Unsupported(
+                    "the GPU path does not take CIEL grids".into(),
+                )
+                .into());
+            }
+        };
+        g.attr_per_cell = true;
+    }
+    // Values beyond f32 (or near its limit) clamped, so that no
+    // interpolation on the GPU makes a NaN (the LUT's range is clamped alike).
+    let limit = VALUE_LIMIT;
+    for a in g.attr.iter_mut() {
+        *a = a.clamp(-limit, limit);
+    }
+    Ok(())
 }
 
 /// The request that `k`'s slices sweep, and the cell values that colour

@@ -451,57 +451,7 @@ impl<'c> Renderer<'c> {
         }
         pass.set_pipeline(if iso { &self.iso } else { &self.blend });
         pass.set_bind_group(0, &bindings.group, &[]);
-        let all = sets.iter().flat_map(|s| &s.chunks);
-        let chunks: Vec<&GpuEmitter> = if reverse {
-            all.rev().collect()
-        } else {
-            all.collect()
-        };
-        let mut first_level = 0u32;
-        for e in chunks {
-            let k = e.level_count;
-            let (Some(vb), Some(cb), true) =
-                (e.vertex_buffer(), e.control_buffer(), e.triangles > 0)
-            else {
-                first_level += k;
-                continue;
-            };
-            pass.set_vertex_buffer(0, vb.slice(..));
-            if iso {
-                match e.normal_buffer() {
-                    Some(nb) if e.has_normals() => pass.set_vertex_buffer(1, nb.slice(..)),
-                    _ => {
-                        return Err(RenderError::Options(
-                            "iso mode: the slices carry no normals".into(),
-                        ));
-                    }
-                }
-            }
-            let lay = ControlLayout { k };
-            if lod == 1 {
-                let first = if reverse {
-                    lay.args_rev()
-                } else {
-                    lay.args_fwd()
-                };
-                pass.multi_draw_indirect(cb, first as u64 * 4, k);
-            } else {
-                // Every lod-th level (by global level index), far to near.
-                let order: Vec<u32> = if reverse {
-                    (0..k).rev().collect()
-                } else {
-                    (0..k).collect()
-                };
-                for l in order {
-                    if (first_level + l).is_multiple_of(lod) {
-                        let word = lay.args_fwd() + l * ARGS_WORDS;
-                        pass.draw_indirect(cb, word as u64 * 4);
-                    }
-                }
-            }
-            first_level += k;
-        }
-        Ok(())
+        draw_chunks(&mut pass, sets, iso, reverse, lod)
     }
 
     /// Draws `set` into a new offscreen target of `size` and reads it back,
@@ -596,6 +546,69 @@ impl<'c> Renderer<'c> {
             premultiplied: px,
         })
     }
+}
+
+/// Draws the level chunks of `sets` into `pass` (its pipeline and group 0
+/// set): in one indirect multi-draw per chunk, or every `lod`-th level (by
+/// global level index), in `reverse` level order when looking toward +axis;
+/// iso mode binds the slices' normals.
+fn draw_chunks(
+    pass: &mut wgpu::RenderPass,
+    sets: &[&SliceSet],
+    iso: bool,
+    reverse: bool,
+    lod: u32,
+) -> Result<(), RenderError> {
+    let all = sets.iter().flat_map(|s| &s.chunks);
+    let chunks: Vec<&GpuEmitter> = if reverse {
+        all.rev().collect()
+    } else {
+        all.collect()
+    };
+    let mut first_level = 0u32;
+    for e in chunks {
+        let k = e.level_count;
+        let (Some(vb), Some(cb), true) = (e.vertex_buffer(), e.control_buffer(), e.triangles > 0)
+        else {
+            first_level += k;
+            continue;
+        };
+        pass.set_vertex_buffer(0, vb.slice(..));
+        if iso {
+            match e.normal_buffer() {
+                Some(nb) if e.has_normals() => pass.set_vertex_buffer(1, nb.slice(..)),
+                _ => {
+                    return Err(RenderError::Options(
+                        "iso mode: the slices carry no normals".into(),
+                    ));
+                }
+            }
+        }
+        let lay = ControlLayout { k };
+        if lod == 1 {
+            let first = if reverse {
+                lay.args_rev()
+            } else {
+                lay.args_fwd()
+            };
+            pass.multi_draw_indirect(cb, first as u64 * 4, k);
+        } else {
+            // Every lod-th level (by global level index), far to near.
+            let order: Vec<u32> = if reverse {
+                (0..k).rev().collect()
+            } else {
+                (0..k).collect()
+            };
+            for l in order {
+                if (first_level + l).is_multiple_of(lod) {
+                    let word = lay.args_fwd() + l * ARGS_WORDS;
+                    pass.draw_indirect(cb, word as u64 * 4);
+                }
+            }
+        }
+        first_level += k;
+    }
+    Ok(())
 }
 
 /// The colour target format: Rgba32Float when the adapter can render to it
