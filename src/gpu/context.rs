@@ -51,7 +51,7 @@ pub enum GpuError {
         adapter: String,
     },
     /// One frame's buffers exceed a limit: split the frame by levels
-    /// ([`crate::gpu::compute::emit::emit_chunked`] does).
+    /// (`gpu::compute::emit::emit_chunked` does).
     #[error(
         "{what} of one frame needs {bytes} bytes, over the limit of {limit} bytes per storage binding"
     )]

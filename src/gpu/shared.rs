@@ -4,7 +4,7 @@
 //! the same name in `wgsl/shared/types.wgsl`; `tests/gpu_layout.rs` checks
 //! with naga that sizes and member offsets agree. The constants describe the
 //! layout of the flat `u32` buffers (tables, cells, control) that both the
-//! WGSL passes and the CPU twin ([`crate::gpu::compute::twin`]) index.
+//! WGSL passes and the CPU twin (`gpu::compute::twin`) index.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -58,7 +58,7 @@ pub const ATTR_VERTEX: u32 = 1;
 pub const ATTR_CELL: u32 = 2;
 
 /// Start (in `u32`s) of each section of the flat `tables` buffer that holds
-/// the meta-cell catalog (see [`crate::gpu::compute::tables`]).
+/// the meta-cell catalog (see `gpu::compute::tables`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct TableSections {

@@ -4,10 +4,11 @@
 //!
 //! [`tables`] builds the host images of the buffers that both the GPU
 //! ([`emit`]) and the twin ([`twin`]) read; [`grid_parts`] splits grids
-//! over one storage binding; [`frame`] reads results back; [`slice`] is
-//! `slice --device gpu`. This room imports the device
-//! ([`crate::gpu::context`], [`crate::gpu::shaders`],
-//! [`crate::gpu::shared`]) and the core, never the renderer.
+//! over one storage binding; [`frame`] reads results back;
+//! [`slice`](mod@slice) slices a grid with GPU emission and per-level
+//! statistics. This room imports the device ([`crate::gpu::context`],
+//! [`crate::gpu::shaders`], [`crate::gpu::shared`]) and the core, never
+//! the renderer.
 
 pub mod emit;
 pub mod frame;

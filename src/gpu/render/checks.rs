@@ -46,7 +46,7 @@ pub fn check_modes(o: &RenderOptions, preintegrated: bool) -> Result<(), RenderE
 /// every point, or every point over the shown values' range, transparent
 /// outside iso mode) and an unknown colormap; warns when the transfer
 /// function lies wholly outside the shown values (see
-/// [`Transfer::check`]). Returns the warnings.
+/// [`Transfer::check`](super::transfer::Transfer::check)). Returns the warnings.
 pub fn check_transfer(grid: &Grid, o: &RenderOptions) -> Result<Vec<String>, RenderError> {
     let Some(t) = &o.transfer else {
         transfer_for(o, (0.0, 1.0))?;

@@ -4,12 +4,13 @@
 //! From the bottom: [`error`], [`options`] and [`transfer`] (what a render
 //! asks for), [`shown`] and [`checks`] (what it shows, what it refuses),
 //! [`image`] (the read-back pixels and PNG), [`camera`] (framing, no
-//! wgpu); then the slices: [`slice_cache`] (what a set of slices is and
-//! its typed cache key), [`emit_slices`] and [`host_slices`] (building
-//! them), [`iso_cache`] (the viewer's isosurfaces per isovalue);
-//! [`preintegrated`] (the slab passes and the outer surface); at the top
-//! [`frame_setup`] and [`renderer`] (the [`Renderer`], its pipelines,
-//! cache and passes). Nothing here imports the viewer ([`crate::gpu::view`]).
+//! wgpu); [`preintegrated`] (the slab passes and the outer surface, over
+//! the transfer functions only); the slices: [`slice_cache`] (what a set
+//! of slices is, its typed cache key), [`emit_slices`] and [`host_slices`]
+//! (building them), [`iso_cache`] (the viewer's isosurfaces per
+//! isovalue); at the top [`frame_setup`] and [`renderer`] (the
+//! [`Renderer`], its pipelines, cache and passes). Nothing here imports
+//! the viewer (`gpu::view`).
 
 pub mod camera;
 pub mod checks;
