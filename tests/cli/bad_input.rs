@@ -3,59 +3,26 @@
 //! test into its own folder, and every input file is checked byte for byte
 //! after each run.
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
+
+use crate::support;
+use crate::support::Dir;
 
 use stratasweep::cornerpoint::CornerPointGrid;
 use stratasweep::io::egrid::{EclData, write_array};
 use stratasweep::io::egrid_write::write_egrid;
 
-/// A folder of fixtures; remembers the bytes of every file in it.
-struct Dir {
-    path: PathBuf,
-}
-
-impl Dir {
-    fn new(name: &str) -> Dir {
-        let path = std::env::temp_dir().join(format!(
-            "stratasweep-bad-input-{}-{name}",
-            std::process::id()
-        ));
-        let _ = std::fs::remove_dir_all(&path);
-        std::fs::create_dir_all(&path).unwrap();
-        Dir { path }
-    }
-
-    fn write(&self, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
-        let p = self.path.join(name);
-        std::fs::write(&p, bytes).unwrap();
-        p
-    }
-
-    fn p(&self, name: &str) -> String {
-        self.path.join(name).display().to_string()
-    }
-
-    /// Every plain file's bytes (symbolic links followed).
-    fn snapshot(&self) -> BTreeMap<String, Vec<u8>> {
-        let mut m = BTreeMap::new();
-        for e in std::fs::read_dir(&self.path).unwrap() {
-            let e = e.unwrap();
-            if e.path().is_file() {
-                m.insert(
-                    e.file_name().to_string_lossy().into(),
-                    std::fs::read(e.path()).unwrap(),
-                );
-            }
-        }
-        m
-    }
-
+/// A folder of fixtures whose files are checked byte for byte.
+trait Refuses {
     /// Runs the binary; asserts it failed cleanly with `msg` in its error,
     /// and that the folder's files are exactly as before (nothing written,
     /// nothing changed, no temporary file left).
+    fn refused(&self, args: &[&str], msg: &str) -> String;
+}
+
+impl Refuses for Dir {
     fn refused(&self, args: &[&str], msg: &str) -> String {
         let before = self.snapshot();
         let o = run(args);
@@ -68,38 +35,21 @@ impl Dir {
     }
 }
 
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.path);
-    }
-}
-
 /// Runs the binary quietly, killed after 60 s (a hang fails the test).
 fn run(args: &[&str]) -> Output {
     run_within(args, Duration::from_secs(60)).unwrap_or_else(|| panic!("{args:?} hung"))
 }
 
 fn run_within(args: &[&str], limit: Duration) -> Option<Output> {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_stratasweep"))
-        .args(args)
-        .arg("--quiet")
-        .env("NODEVICE_SELECT", "1")
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let t = Instant::now();
-    loop {
-        if child.try_wait().unwrap().is_some() {
-            return Some(child.wait_with_output().unwrap());
-        }
-        if t.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            return None;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    support::output_within(
+        support::bin()
+            .args(args)
+            .arg("--quiet")
+            .env("NODEVICE_SELECT", "1")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped()),
+        limit,
+    )
 }
 
 /// A 2×1×1 corner-point grid: COORD in an INCLUDE, ZCORN inline.
@@ -147,7 +97,7 @@ fn cornerpoint_2x1x1() -> CornerPointGrid {
 
 #[test]
 fn class1_an_output_never_names_an_input() {
-    let d = Dir::new("class1");
+    let d = Dir::new("bad-input-class1");
     let g = deck(&d);
     let gs = g.display().to_string();
     let stats_on_grid = d.refused(
@@ -159,7 +109,7 @@ fn class1_an_output_never_names_an_input() {
             "--count",
             "3",
             "-o",
-            &d.p("out.vtp"),
+            &d.s("out.vtp"),
             "--stats",
             &gs,
         ],
@@ -176,16 +126,16 @@ fn class1_an_output_never_names_an_input() {
             "--count",
             "3",
             "-o",
-            &d.p("out.vtp"),
+            &d.s("out.vtp"),
             "--stats",
-            &d.p("coord.inc"),
+            &d.s("coord.inc"),
         ],
         "refusing to write --stats",
     );
     assert!(e.contains("a file the grid reads (INCLUDE or INIT)"), "{e}");
     // Two outputs, one file (./ spelling).
-    let same = d.p("same.vtp");
-    let dotted = format!("{}/./same.vtp", d.path.display());
+    let same = d.s("same.vtp");
+    let dotted = format!("{}/./same.vtp", d.0.display());
     d.refused(
         &[
             "slice", &gs, "--axis", "z", "--count", "3", "-o", &same, "--stats", &dotted,
@@ -195,7 +145,7 @@ fn class1_an_output_never_names_an_input() {
     // A symbolic link to the grid.
     #[cfg(unix)]
     {
-        std::os::unix::fs::symlink(&g, d.path.join("link.grdecl")).unwrap();
+        std::os::unix::fs::symlink(&g, d.0.join("link.grdecl")).unwrap();
         d.refused(
             &[
                 "slice",
@@ -205,7 +155,7 @@ fn class1_an_output_never_names_an_input() {
                 "--count",
                 "3",
                 "--stats",
-                &d.p("link.grdecl"),
+                &d.s("link.grdecl"),
             ],
             "it is the grid file",
         );
@@ -239,7 +189,7 @@ fn class1_an_output_never_names_an_input() {
             "--count",
             "2",
             "--stats",
-            &d.p("m.INIT"),
+            &d.s("m.INIT"),
         ],
         "the INIT file read with the grid",
     );
@@ -252,9 +202,9 @@ fn class1_an_output_never_names_an_input() {
         "--count",
         "3",
         "-o",
-        &d.p("ok.vtp"),
+        &d.s("ok.vtp"),
         "--stats",
-        &d.p("ok.json"),
+        &d.s("ok.json"),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let names: Vec<String> = d.snapshot().into_keys().collect();
@@ -265,7 +215,7 @@ fn class1_an_output_never_names_an_input() {
 #[test]
 fn class1_atomic_file_replaces_only_on_commit() {
     use std::io::Write;
-    let d = Dir::new("atomic");
+    let d = Dir::new("bad-input-atomic");
     let p = d.write("a.txt", "old");
     {
         let mut f = stratasweep::io::atomic::AtomicFile::create(&p).unwrap();
@@ -283,7 +233,7 @@ fn class1_atomic_file_replaces_only_on_commit() {
 
 #[test]
 fn class2_one_argument_never_crashes_or_hangs() {
-    let d = Dir::new("class2");
+    let d = Dir::new("bad-input-class2");
     let g = deck(&d).display().to_string();
     let t = Instant::now();
     let e = d.refused(
@@ -315,7 +265,7 @@ fn class2_one_argument_never_crashes_or_hangs() {
     d.refused(&["bench", &g, "--count", "10000000"], "--count 10000000");
     let v = d.write("cube.vtk", vtk_cube(&[0., 1., 2., 3., 4., 5., 6., 7.]));
     let vs = v.display().to_string();
-    let png = d.p("r.png");
+    let png = d.s("r.png");
     d.refused(
         &["render", &vs, "-o", &png, "--slices", "100000000"],
         "--slices 100000000 is outside 1..=8192",
@@ -350,7 +300,7 @@ fn class2_one_argument_never_crashes_or_hangs() {
 
 #[test]
 fn class3_init_arrays_skipped_are_reported() {
-    let d = Dir::new("init");
+    let d = Dir::new("bad-input-init");
     let mut b = Vec::new();
     write_egrid(&mut b, &cornerpoint_2x1x1()).unwrap();
     let eg = d.write("m.EGRID", &b).display().to_string();
@@ -382,7 +332,7 @@ fn class3_init_arrays_skipped_are_reported() {
 
 #[test]
 fn class3_little_endian_binary_vtk_is_refused_naming_the_byte_order() {
-    let d = Dir::new("endian");
+    let d = Dir::new("bad-input-endian");
     let mut le = b"# vtk DataFile Version 3.0\nt\nBINARY\nDATASET STRUCTURED_GRID\nDIMENSIONS 2 2 2\nPOINTS 8 float\n".to_vec();
     for k in 0..2 {
         for j in 0..2 {
@@ -413,8 +363,8 @@ fn class3_little_endian_binary_vtk_is_refused_naming_the_byte_order() {
 
 #[test]
 fn class3_outputs_are_written_in_the_format_the_extension_names() {
-    let d = Dir::new("formats");
-    let vtu = d.p("f.vtu");
+    let d = Dir::new("bad-input-formats");
+    let vtu = d.s("f.vtu");
     let o = run(&["generate", "faulted", "--dims", "10,10,4", "-o", &vtu]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read(&vtu).unwrap();
@@ -422,7 +372,7 @@ fn class3_outputs_are_written_in_the_format_the_extension_names() {
         text.starts_with(b"<?xml")
             && String::from_utf8_lossy(&text[..400]).contains("UnstructuredGrid")
     );
-    let eg = d.p("f.EGRID");
+    let eg = d.s("f.EGRID");
     assert!(
         run(&["generate", "faulted", "--dims", "10,10,4", "-o", &eg])
             .status
@@ -430,13 +380,13 @@ fn class3_outputs_are_written_in_the_format_the_extension_names() {
     );
     assert_eq!(&std::fs::read(&eg).unwrap()[..12], b"\0\0\0\x10FILEHEAD");
     assert!(
-        d.path.join("f.INIT").is_file(),
+        d.0.join("f.INIT").is_file(),
         "PORO goes to the INIT beside it"
     );
     let j = |p: &str| -> serde_json::Value {
         serde_json::from_slice(&run(&["info", p, "--json"]).stdout).unwrap()
     };
-    let gr = d.p("f.grdecl");
+    let gr = d.s("f.grdecl");
     assert!(
         run(&["generate", "faulted", "--dims", "10,10,4", "-o", &gr])
             .status
@@ -453,7 +403,7 @@ fn class3_outputs_are_written_in_the_format_the_extension_names() {
             "--dims",
             "2,2,2",
             "-o",
-            &d.p("x.txt"),
+            &d.s("x.txt"),
         ],
         "-o ",
     );
@@ -464,13 +414,13 @@ fn class3_outputs_are_written_in_the_format_the_extension_names() {
             "--dims",
             "2,2,2",
             "-o",
-            &d.p("x.vts"),
+            &d.s("x.vts"),
         ],
         "cannot write this file type",
     );
     assert!(e.contains(".grdecl, .inc, .vtu, .egrid"), "{e}");
     d.refused(
-        &["generate", "zoo", "--cells", "10", "-o", &d.p("z.grdecl")],
+        &["generate", "zoo", "--cells", "10", "-o", &d.s("z.grdecl")],
         "must be one of .vtu",
     );
     d.refused(
@@ -482,22 +432,22 @@ fn class3_outputs_are_written_in_the_format_the_extension_names() {
             "--count",
             "2",
             "-o",
-            &d.p("m.obj"),
+            &d.s("m.obj"),
         ],
         "must be one of .ply, .vtp",
     );
-    d.refused(&["render", &gr, "-o", &d.p("r.jpg")], "must be one of .png");
+    d.refused(&["render", &gr, "-o", &d.s("r.jpg")], "must be one of .png");
 }
 
 #[test]
 fn class3_messages_name_the_real_cause() {
-    let d = Dir::new("messages");
+    let d = Dir::new("bad-input-messages");
     let t = d
         .write("t.EGRID", "SPECGRID\n2 2 2 1 F /\n")
         .display()
         .to_string();
     d.refused(&["info", &t], "not an EGRID file: it looks like text");
-    std::fs::create_dir(d.path.join("sub")).unwrap();
+    std::fs::create_dir(d.0.join("sub")).unwrap();
     let inc = d
         .write("inc.grdecl", "SPECGRID\n1 1 1 1 F /\nINCLUDE\n'sub' /\n")
         .display()
@@ -550,12 +500,12 @@ fn class3_messages_name_the_real_cause() {
 
 #[test]
 fn class3_blank_renders_are_refused() {
-    let d = Dir::new("blank");
+    let d = Dir::new("bad-input-blank");
     let v = d
         .write("cube.vtk", vtk_cube(&[0., 1., 2., 3., 4., 5., 6., 7.]))
         .display()
         .to_string();
-    let png = d.p("r.png");
+    let png = d.s("r.png");
     let tf = d.write("tf.json", r#"{"points":[]}"#).display().to_string();
     d.refused(
         &["render", &v, "-o", &png, "--transfer", &tf],
@@ -585,7 +535,7 @@ fn class3_blank_renders_are_refused() {
 
 #[test]
 fn class3_a_bow_tie_hexahedron_is_named_and_decomposed() {
-    let d = Dir::new("bowtie");
+    let d = Dir::new("bad-input-bowtie");
     let pts = "0 0 0 1 0 0 1 1 0 0 1 0 0 0 1 1 0 1 1 1 1 0 1 1 2 0 0 2 1 0 2 0 1 2 1 1";
     let cube = |first: &str| {
         format!(
@@ -641,7 +591,7 @@ fn class3_a_bow_tie_hexahedron_is_named_and_decomposed() {
         "{text}"
     );
     // Both cells are sliced, and slice says how the twisted one was.
-    let stats = d.p("s.json");
+    let stats = d.s("s.json");
     let o = run(&[
         "slice", &bad, "--axis", "x", "--count", "4", "--stats", &stats,
     ]);
@@ -734,9 +684,9 @@ fn two_polyhedra(flip: bool) -> stratasweep::grid::Grid {
 
 #[test]
 fn class3_a_face_given_inward_is_reported_as_reoriented() {
-    let d = Dir::new("inward");
-    let ok = d.p("ok.vtu");
-    let bad = d.p("inward.vtu");
+    let d = Dir::new("bad-input-inward");
+    let ok = d.s("ok.vtu");
+    let bad = d.s("inward.vtu");
     stratasweep::io::writers::write_vtk_xml_grid(&ok, &two_polyhedra(false)).unwrap();
     stratasweep::io::writers::write_vtk_xml_grid(&bad, &two_polyhedra(true)).unwrap();
     let before = d.snapshot();

@@ -1,40 +1,8 @@
 //! End-to-end tests of the `stratasweep` binary: JSON keys, stats, thread
 //! invariance of the output files, generators, and clear errors on bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_stratasweep"))
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("stratasweep-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
-}
-
-fn run_ok(args: &[&str]) -> String {
-    let o = bin().args(args).arg("--quiet").output().unwrap();
-    assert!(
-        o.status.success(),
-        "{args:?} failed: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8(o.stdout).unwrap()
-}
-
-fn run_err(args: &[&str]) -> String {
-    let o = bin().args(args).arg("--quiet").output().unwrap();
-    assert!(!o.status.success(), "{args:?} should fail");
-    let e = String::from_utf8_lossy(&o.stderr).to_string();
-    assert!(!e.contains("panicked"), "{args:?} panicked: {e}");
-    e
-}
-
-fn json(p: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
-}
+use crate::support;
+use crate::support::{bin, json, run_err, run_ok};
 
 #[test]
 fn info_json_has_the_documented_keys() {
@@ -60,7 +28,7 @@ fn info_json_has_the_documented_keys() {
 
 #[test]
 fn slice_stats_match_between_structures_and_threads() {
-    let grid = tmp("zoo.vtu");
+    let grid = support::tmp("cli", "zoo.vtu");
     run_ok(&[
         "generate",
         "zoo",
@@ -73,8 +41,8 @@ fn slice_stats_match_between_structures_and_threads() {
     ]);
     let mut all = Vec::new();
     for (structure, threads) in [("cgraph", "1"), ("cgraph", "2"), ("bruteforce", "1")] {
-        let stats = tmp(&format!("zoo-{structure}-{threads}.json"));
-        let out = tmp(&format!("zoo-{structure}-{threads}.vtp"));
+        let stats = support::tmp("cli", &format!("zoo-{structure}-{threads}.json"));
+        let out = support::tmp("cli", &format!("zoo-{structure}-{threads}.vtp"));
         run_ok(&[
             "slice",
             grid.to_str().unwrap(),
@@ -124,7 +92,7 @@ fn slice_stats_match_between_structures_and_threads() {
 
 #[test]
 fn slice_writes_ply_and_axis_variants() {
-    let ply = tmp("demo.ply");
+    let ply = support::tmp("cli", "demo.ply");
     for axis in ["x", "-y", "z", "-z"] {
         run_ok(&[
             "slice",
@@ -139,7 +107,7 @@ fn slice_writes_ply_and_axis_variants() {
         let bytes = std::fs::read(&ply).unwrap();
         assert!(bytes.starts_with(b"ply\nformat binary_little_endian 1.0\n"));
     }
-    let stats = tmp("normal.json");
+    let stats = support::tmp("cli", "normal.json");
     run_ok(&[
         "slice",
         "--demo",
@@ -155,7 +123,7 @@ fn slice_writes_ply_and_axis_variants() {
 
 #[test]
 fn bad_inputs_give_errors_naming_the_problem() {
-    let bad = tmp("bad.vtk");
+    let bad = support::tmp("cli", "bad.vtk");
     std::fs::write(&bad, "# vtk DataFile Version 3.0\nbad\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n0 0 0 1 0 0\n").unwrap();
     let e = run_err(&["info", bad.to_str().unwrap()]);
     assert_eq!(
@@ -199,7 +167,7 @@ fn bench_reports_figures() {
 
 #[test]
 fn corner_point_generate_info_and_slice() {
-    let g = tmp("faulted.grdecl");
+    let g = support::tmp("cli", "faulted.grdecl");
     let gs = g.to_str().unwrap();
     run_ok(&[
         "generate", "faulted", "--dims", "20,15,8", "--faults", "2", "--seed", "4", "-o", gs,
@@ -215,7 +183,7 @@ fn corner_point_generate_info_and_slice() {
     assert!(c["wedges"].as_u64().unwrap() > 0);
     assert_eq!(v["cell_properties"][0], "PORO");
     // Isosurfaces of PORO averaged to vertices, and flat per-cell colours.
-    let o = tmp("poro.vtp");
+    let o = support::tmp("cli", "poro.vtp");
     run_ok(&[
         "slice",
         gs,
@@ -228,7 +196,7 @@ fn corner_point_generate_info_and_slice() {
         "-o",
         o.to_str().unwrap(),
     ]);
-    let o = tmp("flat.ply");
+    let o = support::tmp("cli", "flat.ply");
     run_ok(&[
         "slice",
         gs,
@@ -272,7 +240,7 @@ fn corner_point_generate_info_and_slice() {
         assert!(sum > 0.0 && sum <= build, "{sum} against {build}: {out}");
     }
     // A bad GRDECL names file, line and keyword.
-    let b = tmp("bad.grdecl");
+    let b = support::tmp("cli", "bad.grdecl");
     std::fs::write(&b, "SPECGRID\n 1 1 1 /\nZCORN\n 7*1 /\n").unwrap();
     let e = run_err(&["info", b.to_str().unwrap()]);
     assert!(
@@ -287,7 +255,7 @@ fn corner_point_generate_info_and_slice() {
 #[test]
 fn missing_file_error_names_it_once() {
     for name in ["missing.grdecl", "missing.vtu", "missing.EGRID"] {
-        let p = tmp(name);
+        let p = support::tmp("cli", name);
         let e = run_err(&["info", p.to_str().unwrap()]);
         assert!(e.contains(p.to_str().unwrap()), "{name}: {e}");
         assert_eq!(e.matches("os error 2").count(), 1, "{name}: {e}");
@@ -298,7 +266,7 @@ fn missing_file_error_names_it_once() {
 /// command quietly: no panic message about a broken pipe.
 #[test]
 fn closed_stdout_is_not_a_panic() {
-    let grid = tmp("pipe.vts");
+    let grid = support::tmp("cli", "pipe.vts");
     run_ok(&[
         "generate",
         "warped",
@@ -335,7 +303,7 @@ fn run_loud(args: &[&str]) -> (bool, String, String) {
 
 #[test]
 fn depths_as_z_values_warn_and_name_the_values_that_cut() {
-    let g = tmp("depth.grdecl");
+    let g = support::tmp("cli", "depth.grdecl");
     let gs = g.to_str().unwrap();
     run_ok(&[
         "generate", "faulted", "--dims", "20,15,8", "--faults", "2", "--seed", "4", "-o", gs,
@@ -350,8 +318,8 @@ fn depths_as_z_values_warn_and_name_the_values_that_cut() {
     let (d0, d1) = ((-zhi).ceil(), (-zlo).floor());
     let step = ((d1 - d0) / 4.0).floor();
     let values = format!("{d0}:{}:{step}", d0 + 4.0 * step);
-    let out = tmp("depth.ply");
-    let stats = tmp("depth.json");
+    let out = support::tmp("cli", "depth.ply");
+    let stats = support::tmp("cli", "depth.json");
     let (ok, _, err) = run_loud(&[
         "slice",
         gs,

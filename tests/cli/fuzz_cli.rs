@@ -5,9 +5,11 @@
 //! small: each case runs the binary.
 
 use std::path::PathBuf;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::sync::OnceLock;
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+use crate::support;
 
 use proptest::prelude::*;
 
@@ -18,9 +20,7 @@ const BOUND: Duration = Duration::from_secs(30);
 fn grid() -> &'static PathBuf {
     static G: OnceLock<PathBuf> = OnceLock::new();
     G.get_or_init(|| {
-        let d = std::env::temp_dir().join(format!("stratasweep-fuzz-cli-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        let p = d.join("cube.vtk");
+        let p = support::tmp("fuzz-cli", "cube.vtk");
         std::fs::write(
             &p,
             "# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_GRID\nDIMENSIONS 2 2 2\nPOINTS 8 double\n\
@@ -35,24 +35,16 @@ fn grid() -> &'static PathBuf {
 /// Runs the binary; panics when it outlives [`BOUND`], dies by a signal or
 /// panics. Returns (exit code, stderr).
 fn run_bounded(args: &[String]) -> (i32, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_stratasweep"))
-        .args(args)
-        .arg("--quiet")
-        .env("NODEVICE_SELECT", "1")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let t = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if t.elapsed() > BOUND {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("{args:?} ran longer than {BOUND:?}");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    let o = child.wait_with_output().unwrap();
+    let o = support::output_within(
+        support::bin()
+            .args(args)
+            .arg("--quiet")
+            .env("NODEVICE_SELECT", "1")
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped()),
+        BOUND,
+    )
+    .unwrap_or_else(|| panic!("{args:?} ran longer than {BOUND:?}"));
     let err = String::from_utf8_lossy(&o.stderr).to_string();
     let code = o
         .status

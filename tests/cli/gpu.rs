@@ -2,42 +2,13 @@
 //! statistics as the CPU path, `render` writes a PNG, `bench --device`
 //! prints its rows, and bad options are clear errors.
 
-mod gpu_common;
+use crate::support;
+use crate::support::{json, run, run_ok};
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_stratasweep"))
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("stratasweep-gpu-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
-}
-
-fn run(args: &[&str]) -> (bool, String, String) {
-    let o = bin().args(args).arg("--quiet").output().unwrap();
-    (
-        o.status.success(),
-        String::from_utf8_lossy(&o.stdout).into(),
-        String::from_utf8_lossy(&o.stderr).into(),
-    )
-}
-
-fn run_ok(args: &[&str]) -> String {
-    let (ok, out, err) = run(args);
-    assert!(ok, "{args:?} failed: {err}");
-    out
-}
-
-fn json(p: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
-}
 
 fn grid(tag: &str) -> PathBuf {
-    let g = tmp(&format!("w-{tag}.vts"));
+    let g = support::tmp("gpu-cli", &format!("w-{tag}.vts"));
     if !g.exists() {
         run_ok(&[
             "generate",
@@ -76,7 +47,7 @@ fn same_stats(a: &serde_json::Value, b: &serde_json::Value) {
 /// A faulted corner-point deck: pinched cells are split into convex pieces,
 /// which every device must count once, as input cells.
 fn faulted(tag: &str) -> PathBuf {
-    let g = tmp(&format!("f-{tag}.grdecl"));
+    let g = support::tmp("gpu-cli", &format!("f-{tag}.grdecl"));
     if !g.exists() {
         let g = g.to_str().unwrap();
         run_ok(&[
@@ -102,7 +73,7 @@ fn slice_stats_are_the_same_on_every_device() {
     .iter()
     .enumerate()
     {
-        let cpu = tmp(&format!("cpu{i}.json"));
+        let cpu = support::tmp("gpu-cli", &format!("cpu{i}.json"));
         let mut a = vec!["slice", g.to_str().unwrap()];
         a.extend(extra);
         let with = |dev: &str, out: &Path| {
@@ -113,12 +84,12 @@ fn slice_stats_are_the_same_on_every_device() {
         let args = with("cpu", &cpu);
         run_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
         // auto always works (GPU, or the CPU without an adapter).
-        let auto = tmp(&format!("auto{i}.json"));
+        let auto = support::tmp("gpu-cli", &format!("auto{i}.json"));
         let args = with("auto", &auto);
         run_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
         same_stats(&json(&cpu), &json(&auto));
-        if gpu_common::gpu("slice --device gpu").is_some() {
-            let gp = tmp(&format!("gpu{i}.json"));
+        if support::gpu("slice --device gpu").is_some() {
+            let gp = support::tmp("gpu-cli", &format!("gpu{i}.json"));
             let args = with("gpu", &gp);
             run_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
             same_stats(&json(&cpu), &json(&gp));
@@ -128,12 +99,12 @@ fn slice_stats_are_the_same_on_every_device() {
 
 #[test]
 fn render_and_bench_run() {
-    if gpu_common::gpu("render_and_bench_run").is_none() {
+    if support::gpu("render_and_bench_run").is_none() {
         return;
     }
     let g = grid("render");
     let g = g.to_str().unwrap();
-    let png = tmp("r.png");
+    let png = support::tmp("gpu-cli", "r.png");
     run_ok(&[
         "render",
         g,
@@ -151,7 +122,7 @@ fn render_and_bench_run() {
         "perspective",
     ]);
     assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
-    let tf = tmp("t.json");
+    let tf = support::tmp("gpu-cli", "t.json");
     std::fs::write(&tf, r#"{"points":[{"value":0,"color":[1,0,0],"opacity":0.1},{"value":1,"color":[0,0,1],"opacity":0.5}]}"#).unwrap();
     run_ok(&[
         "render",
@@ -207,8 +178,8 @@ fn render_and_bench_run() {
 fn bad_gpu_options_are_clear_errors() {
     let g = grid("bad");
     let g = g.to_str().unwrap();
-    let png = tmp("bad.png");
-    let ply = tmp("bad.ply");
+    let png = support::tmp("gpu-cli", "bad.png");
+    let ply = support::tmp("gpu-cli", "bad.ply");
     let p = png.to_str().unwrap();
     for (args, want) in [
         (vec!["render", g, "-o", p, "--size", "0x10"], "--size"),

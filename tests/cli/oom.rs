@@ -4,28 +4,11 @@
 //! and SIGABRT (issue 32, class 5).
 
 use std::os::unix::process::{CommandExt, ExitStatusExt};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
-/// A scratch folder of this test process, removed on drop.
-struct Dir(PathBuf);
-
-impl Dir {
-    fn new(name: &str) -> Dir {
-        let d = std::env::temp_dir().join(format!("ss-oom-{name}-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        Dir(d)
-    }
-    fn path(&self, name: &str) -> String {
-        self.0.join(name).to_string_lossy().into_owned()
-    }
-}
-
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+use crate::support;
+use crate::support::Dir;
 
 /// One GiB: the binary's own start (libraries, thread stacks) fits well
 /// under it (it runs under 300 MB).
@@ -33,7 +16,7 @@ const GIB: u64 = 1 << 30;
 
 /// Runs the binary with its address space limited to `limit` bytes.
 fn run_limited(args: &[&str], limit: u64) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_stratasweep"));
+    let mut cmd = support::bin();
     cmd.args(args)
         .env("NODEVICE_SELECT", "1")
         .env("RAYON_NUM_THREADS", "2");
@@ -81,7 +64,7 @@ fn assert_clean_oom(args: &[&str], out: &Output, what: Option<&str>) -> String {
 /// A small GRDECL whose repeats ask for a 1000×1000×100 grid: ZCORN's
 /// 800,000,000 values (6.4 GB) do not fit under 1 GiB.
 fn huge_repeat_deck(d: &Dir) -> String {
-    let p = d.path("huge.grdecl");
+    let p = d.s("huge.grdecl");
     let text = "SPECGRID\n1000 1000 100 1 F /\nCOORD\n6012006*0 /\nZCORN\n800000000*1 /\n";
     std::fs::write(&p, text).unwrap();
     p
@@ -89,9 +72,9 @@ fn huge_repeat_deck(d: &Dir) -> String {
 
 #[test]
 fn info_and_slice_name_the_keyword_that_does_not_fit() {
-    let d = Dir::new("deck");
+    let d = Dir::new("oom-deck");
     let deck = huge_repeat_deck(&d);
-    let out_ply = d.path("out.ply");
+    let out_ply = d.s("out.ply");
     for args in [
         vec!["info", deck.as_str(), "--quiet"],
         vec![
@@ -116,16 +99,16 @@ fn info_and_slice_name_the_keyword_that_does_not_fit() {
 
 #[test]
 fn commands_on_real_sized_inputs_fail_cleanly_under_a_small_limit() {
-    let d = Dir::new("real");
-    let grdecl = d.path("f.grdecl");
-    let vts = d.path("w.vts");
+    let d = Dir::new("oom-real");
+    let grdecl = d.s("f.grdecl");
+    let vts = d.s("w.vts");
     let g = stratasweep::generate::faulted([60, 60, 40], 2, 3);
     let mut text = Vec::new();
     stratasweep::io::grdecl::write_grdecl(&mut text, &g).unwrap();
     std::fs::write(&grdecl, text).unwrap();
     stratasweep::io::writers::write_vtk_xml_grid(&vts, &stratasweep::generate::warped([120; 3], 1))
         .unwrap();
-    let out = d.path("s.ply");
+    let out = d.s("s.ply");
     // Each command succeeds without a limit, so the limit is what fails it.
     for (args, limit) in [
         (vec!["info", grdecl.as_str(), "--quiet"], 120 << 20),
@@ -176,8 +159,8 @@ fn commands_on_real_sized_inputs_fail_cleanly_under_a_small_limit() {
 
 #[test]
 fn generate_fails_cleanly_when_the_grid_does_not_fit() {
-    let d = Dir::new("generate");
-    let out = d.path("g.grdecl");
+    let d = Dir::new("oom-generate");
+    let out = d.s("g.grdecl");
     let args = [
         "generate",
         "--quiet",

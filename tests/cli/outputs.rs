@@ -26,52 +26,18 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// A folder of the test's own, removed at the end.
-struct Dir(PathBuf);
+use crate::support;
+use crate::support::Dir;
 
-impl Dir {
-    fn new(name: &str) -> Dir {
-        let p =
-            std::env::temp_dir().join(format!("stratasweep-outputs-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).unwrap();
-        Dir(p)
-    }
-
-    fn p(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-
-    fn s(&self, name: &str) -> String {
-        self.p(name).display().to_string()
-    }
-
-    /// Every entry: its name and, for a plain file, its bytes (a named
-    /// pipe or a link shows as its kind).
-    fn snapshot(&self) -> BTreeMap<String, Vec<u8>> {
-        let mut m = BTreeMap::new();
-        for e in std::fs::read_dir(&self.0).unwrap() {
-            let e = e.unwrap();
-            let t = std::fs::symlink_metadata(e.path()).unwrap().file_type();
-            let v = if t.is_symlink() {
-                format!(
-                    "link to {}",
-                    std::fs::read_link(e.path()).unwrap().display()
-                )
-                .into_bytes()
-            } else if t.is_fifo() {
-                b"fifo".to_vec()
-            } else if t.is_dir() {
-                b"folder".to_vec()
-            } else {
-                std::fs::read(e.path()).unwrap()
-            };
-            m.insert(e.file_name().to_string_lossy().into(), v);
-        }
-        m
-    }
-
+/// The fixtures the tests make in their folder.
+trait Fixtures {
     /// Makes a named pipe.
+    fn fifo(&self, name: &str) -> PathBuf;
+    /// A small grid file (warped 6³ with point property `f`).
+    fn grid(&self) -> String;
+}
+
+impl Fixtures for Dir {
     fn fifo(&self, name: &str) -> PathBuf {
         let p = self.p(name);
         let c = CString::new(p.as_os_str().as_encoded_bytes()).unwrap();
@@ -80,7 +46,6 @@ impl Dir {
         p
     }
 
-    /// A small grid file (warped 6³ with point property `f`).
     fn grid(&self) -> String {
         let p = self.p("grid.vts");
         let g = stratasweep::generate::warped([6, 6, 6], 1);
@@ -89,14 +54,9 @@ impl Dir {
     }
 }
 
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_stratasweep"));
+/// The binary without a display or a terminal, its output piped.
+fn headless() -> Command {
+    let mut c = support::bin();
     c.env("NODEVICE_SELECT", "1")
         .env("MESA_SHADER_CACHE_DISABLE", "true")
         .env_remove("DISPLAY")
@@ -108,22 +68,13 @@ fn bin() -> Command {
 }
 
 /// Waits for `child`, killing it after `limit` (a hang fails the test).
-fn wait(mut child: Child, args: &[String], limit: Duration) -> Output {
-    let t = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if t.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("{args:?} hung");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    child.wait_with_output().unwrap()
+fn wait(child: Child, args: &[String], limit: Duration) -> Output {
+    support::wait_within(child, limit).unwrap_or_else(|| panic!("{args:?} hung"))
 }
 
 /// Runs the binary, optionally with files limited to `fsize` bytes.
 fn run(args: &[String], fsize: Option<u64>) -> Output {
-    let mut c = bin();
+    let mut c = headless();
     c.args(args).arg("--quiet");
     if let Some(n) = fsize {
         // SAFETY: only async-signal-safe calls between fork and exec.
@@ -271,7 +222,7 @@ fn writers(grid: &str, out: &dyn Fn(&str) -> String) -> Vec<Vec<String>> {
 
 #[test]
 fn class1_outputs_that_are_named_pipes_are_refused_by_name() {
-    let d = Dir::new("fifo");
+    let d = Dir::new("outputs-fifo");
     let grid = d.grid();
     for ext in ["vtp", "ply", "json", "png", "grdecl", "egrid", "vtu", "vts"] {
         d.fifo(&format!("pipe.{ext}"));
@@ -314,7 +265,7 @@ fn class1_outputs_that_are_named_pipes_are_refused_by_name() {
 #[test]
 fn class1_library_writers_refuse_a_named_pipe() {
     // The writers Python's `Grid.write` and `Slices.write` call.
-    let d = Dir::new("fifo-lib");
+    let d = Dir::new("outputs-fifo-lib");
     let p = d.fifo("g.vtu");
     let g = stratasweep::generate::zoo(40, 1);
     let e = stratasweep::io::writers::write_vtk_xml_grid(&p, &g)
@@ -331,7 +282,7 @@ fn class1_library_writers_refuse_a_named_pipe() {
 #[test]
 fn class3_a_failed_commit_removes_the_temporary_file() {
     use std::io::Write;
-    let d = Dir::new("rename");
+    let d = Dir::new("outputs-rename");
     let dest = d.p("out.bin");
     let mut f = stratasweep::io::atomic::AtomicFile::create(&dest).unwrap();
     f.write_all(b"new").unwrap();
@@ -357,7 +308,7 @@ const OLD: &[u8] = b"the previous output, which a failed run must leave as it is
 
 #[test]
 fn class2_and_3_a_full_disk_leaves_old_outputs_whole_and_no_temporary_file() {
-    let d = Dir::new("fsize");
+    let d = Dir::new("outputs-fsize");
     let grid = d.grid();
     // Each writer first runs unlimited (it must succeed and write more than
     // the limit), then with files limited to LIMIT bytes over the old file.
@@ -422,7 +373,7 @@ fn interrupt_slice(d: &Dir, grid: &str, sig: i32, ignore: bool) -> (Output, bool
         "-o",
         &d.s("out.vtp"),
     ]);
-    let mut c = bin();
+    let mut c = headless();
     c.args(&a).arg("--quiet");
     if ignore {
         // SAFETY: one async-signal-safe call between fork and exec.
@@ -450,7 +401,7 @@ fn interrupt_slice(d: &Dir, grid: &str, sig: i32, ignore: bool) -> (Output, bool
 
 #[test]
 fn class3_an_interrupted_slice_leaves_no_temporary_file() {
-    let d = Dir::new("signals");
+    let d = Dir::new("outputs-signals");
     let grid = big_grid(&d);
     for sig in [libc::SIGINT, libc::SIGTERM] {
         std::fs::write(d.p("out.vtp"), OLD).unwrap();
@@ -480,14 +431,10 @@ fn class3_an_interrupted_slice_leaves_no_temporary_file() {
 /// `STRATASWEEP_REQUIRE_DISPLAY=1`.
 #[test]
 fn class2_window_screenshot_in_a_window_is_atomic() {
-    let Some(display) = std::env::var_os("DISPLAY").filter(|s| !s.is_empty()) else {
-        if std::env::var("STRATASWEEP_REQUIRE_DISPLAY").as_deref() == Ok("1") {
-            panic!("STRATASWEEP_REQUIRE_DISPLAY=1 but DISPLAY is not set");
-        }
-        eprintln!("SKIP class2_window_screenshot_in_a_window_is_atomic: no display");
+    if !support::display("class2_window_screenshot_in_a_window_is_atomic") {
         return;
-    };
-    let d = Dir::new("window");
+    }
+    let d = Dir::new("outputs-window");
     let shot = d.p("shot.png");
     std::fs::write(&shot, OLD).unwrap();
     let a = args(&[
@@ -502,8 +449,13 @@ fn class2_window_screenshot_in_a_window_is_atomic() {
         "--window-screenshot",
         &d.s("shot.png"),
     ]);
-    let mut c = bin();
-    c.env("DISPLAY", &display).args(&a).arg("--quiet");
+    let mut c = headless();
+    for v in ["DISPLAY", "WAYLAND_DISPLAY"] {
+        if let Some(x) = std::env::var_os(v) {
+            c.env(v, x);
+        }
+    }
+    c.args(&a).arg("--quiet");
     // SAFETY: as in `run`.
     unsafe {
         c.pre_exec(|| {
@@ -533,7 +485,7 @@ fn class2_window_screenshot_in_a_window_is_atomic() {
 /// not fit a disk the mesh fits) leaves both old files as they were.
 #[test]
 fn class3_a_slice_and_its_statistics_are_replaced_together_or_not_at_all() {
-    let d = Dir::new("pair");
+    let d = Dir::new("outputs-pair");
     let grid = d.grid();
     let (mesh, stats) = (d.s("out.ply"), d.s("out.json"));
     // 2,001 levels, nearly all outside the grid: a small mesh, long stats.

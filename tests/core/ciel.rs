@@ -3,8 +3,8 @@
 //! CIEL brute force (same polygons), the CGraph on zoo grids; bad input;
 //! fuzzed face streams.
 
-mod common;
-use common::{
+use crate::support;
+use crate::support::{
     Levels, Rng, cells_of, cube_faces, cube_points, one_cell, polyhedral, sorted, structured,
     zoo_from_structured,
 };
@@ -521,19 +521,11 @@ fn planar_polygons_face_increasing_phi() {
     assert!(n > 10);
 }
 
-fn data() -> Option<std::path::PathBuf> {
-    match std::env::var("STRATASWEEP_DATA") {
-        Ok(d) => Some(d.into()),
-        Err(_) => {
-            eprintln!("SKIP real-grid CIEL tests: STRATASWEEP_DATA not set");
-            None
-        }
-    }
-}
-
 #[test]
 fn real_polyhedral_files_match_the_reference() {
-    let Some(d) = data() else { return };
+    let Some(d) = support::data_dir("real_polyhedral_files_match_the_reference") else {
+        return;
+    };
     for f in [
         "geos/pebi3d_with_properties.vtu",
         "geos/supportedElements.vtk",
@@ -735,12 +727,12 @@ fn voronoi_grid_is_conforming_and_matches_the_reference() {
 fn peer_compare(path: &std::path::Path, g: &Grid, axis: usize, count: usize) {
     use stratasweep::pipeline::slice;
     use stratasweep::structures::{Structure, StructureChoice};
-    let Some((py, script)) = common::peer::peer("CIEL peer comparison") else {
+    let Some((py, script)) = support::peer::peer("CIEL peer comparison") else {
         return;
     };
-    let v = common::peer::vtk_slices(&py, &script, path, axis, count);
+    let v = support::peer::vtk_slices(&py, &script, path, axis, count);
     let s = Structure::build(g, StructureChoice::Ciel).unwrap();
-    let req = common::axis_request(axis, count);
+    let req = support::axis_request(axis, count);
     let r = slice(g, &s, &req, &|_| {}).unwrap();
     let slices = v["slices"].as_array().unwrap();
     assert_eq!(slices.len(), count);
@@ -782,7 +774,7 @@ fn ciel_areas_match_vtk() {
         topology: Topology::Unstructured(kept),
         ..full.clone()
     };
-    let p = std::env::temp_dir().join(format!("ciel-voronoi-{}.vtu", std::process::id()));
+    let p = support::tmp("ciel", "voronoi.vtu");
     stratasweep::io::writers::write_vtk_xml_grid(&p, &g).unwrap();
     let back = stratasweep::io::vtk_read::read_vtk(&p).unwrap();
     assert_eq!(back.points.len(), g.points.len());
@@ -790,7 +782,7 @@ fn ciel_areas_match_vtk() {
         peer_compare(&p, &back, axis, 40);
     }
     let _ = std::fs::remove_file(&p);
-    if let Some(d) = data() {
+    if let Some(d) = support::data_dir("ciel_areas_match_vtk: the pebi3d grid") {
         // pebi3d fills the unit box (VTK's own cell volumes sum to 1), so
         // every axis slice has area 1. About half of its faces are given
         // inward; VTK 9.7's plane cutter then reports 0.5 (x), 0.58 (z) and
@@ -839,8 +831,7 @@ fn ciel_areas_match_vtk() {
             point_data: vec![],
             cell_data: vec![],
         };
-        let q =
-            std::env::temp_dir().join(format!("ciel-pebi3d-oriented-{}.vtu", std::process::id()));
+        let q = support::tmp("ciel", "pebi3d-oriented.vtu");
         stratasweep::io::writers::write_vtk_xml_grid(&q, &fixed).unwrap();
         for axis in 0..3 {
             peer_compare(&q, &fixed, axis, 30);
@@ -910,7 +901,7 @@ fn threads_give_the_single_threaded_output() {
 /// force's (the per-level sets are tested above), growing with the grid.
 #[test]
 fn law_voronoi_reports_rows_and_a_fit() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_stratasweep"))
+    let out = support::bin()
         .args(["-q", "bench", "--law-voronoi", "300,2400", "--count", "20"])
         .args(["--repeat", "1", "--json"])
         .output()

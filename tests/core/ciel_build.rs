@@ -3,8 +3,7 @@
 //! straightforward rebuild from the input faces (hash maps, no sorting
 //! tricks), also with scrambled face orders and dead cells.
 
-mod common;
-use common::{Rng, cube_faces, cube_points, one_cell, polyhedral};
+use crate::support::{Rng, cube_faces, cube_points, one_cell, polyhedral};
 use stratasweep::grid::{Cells, Grid, Topology, vtk_type};
 use stratasweep::structures::ciel::{Ciel, CielError, parse_face_stream};
 

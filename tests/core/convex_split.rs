@@ -2,8 +2,8 @@
 //! against analytic slice areas and volumes, the brute force, a per-cell
 //! reference of the cut cells, and VTK's plane cutter.
 
-mod common;
-use common::Rng;
+use crate::support;
+use crate::support::Rng;
 use std::collections::BTreeSet;
 use stratasweep::field::FieldSpec;
 use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
@@ -733,11 +733,10 @@ fn an_untriangulable_face_costs_one_cell() {
 /// `.venv-peer` in the crate).
 #[test]
 fn areas_match_vtk_on_non_convex_cells() {
-    let Some((py, script)) = common::peer::peer("VTK comparison of split cells") else {
+    let Some((py, script)) = support::peer::peer("VTK comparison of split cells") else {
         return;
     };
-    let dir = std::env::temp_dir().join(format!("convex-split-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = support::tmp_dir("convex-split");
     let mut cases: Vec<(&str, Grid, usize)> = Vec::new();
     let mut pts = Vec::new();
     let f = prism(&mut pts, &L, 1.0, &rot45);
@@ -755,7 +754,7 @@ fn areas_match_vtk_on_non_convex_cells() {
     for (name, g, axis) in cases {
         let path = dir.join(format!("{name}.vtu"));
         stratasweep::io::writers::write_vtk_xml_grid(&path, &g).unwrap();
-        let v = common::peer::vtk_slices(&py, &script, &path, axis, count);
+        let v = support::peer::vtk_slices(&py, &script, &path, axis, count);
         let values: Vec<f64> = v["slices"]
             .as_array()
             .unwrap()

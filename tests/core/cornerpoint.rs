@@ -3,8 +3,7 @@
 //! cells, property averaging without bleeding across faults. The real and
 //! generated grids are in `cornerpoint_data.rs`.
 
-mod common;
-use common::{axis_request, sweep_matches_brute_force};
+use crate::support::{axis_request, sweep_matches_brute_force};
 
 use stratasweep::cornerpoint::{CornerPointGrid, trilinear_volume};
 use stratasweep::grid::{Property, Topology, vtk_type};

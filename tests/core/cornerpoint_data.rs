@@ -4,10 +4,8 @@
 //! fault geometry, read by xtgeo), and the CGraph's neighbours against a
 //! brute-force face matching.
 
-use std::path::PathBuf;
-
-mod common;
-use common::{axis_request, data_dir, sweep_matches_brute_force};
+use crate::support;
+use crate::support::{axis_request, data_dir, sweep_matches_brute_force};
 
 use stratasweep::cornerpoint::CornerPointGrid;
 use stratasweep::grid::{Topology, vtk_type};
@@ -327,30 +325,12 @@ fn generated_faults_vertical_or_inclined() {
     }
 }
 
-/// The Python of an xtgeo virtual environment: `STRATASWEEP_XTGEO_PYTHON`,
-/// else `../venv-xtgeo/bin/python` beside the crate.
-fn xtgeo_python() -> Option<PathBuf> {
-    let p = std::env::var_os("STRATASWEEP_XTGEO_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../venv-xtgeo/bin/python")
-        });
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!(
-            "\n*** SKIP xtgeo comparison: no {} (python3 -m venv ../venv-xtgeo && ../venv-xtgeo/bin/pip install xtgeo, or set STRATASWEEP_XTGEO_PYTHON) ***\n",
-            p.display()
-        );
-        None
-    }
-}
-
 #[test]
 fn generated_faulted_grids_read_by_xtgeo() {
-    let Some(py) = xtgeo_python() else { return };
-    let dir = std::env::temp_dir().join(format!("stratasweep-xtgeo-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let Some(py) = support::xtgeo_python("generated_faulted_grids_read_by_xtgeo") else {
+        return;
+    };
+    let dir = support::tmp_dir("xtgeo");
     let cases = [(None, 5), (Some(90.0), 3), (Some(45.0), 11)];
     let mut files = Vec::new();
     let mut ours = Vec::new();

@@ -4,30 +4,16 @@
 //! (many faults, inclined faults, heavy pinch-outs, inactive regions) and
 //! on Reek (`STRATASWEEP_DATA`).
 
-use std::path::PathBuf;
-
-mod common;
-use common::axis_request;
+use crate::support;
+use crate::support::{assert_same, axis_request, data_dir, slice_ok as run};
 
 use stratasweep::cornerpoint::CornerPointGrid;
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::{faulted, faulted_with_dip};
 use stratasweep::grid::Grid;
-use stratasweep::pipeline::{SliceRequest, SliceResult, slice};
+use stratasweep::pipeline::{SliceRequest, SliceResult};
 use stratasweep::structures::cpgraph::IjkLayout;
 use stratasweep::structures::{Structure, StructureChoice};
-
-fn data_dir(test: &str) -> Option<PathBuf> {
-    match std::env::var_os("STRATASWEEP_DATA") {
-        Some(d) => Some(PathBuf::from(d)),
-        None => {
-            eprintln!(
-                "\n*** SKIP {test}: STRATASWEEP_DATA is not set (real grids not tested) ***\n"
-            );
-            None
-        }
-    }
-}
 
 /// The zoo grid of a corner-point grid and its IJK layout.
 fn convert(cp: CornerPointGrid) -> (Grid, IjkLayout) {
@@ -96,33 +82,6 @@ fn with_inactive(mut g: CornerPointGrid) -> CornerPointGrid {
     }
     g.actnum = Some(act);
     g
-}
-
-fn run(grid: &Grid, s: &Structure, req: &SliceRequest) -> SliceResult {
-    slice(grid, s, req, &|_| {}).unwrap()
-}
-
-/// Per-level figures that must be identical (areas compared to 1e-12:
-/// each run sums its polygons' areas in its own order).
-fn assert_same(a: &SliceResult, b: &SliceResult, what: &str) {
-    assert_eq!(a.level_values, b.level_values, "{what}: levels");
-    assert_eq!(a.stats.len(), b.stats.len());
-    for (l, (x, y)) in a.stats.iter().zip(&b.stats).enumerate() {
-        assert_eq!(
-            (x.cells, x.polygons, x.triangles),
-            (y.cells, y.polygons, y.triangles),
-            "{what}: level {l}"
-        );
-        let tol = 1e-12 * x.area.abs().max(y.area.abs()).max(1e-300);
-        assert!(
-            (x.area - y.area).abs() <= tol,
-            "{what}: level {l} area {} vs {}",
-            x.area,
-            y.area
-        );
-    }
-    // Same polygons, vertex for vertex, bit for bit.
-    assert_eq!(a.mesh, b.mesh, "{what}: polygons");
 }
 
 /// Per level, the area of the canonical mesh's polygons (summed in mesh
@@ -294,12 +253,10 @@ fn reek_equals_cgraph() {
 /// error; `bench` along z cuts the same cells with auto and cgraph.
 #[test]
 fn cli_picks_and_reports_the_corner_point_graph() {
-    let exe = env!("CARGO_BIN_EXE_stratasweep");
-    let dir = std::env::temp_dir().join(format!("cpgraph_cli_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = support::tmp_dir("cpgraph-cli");
     let grdecl = dir.join("f.grdecl");
     let vts = dir.join("w.vts");
-    let run = |args: &[&str]| std::process::Command::new(exe).args(args).output().unwrap();
+    let run = |args: &[&str]| support::bin().args(args).output().unwrap();
     let g = grdecl.to_str().unwrap();
     assert!(
         run(&[

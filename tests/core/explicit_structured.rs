@@ -5,8 +5,7 @@
 //! and the canonical meshes bit for bit), inactive cells hidden, pinched
 //! cells as polyhedra; bad arrays are refused with the cell named.
 
-mod common;
-use common::axis_request;
+use crate::support::{assert_same, axis_request, slice_ok as run};
 
 use std::collections::HashMap;
 use stratasweep::cornerpoint::CornerPointGrid;
@@ -15,7 +14,7 @@ use stratasweep::generate::faulted_with_dip;
 
 use stratasweep::grid::{GHOST_HIDDEN_CELL, Grid, Property, Topology};
 use stratasweep::io::vtk_read::{UnstructuredArrays, grid_from_explicit_structured};
-use stratasweep::pipeline::{SliceRequest, SliceResult, slice};
+use stratasweep::pipeline::{SliceRequest, SliceResult};
 use stratasweep::structures::cpgraph::IjkLayout;
 use stratasweep::structures::{Structure, StructureChoice};
 
@@ -59,29 +58,6 @@ fn build(cp: &CornerPointGrid) -> (Grid, IjkLayout) {
         celltypes: &types,
     };
     grid_from_explicit_structured(a, cp.dims, vec![], cd, "esg").unwrap()
-}
-
-fn run(grid: &Grid, s: &Structure, req: &SliceRequest) -> SliceResult {
-    slice(grid, s, req, &|_| {}).unwrap()
-}
-
-fn assert_same(a: &SliceResult, b: &SliceResult, what: &str) {
-    assert_eq!(a.level_values, b.level_values, "{what}: levels");
-    for (l, (x, y)) in a.stats.iter().zip(&b.stats).enumerate() {
-        assert_eq!(
-            (x.cells, x.polygons, x.triangles),
-            (y.cells, y.polygons, y.triangles),
-            "{what}: level {l}"
-        );
-        let tol = 1e-12 * x.area.abs().max(y.area.abs()).max(1e-300);
-        assert!(
-            (x.area - y.area).abs() <= tol,
-            "{what}: level {l} area {} vs {}",
-            x.area,
-            y.area
-        );
-    }
-    assert_eq!(a.mesh, b.mesh, "{what}: polygons");
 }
 
 /// `auto` picks the corner-point graph, which equals the CGraph along x, y,

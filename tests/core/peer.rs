@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use stratasweep::pipeline::slice;
 use stratasweep::structures::{Structure, StructureChoice};
 
-mod common;
+use crate::support;
 
 fn compare(
     grid_path: &std::path::Path,
@@ -15,12 +15,12 @@ fn compare(
     count: usize,
     tol: f64,
 ) {
-    let Some((py, script)) = common::peer::peer("peer comparison") else {
+    let Some((py, script)) = support::peer::peer("peer comparison") else {
         return;
     };
-    let v = common::peer::vtk_slices(&py, &script, grid_path, axis, count);
+    let v = support::peer::vtk_slices(&py, &script, grid_path, axis, count);
     let s = Structure::build(grid, StructureChoice::Auto).unwrap();
-    let r = slice(grid, &s, &common::axis_request(axis, count), &|_| {}).unwrap();
+    let r = slice(grid, &s, &support::axis_request(axis, count), &|_| {}).unwrap();
     let peer_slices = v["slices"].as_array().unwrap();
     assert_eq!(peer_slices.len(), count);
     let mut worst = 0.0f64;
@@ -49,7 +49,7 @@ fn compare(
 #[test]
 fn warped_grid_areas_match_vtk() {
     let g = stratasweep::generate::warped([20, 24, 18], 5);
-    let p = std::env::temp_dir().join(format!("peer-warped-{}.vts", std::process::id()));
+    let p = support::tmp("peer", "warped.vts");
     stratasweep::io::writers::write_vtk_xml_grid(&p, &g).unwrap();
     for axis in 0..3 {
         compare(&p, &g, axis, 25, 1e-5);
@@ -60,7 +60,7 @@ fn warped_grid_areas_match_vtk() {
 #[test]
 fn zoo_grid_areas_match_vtk() {
     let g = stratasweep::generate::zoo(4000, 9);
-    let p = std::env::temp_dir().join(format!("peer-zoo-{}.vtu", std::process::id()));
+    let p = support::tmp("peer", "zoo.vtu");
     stratasweep::io::writers::write_vtk_xml_grid(&p, &g).unwrap();
     compare(&p, &g, 2, 30, 1e-5);
     let _ = std::fs::remove_file(&p);
@@ -68,8 +68,7 @@ fn zoo_grid_areas_match_vtk() {
 
 #[test]
 fn real_grids_areas_match_vtk() {
-    let Ok(data) = std::env::var("STRATASWEEP_DATA") else {
-        eprintln!("SKIP real-grid peer comparison: STRATASWEEP_DATA not set");
+    let Some(data) = support::data_dir("real_grids_areas_match_vtk") else {
         return;
     };
     for f in [

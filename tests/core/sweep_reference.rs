@@ -2,8 +2,7 @@
 //! holes, several components, values exactly on levels, axis slices exactly
 //! on vertex layers; plus watertightness of isosurfaces.
 
-mod common;
-use common::{Levels, Rng, cells_of, sorted, structured, zoo_from_structured};
+use crate::support::{Levels, Rng, cells_of, sorted, structured, zoo_from_structured};
 use std::collections::HashMap;
 use stratasweep::bruteforce::brute_force;
 use stratasweep::extract::{EmitContext, LevelMesh};

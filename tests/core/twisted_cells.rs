@@ -12,43 +12,17 @@ use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
 use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
 use stratasweep::structures::{Structure, StructureChoice, quad_is_bow_tie};
 
-mod common;
+use crate::support;
 
 /// can.vtu in `$STRATASWEEP_DATA/pyvista`, or `None` after a loud SKIP.
 fn can_path() -> Option<PathBuf> {
-    let Some(dir) = std::env::var_os("STRATASWEEP_DATA") else {
-        eprintln!("SKIP can.vtu: STRATASWEEP_DATA is not set");
-        return None;
-    };
+    let dir = support::data_dir("can.vtu")?;
     let p = Path::new(&dir).join("pyvista/can.vtu");
     if !p.exists() {
         eprintln!("SKIP can.vtu: {} missing", p.display());
         return None;
     }
     Some(p)
-}
-
-/// The peer's Python and script: the script beside the checkout
-/// (`../shared/peer`), else beside the data (`$STRATASWEEP_DATA/../peer`).
-fn peer() -> Option<(PathBuf, PathBuf)> {
-    let py = std::env::var_os("STRATASWEEP_PEER_PYTHON").map(PathBuf::from);
-    let mut scripts =
-        vec![Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/peer/vtk_slices.py")];
-    if let Some(d) = std::env::var_os("STRATASWEEP_DATA") {
-        scripts.push(Path::new(&d).join("../peer/vtk_slices.py"));
-    }
-    let script = scripts.into_iter().find(|s| s.exists());
-    match (py, script) {
-        (Some(py), Some(s)) => Some((py, s)),
-        (None, _) => {
-            eprintln!("SKIP VTK peer: STRATASWEEP_PEER_PYTHON is not set");
-            None
-        }
-        (_, None) => {
-            eprintln!("SKIP VTK peer: vtk_slices.py not found");
-            None
-        }
-    }
 }
 
 fn request(field: FieldSpec, levels: LevelSpec, mesh: bool) -> SliceRequest {
@@ -75,11 +49,13 @@ fn can_slice_areas_match_vtk_per_level() {
     assert_eq!(r.twisted, 22, "{r:?}");
     assert_eq!(s.twisted_left(), 0);
     assert_eq!(s.cell_notes().len(), 1, "{:?}", s.cell_notes());
-    let Some((py, script)) = peer() else { return };
+    let Some((py, script)) = support::peer::peer("can_slice_areas_match_vtk_per_level") else {
+        return;
+    };
     let count = 40;
     for axis in 0..3 {
-        let v = common::peer::vtk_slices(&py, &script, &path, axis, count);
-        let ours = slice(&grid, &s, &common::axis_request(axis, count), &|_| {}).unwrap();
+        let v = support::peer::vtk_slices(&py, &script, &path, axis, count);
+        let ours = slice(&grid, &s, &support::axis_request(axis, count), &|_| {}).unwrap();
         let mut worst = 0.0f64;
         for (k, ps) in v["slices"].as_array().unwrap().iter().enumerate() {
             let pa = ps["area"].as_f64().unwrap();
@@ -284,7 +260,7 @@ fn isosurfaces_through_neighbouring_twisted_cells_are_closed() {
     let id = |i: usize, j: usize, k: usize| (i + n * (j + n * k)) as u32;
     let mut points = Vec::new();
     let mut values = Vec::new();
-    let mut rng = common::Rng(7);
+    let mut rng = support::Rng(7);
     for k in 0..n {
         for j in 0..n {
             for i in 0..n {
@@ -522,7 +498,7 @@ fn a_left_handed_grid_is_reported_once_not_as_inverted_cells() {
         out["cell_classes"]
     );
     // UNISIM-II-D itself, when present.
-    let Some(dir) = std::env::var_os("STRATASWEEP_DATA") else {
+    let Some(dir) = support::data_dir("UNISIM-II-D") else {
         return;
     };
     let p = Path::new(&dir).join("pyvista/UNISIM-II-D.vtu");

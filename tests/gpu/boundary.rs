@@ -10,9 +10,10 @@
 //!   the part of its fault face the other block does not cover.
 //! * A box of tetrahedra (six per cube, conforming) with a slanted top.
 
-mod gpu_common;
+use crate::support;
+use crate::support::ray::integrate_linear;
 
-use stratasweep::gpu::render::{Mode, RenderOptions, Renderer, Transfer};
+use stratasweep::gpu::render::{Mode, RenderOptions, Renderer};
 use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
 use stratasweep::structures::{Structure, StructureChoice};
 
@@ -161,23 +162,17 @@ fn tetrahedral_box() -> Grid {
     with_ramp(points, cells)
 }
 
-/// Front-to-back integration along a straight ray of length `len` (unit
-/// distance 1) on which the value goes linearly from `v0` to `v1`.
-fn integrate(t: &Transfer, v0: f64, v1: f64, len: f64) -> [f64; 4] {
-    gpu_common::ray::integrate_ray(t, 20_000, len, |s| v0 + (v1 - v0) * s)
-}
-
 /// The centre pixel's largest channel error against `want`, pre-integrated
 /// and plain, with 5 slices seen along `dir`.
 fn centre_errors(g: &Grid, dir: [f64; 3], want: [f64; 4]) -> (f64, f64) {
-    let ctx = gpu_common::gpu("pre-integrated unstructured grids").expect("checked by the caller");
+    let ctx = support::gpu("pre-integrated unstructured grids").expect("checked by the caller");
     let s = Structure::build(g, StructureChoice::Auto).unwrap();
     let o = RenderOptions {
         property: Some("v".into()),
         slices: 5,
         view_dir: dir,
         up: Some([0.0, 1.0, 0.0]),
-        transfer: Some(gpu_common::ray::ramp_transfer()),
+        transfer: Some(support::ray::ramp_transfer()),
         unit_distance: Some(1.0),
         background: None,
         size: (33, 33),
@@ -236,7 +231,7 @@ fn down_at(deg: f64) -> [f64; 3] {
 
 #[test]
 fn rays_leave_a_faulted_block_through_its_uncovered_fault_face() {
-    if gpu_common::gpu("rays_leave_a_faulted_block_through_its_uncovered_fault_face").is_none() {
+    if support::gpu("rays_leave_a_faulted_block_through_its_uncovered_fault_face").is_none() {
         return;
     }
     let blocks = faulted_blocks();
@@ -246,7 +241,7 @@ fn rays_leave_a_faulted_block_through_its_uncovered_fault_face() {
         b.push(&mut points, &mut cells);
     }
     let g = with_ramp(points, cells);
-    let t = gpu_common::ray::ramp_transfer();
+    let t = support::ray::ramp_transfer();
     for deg in [0.0, 35.0] {
         let d = down_at(deg);
         let centre = centre_ray_point(&g, d);
@@ -262,7 +257,7 @@ fn rays_leave_a_faulted_block_through_its_uncovered_fault_face() {
             assert!(exit_x.abs() < 1e-12, "exit at x = {exit_x}");
             assert!(centre[2] + t1 * d[2] < -0.1);
         }
-        let want = integrate(&t, v(t0), v(t1), t1 - t0);
+        let want = integrate_linear(&t, v(t0), v(t1), t1 - t0);
         let (pre, plain) = centre_errors(&g, d, want);
         eprintln!(
             "faulted blocks {deg}°: max channel error pre-integrated {pre:.5}, plain {plain:.5}"
@@ -274,11 +269,11 @@ fn rays_leave_a_faulted_block_through_its_uncovered_fault_face() {
 
 #[test]
 fn a_box_of_tetrahedra_gives_the_integral_along_the_ray() {
-    if gpu_common::gpu("a_box_of_tetrahedra_gives_the_integral_along_the_ray").is_none() {
+    if support::gpu("a_box_of_tetrahedra_gives_the_integral_along_the_ray").is_none() {
         return;
     }
     let g = tetrahedral_box();
-    let t = gpu_common::ray::ramp_transfer();
+    let t = support::ray::ramp_transfer();
     for deg in [0.0f64, 35.0] {
         let d = down_at(deg);
         let c = centre_ray_point(&g, d);
@@ -287,7 +282,7 @@ fn a_box_of_tetrahedra_gives_the_integral_along_the_ray() {
         assert!(((c[2] + t0 * d[2]) - slanted_top(c[0] + t0 * d[0])).abs() < 1e-12);
         let t1 = (Z0 - c[2]) / d[2];
         let v = |t: f64| (c[2] + t * d[2] - Z0) / (Z1 - Z0);
-        let want = integrate(&t, v(t0), v(t1), t1 - t0);
+        let want = integrate_linear(&t, v(t0), v(t1), t1 - t0);
         let (pre, plain) = centre_errors(&g, d, want);
         eprintln!("tetrahedra {deg}°: max channel error pre-integrated {pre:.5}, plain {plain:.5}");
         assert!(pre <= 2.0 / 255.0, "{deg}°: pre-integrated error {pre}");

@@ -3,8 +3,7 @@
 //! (polyhedra). Closed (every directed edge matched by its reverse), and
 //! its volume by the divergence theorem equals the grid's bulk volume.
 
-mod common;
-use common::data_dir;
+use crate::support::data_dir;
 
 use stratasweep::gpu::boundary::{Surface, outer_surface};
 

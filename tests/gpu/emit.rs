@@ -4,7 +4,7 @@
 //! and zoo (CGraph); planes along an axis, oblique planes and isosurfaces
 //! (ambiguous faces).
 
-mod gpu_common;
+use crate::support;
 
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::{warped, zoo};
@@ -179,7 +179,12 @@ fn close(a: f32, b: f32) -> bool {
 /// within a window of the order failed on NVIDIA: on a slice at x = c every
 /// centroid's x is the same but for the last bit, which GPUs that fuse
 /// multiply-adds set differently, so that bit alone reordered the level.
-fn assert_same<const N: usize>(name: &str, lv: u32, twin: &[[[f32; N]; 3]], gpu: &[[[f32; N]; 3]]) {
+fn assert_same_triangles<const N: usize>(
+    name: &str,
+    lv: u32,
+    twin: &[[[f32; N]; 3]],
+    gpu: &[[[f32; N]; 3]],
+) {
     assert_eq!(twin.len(), gpu.len(), "{name}: level {lv} triangle count");
     let scale = twin
         .iter()
@@ -246,7 +251,7 @@ fn plane_triangles() -> (Vec<Triangle>, Vec<Triangle>) {
 #[test]
 fn matching_survives_last_bit_differences() {
     let (twin, gpu) = plane_triangles();
-    assert_same("plane", 0, &twin, &gpu);
+    assert_same_triangles("plane", 0, &twin, &gpu);
 }
 
 #[test]
@@ -254,12 +259,12 @@ fn matching_survives_last_bit_differences() {
 fn matching_finds_a_moved_triangle() {
     let (twin, mut gpu) = plane_triangles();
     gpu[7][1][2] += 1e-3;
-    assert_same("plane", 0, &twin, &gpu);
+    assert_same_triangles("plane", 0, &twin, &gpu);
 }
 
 #[test]
 fn gpu_equals_twin() {
-    let Some(ctx) = gpu_common::gpu("gpu_equals_twin") else {
+    let Some(ctx) = support::gpu("gpu_equals_twin") else {
         return;
     };
     for (name, grid, field, k) in cases() {
@@ -282,7 +287,7 @@ fn gpu_equals_twin() {
                 tw.polygons(lv),
                 "{name}: level {lv} polygons"
             );
-            assert_same(&name, lv, &tw.canonical_level(lv), &g.canonical_level(lv));
+            assert_same_triangles(&name, lv, &tw.canonical_level(lv), &g.canonical_level(lv));
         }
         // A second frame on the same emitter reuses the buffers.
         e.run(&p.frame, false).unwrap();
@@ -292,7 +297,7 @@ fn gpu_equals_twin() {
 
 #[test]
 fn gpu_stats_equal_cpu_stats() {
-    let Some(ctx) = gpu_common::gpu("gpu_stats_equal_cpu_stats") else {
+    let Some(ctx) = support::gpu("gpu_stats_equal_cpu_stats") else {
         return;
     };
     for (name, grid, field, k) in cases() {
@@ -320,7 +325,7 @@ fn gpu_stats_equal_cpu_stats() {
 
 #[test]
 fn empty_frame_is_fine() {
-    let Some(ctx) = gpu_common::gpu("empty_frame_is_fine") else {
+    let Some(ctx) = support::gpu("empty_frame_is_fine") else {
         return;
     };
     let grid = warped([4, 4, 4], 1);
@@ -365,7 +370,7 @@ fn span_space_binning_finds_the_sweep_cells() {
 
 #[test]
 fn gpu_span_space_equals_the_swept_frame() {
-    let Some(ctx) = gpu_common::gpu("gpu_span_space_equals_the_swept_frame") else {
+    let Some(ctx) = support::gpu("gpu_span_space_equals_the_swept_frame") else {
         return;
     };
     for (name, grid, field, k) in cases() {
@@ -379,7 +384,7 @@ fn gpu_span_space_equals_the_swept_frame() {
         for lv in 0..k as u32 {
             assert_eq!(g.args(lv), tw.args(lv), "{name}: level {lv}");
             assert_eq!(g.polygons(lv), tw.polygons(lv), "{name}: level {lv}");
-            assert_same(&name, lv, &tw.canonical_level(lv), &g.canonical_level(lv));
+            assert_same_triangles(&name, lv, &tw.canonical_level(lv), &g.canonical_level(lv));
         }
     }
 }
@@ -413,7 +418,7 @@ fn with_sphere_field(mut grid: Grid) -> (Grid, [f64; 3], Vec<f64>) {
 /// of the twin's triangles; the GPU writes the same normals as the twin.
 #[test]
 fn interpolated_gradients_follow_the_analytic_normal() {
-    let ctx = gpu_common::gpu("interpolated_gradients_follow_the_analytic_normal");
+    let ctx = support::gpu("interpolated_gradients_follow_the_analytic_normal");
     for (name, grid, tol_deg) in [
         ("warped 16³", warped([16, 16, 16], 4), 4.0),
         ("zoo", zoo(2000, 5), 20.0),
@@ -487,7 +492,7 @@ fn interpolated_gradients_follow_the_analytic_normal() {
             let a = tw.canonical_level_with_normals(lv);
             let b = g.canonical_level_with_normals(lv);
             assert_eq!(a.len(), b.len(), "{name}: level {lv} triangles");
-            assert_same(name, lv, &a, &b);
+            assert_same_triangles(name, lv, &a, &b);
         }
     }
 }

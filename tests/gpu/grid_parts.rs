@@ -8,7 +8,7 @@
 //! option: `ContextOptions::limits`) `slice_on`'s statistics equal the CPU
 //! pipeline's and `render` gives the same image as on the full device.
 
-mod gpu_common;
+use crate::support;
 
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::{warped, zoo};
@@ -221,7 +221,7 @@ fn a_cell_over_the_budget_is_a_clear_error() {
 }
 
 fn lowered(binding: u64) -> Option<GpuContext> {
-    let full = gpu_common::gpu("lowered limits")?;
+    let full = support::gpu("lowered limits")?;
     let mut limits = full.limits.clone();
     limits.max_storage_buffer_binding_size = binding;
     Some(
@@ -261,7 +261,7 @@ fn levels(base: &GpuEmitter, frame: &Frame, normals: bool) -> Vec<(u32, Vec<Vec<
 
 #[test]
 fn chunked_gpu_emission_equals_the_unchunked_one() {
-    let Some(full) = gpu_common::gpu("chunked grid") else {
+    let Some(full) = support::gpu("chunked grid") else {
         return;
     };
     for c in cases(24) {
@@ -292,7 +292,7 @@ fn chunked_grid_slices_and_renders_like_the_cpu_and_the_unchunked_gpu() {
     let Some(small) = lowered(256 * 1024) else {
         return;
     };
-    let full = gpu_common::gpu("chunked grid render").unwrap();
+    let full = support::gpu("chunked grid render").unwrap();
     let grid = warped([40, 36, 32], 2);
     for choice in [StructureChoice::Auto, StructureChoice::CGraph] {
         let s = Structure::build(&grid, choice).unwrap();

@@ -8,7 +8,7 @@
 //! slices get vertex normals along the plane normal; a Voronoi grid
 //! renders in every mode with pixels that change with the view.
 
-mod gpu_common;
+use crate::support;
 
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::warped;
@@ -91,7 +91,7 @@ fn mad(a: &[u8], b: &[u8]) -> f64 {
 
 #[test]
 fn host_polygons_render_like_the_gpu_emission() {
-    let Some(ctx) = gpu_common::gpu("host slices render") else {
+    let Some(ctx) = support::gpu("host slices render") else {
         return;
     };
     let grid = warped([16, 14, 12], 5);
@@ -144,7 +144,7 @@ fn host_polygons_render_like_the_gpu_emission() {
 
 #[test]
 fn voronoi_renders_in_every_mode_and_turns_with_the_view() {
-    let Some(ctx) = gpu_common::gpu("voronoi render") else {
+    let Some(ctx) = support::gpu("voronoi render") else {
         return;
     };
     let grid = voronoi(300, 3);
@@ -211,7 +211,7 @@ fn vertex_normals_of_plane_slices_are_the_plane_normal() {
 
 #[test]
 fn host_slices_over_one_binding_are_level_chunked_and_render_the_same() {
-    let Some(full) = gpu_common::gpu("host slices chunked") else {
+    let Some(full) = support::gpu("host slices chunked") else {
         return;
     };
     // The render pass binds a 256 KiB pre-integration table.

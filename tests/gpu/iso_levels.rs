@@ -3,7 +3,7 @@
 //! scene's levels-swept counter and the compute dispatch counter), and the
 //! frame then equals `render`'s, which builds all three levels at once.
 
-mod gpu_common;
+use crate::support;
 
 use std::sync::Arc;
 
@@ -14,7 +14,7 @@ use stratasweep::structures::{Structure, StructureChoice};
 
 #[test]
 fn changing_one_of_three_isovalues_sweeps_one_level() {
-    let Some(ctx) = gpu_common::gpu("changing_one_of_three_isovalues_sweeps_one_level") else {
+    let Some(ctx) = support::gpu("changing_one_of_three_isovalues_sweeps_one_level") else {
         return;
     };
     let g = warped([12, 10, 8], 2);

@@ -5,7 +5,7 @@
 //! error, not a panic. Grids over the limit are split into parts:
 //! `tests/gpu_grid_parts.rs`.
 
-mod gpu_common;
+use crate::support;
 
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::warped;
@@ -16,7 +16,7 @@ use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
 use stratasweep::structures::{Structure, StructureChoice};
 
 fn lowered(binding: u64) -> Option<GpuContext> {
-    let full = gpu_common::gpu("lowered limits")?;
+    let full = support::gpu("lowered limits")?;
     let mut limits = full.limits.clone();
     limits.max_storage_buffer_binding_size = binding;
     Some(
@@ -65,7 +65,7 @@ fn frames_over_the_binding_limit_are_chunked_by_levels() {
         assert!((a.area - b.area).abs() <= 1e-5 * a.area);
     }
     // The same image from chunked and unchunked slices.
-    let full = gpu_common::gpu("chunked render").unwrap();
+    let full = support::gpu("chunked render").unwrap();
     let o = RenderOptions {
         size: (64, 48),
         slices: 30,
@@ -102,7 +102,7 @@ fn a_binding_too_small_for_the_tables_is_a_clear_error() {
 
 #[test]
 fn an_allocation_the_device_cannot_satisfy_is_an_error_not_a_panic() {
-    let Some(full) = gpu_common::gpu("allocation failure") else {
+    let Some(full) = support::gpu("allocation failure") else {
         return;
     };
     // A device of its own: the errors below must not leak into other tests.
@@ -152,7 +152,7 @@ fn an_allocation_the_device_cannot_satisfy_is_an_error_not_a_panic() {
 /// 1.5 % of `slice --device auto` runs on llvmpipe).
 #[test]
 fn default_options_keep_gl_closed_when_a_primary_backend_exists() {
-    let Some(ctx) = gpu_common::gpu("GL fallback") else {
+    let Some(ctx) = support::gpu("GL fallback") else {
         return;
     };
     let primary = stratasweep::gpu::context::list_adapters(Some(wgpu::Backends::PRIMARY));

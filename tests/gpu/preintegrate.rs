@@ -7,10 +7,11 @@
 //! from the farthest slice to where it leaves, and the opacity correction
 //! for the ray's angle together must give the continuous integral.
 
-mod gpu_common;
+use crate::support;
+use crate::support::ray::integrate_linear;
 
-use stratasweep::gpu::render::{Mode, RenderOptions, Renderer, Transfer};
-use stratasweep::grid::{Grid, Property, Topology};
+use stratasweep::gpu::render::{Mode, RenderOptions, Renderer};
+use stratasweep::grid::{Grid, Property};
 use stratasweep::structures::{Structure, StructureChoice};
 
 /// Half thickness of the box along z.
@@ -18,40 +19,20 @@ const H: f64 = 0.5;
 
 /// A box [−2, 2] × [−2, 2] × [−H, H] with the point property `v` = z/(2H) + 1/2.
 fn ramp_box() -> Grid {
-    let dims = [5usize, 5, 7];
-    let mut points = Vec::new();
-    for k in 0..dims[2] {
-        for j in 0..dims[1] {
-            for i in 0..dims[0] {
-                let f = |n: usize, d: usize| n as f64 / (d - 1) as f64 * 2.0 - 1.0;
-                points.push([2.0 * f(i, dims[0]), 2.0 * f(j, dims[1]), H * f(k, dims[2])]);
-            }
-        }
-    }
-    let v = points.iter().map(|p| p[2] / (2.0 * H) + 0.5).collect();
-    Grid {
-        point_data: vec![Property::scalar("v", v)],
-        points,
-        topology: Topology::Structured { dims },
-        cell_data: Vec::new(),
-    }
-}
-
-/// Front-to-back integration along a straight ray of length `len` (unit
-/// distance 1) on which the value goes linearly from `v0` to `v1`.
-fn integrate(t: &Transfer, v0: f64, v1: f64, len: f64) -> [f64; 4] {
-    gpu_common::ray::integrate_ray(t, 20_000, len, |s| v0 + (v1 - v0) * s)
+    let mut g = support::box_grid([5, 5, 7], [2.0, 2.0, H]);
+    let v = g.points.iter().map(|p| p[2] / (2.0 * H) + 0.5).collect();
+    g.point_data = vec![Property::scalar("v", v)];
+    g
 }
 
 #[test]
 fn few_preintegrated_slices_give_the_integral_along_the_ray() {
-    let Some(ctx) = gpu_common::gpu("few_preintegrated_slices_give_the_integral_along_the_ray")
-    else {
+    let Some(ctx) = support::gpu("few_preintegrated_slices_give_the_integral_along_the_ray") else {
         return;
     };
     let g = ramp_box();
     let s = Structure::build(&g, StructureChoice::Auto).unwrap();
-    let t = gpu_common::ray::ramp_transfer();
+    let t = support::ray::ramp_transfer();
     for deg in [0.0f64, 35.0] {
         let th = deg.to_radians();
         let o = RenderOptions {
@@ -67,7 +48,7 @@ fn few_preintegrated_slices_give_the_integral_along_the_ray() {
             ..Default::default()
         };
         // Looking down: the ray enters at the top (v = 1), leaves at the bottom.
-        let want = integrate(&t, 1.0, 0.0, 2.0 * H / th.cos());
+        let want = integrate_linear(&t, 1.0, 0.0, 2.0 * H / th.cos());
         let err = |pre: bool| {
             let mut r = Renderer::new(ctx).unwrap();
             r.set_preintegrated(pre);

@@ -8,7 +8,7 @@
 //! `STRATASWEEP_DATA`): 50 pre-integrated slices against 1,000 plain ones,
 //! pixel by pixel, far-off pixels counted.
 
-mod gpu_common;
+use crate::support;
 
 use stratasweep::gpu::render::{
     CellFinding, Image, Mode, RenderOptions, Renderer, Transfer, slice_key,
@@ -93,9 +93,9 @@ fn layer_field(z: f64) -> f64 {
 
 /// Front-to-back integration down a ray through the whole box at `th`
 /// radians from the vertical (unit distance 1): `field(z)` from z = H to −H.
-fn integrate(t: &Transfer, field: impl Fn(f64) -> f64, th: f64) -> [f64; 4] {
+fn integrate_down(t: &Transfer, field: impl Fn(f64) -> f64, th: f64) -> [f64; 4] {
     let len = 2.0 * H / th.cos();
-    gpu_common::ray::integrate_ray(t, 40_000, len, |s| field(H - 2.0 * H * s))
+    support::ray::integrate_ray(t, 40_000, len, |s| field(H - 2.0 * H * s))
 }
 
 /// Max channel error of the centre pixel, pre-integrated, with the box
@@ -125,7 +125,7 @@ fn options(property: &str, deg: f64, slices: usize) -> RenderOptions {
         slices,
         view_dir: [th.sin(), 0.0, -th.cos()],
         up: Some([0.0, 1.0, 0.0]),
-        transfer: Some(gpu_common::ray::ramp_transfer()),
+        transfer: Some(support::ray::ramp_transfer()),
         unit_distance: Some(1.0),
         background: None,
         size: (33, 33),
@@ -136,15 +136,15 @@ fn options(property: &str, deg: f64, slices: usize) -> RenderOptions {
 
 #[test]
 fn a_wave_inside_each_slab_is_integrated_in_index_space() {
-    let Some(ctx) = gpu_common::gpu("a_wave_inside_each_slab_is_integrated_in_index_space") else {
+    let Some(ctx) = support::gpu("a_wave_inside_each_slab_is_integrated_in_index_space") else {
         return;
     };
     let g = wave_box();
-    let t = gpu_common::ray::ramp_transfer();
+    let t = support::ray::ramp_transfer();
     for deg in [0.0f64, 35.0] {
         // 5 slices: a slab is 8 cells thick, most of a period of the wave.
         let o = options("v", deg, 5);
-        let want = integrate(&t, wave_field, deg.to_radians());
+        let want = integrate_down(&t, wave_field, deg.to_radians());
         let ijk = centre_error(ctx, &g, StructureChoice::SCGraph, &o, true, want);
         let gradient = centre_error(ctx, &g, StructureChoice::CGraph, &o, true, want);
         let plain = centre_error(ctx, &g, StructureChoice::SCGraph, &o, false, want);
@@ -159,15 +159,15 @@ fn a_wave_inside_each_slab_is_integrated_in_index_space() {
 
 #[test]
 fn cell_layers_are_integrated_exactly_in_index_space() {
-    let Some(ctx) = gpu_common::gpu("cell_layers_are_integrated_exactly_in_index_space") else {
+    let Some(ctx) = support::gpu("cell_layers_are_integrated_exactly_in_index_space") else {
         return;
     };
     let g = layer_box();
-    let t = gpu_common::ray::ramp_transfer();
+    let t = support::ray::ramp_transfer();
     for deg in [0.0f64, 35.0] {
         // 3 slices through 8 layers of alternating values.
         let o = options("c", deg, 3);
-        let want = integrate(&t, layer_field, deg.to_radians());
+        let want = integrate_down(&t, layer_field, deg.to_radians());
         let ijk = centre_error(ctx, &g, StructureChoice::SCGraph, &o, true, want);
         // A cell property off an IJK lattice has no pre-integration: plain.
         let cgraph = centre_error(ctx, &g, StructureChoice::CGraph, &o, true, want);
@@ -183,7 +183,7 @@ fn cell_layers_are_integrated_exactly_in_index_space() {
 
 #[test]
 fn a_lattice_over_the_3d_texture_limit_keeps_the_gradient_path() {
-    let Some(full) = gpu_common::gpu("a_lattice_over_the_3d_texture_limit_keeps_the_gradient_path")
+    let Some(full) = support::gpu("a_lattice_over_the_3d_texture_limit_keeps_the_gradient_path")
     else {
         return;
     };
@@ -198,9 +198,9 @@ fn a_lattice_over_the_3d_texture_limit_keeps_the_gradient_path() {
         })
         .unwrap();
     let g = wave_box();
-    let t = gpu_common::ray::ramp_transfer();
+    let t = support::ray::ramp_transfer();
     let o = options("v", 0.0, 5);
-    let want = integrate(&t, wave_field, 0.0);
+    let want = integrate_down(&t, wave_field, 0.0);
     let s = Structure::build(&g, StructureChoice::SCGraph).unwrap();
     let mut r = Renderer::new(&low).unwrap();
     r.set_preintegrated(true);
@@ -264,11 +264,11 @@ fn layer_corner_point() -> (Grid, stratasweep::structures::cpgraph::IjkLayout) {
 
 #[test]
 fn corner_point_layers_are_integrated_in_index_space() {
-    let Some(ctx) = gpu_common::gpu("corner_point_layers_are_integrated_in_index_space") else {
+    let Some(ctx) = support::gpu("corner_point_layers_are_integrated_in_index_space") else {
         return;
     };
     let (g, layout) = layer_corner_point();
-    let t = gpu_common::ray::ramp_transfer();
+    let t = support::ray::ramp_transfer();
     let cp = Structure::build_with(&g, StructureChoice::CpGraph, Some(&layout)).unwrap();
     assert!(matches!(cp, Structure::CpGraph(_)));
     // Height z (the box centred on 0) to depth, depth to layer.
@@ -278,7 +278,7 @@ fn corner_point_layers_are_integrated_in_index_space() {
     };
     for deg in [0.0f64, 35.0] {
         let o = options("c", deg, 3);
-        let want = integrate(&t, field, deg.to_radians());
+        let want = integrate_down(&t, field, deg.to_radians());
         let err = |s: &Structure, pre: bool| {
             let mut r = Renderer::new(ctx).unwrap();
             r.set_preintegrated(pre);
@@ -322,11 +322,10 @@ fn channel_diffs(a: &Image, b: &Image) -> Vec<(u8, bool)> {
 /// the main fault's wall); the mean error below plain 200 slices'.
 #[test]
 fn reek_preintegrated_slices_have_no_holes() {
-    let Some(ctx) = gpu_common::gpu("reek_preintegrated_slices_have_no_holes") else {
+    let Some(ctx) = support::gpu("reek_preintegrated_slices_have_no_holes") else {
         return;
     };
-    let Some(data) = std::env::var_os("STRATASWEEP_DATA") else {
-        eprintln!("SKIP reek_preintegrated_slices_have_no_holes: STRATASWEEP_DATA is not set");
+    let Some(data) = support::data_dir("reek_preintegrated_slices_have_no_holes") else {
         return;
     };
     let path = std::path::Path::new(&data).join("reek/2_R001_REEK-0.DATA");

@@ -5,7 +5,7 @@
 //! half-boxes composite in the right order from both sides; a second view in
 //! the same axis cone dispatches no compute.
 
-mod gpu_common;
+use crate::support;
 
 use stratasweep::generate::warped;
 use stratasweep::gpu::render::{CellFinding, Mode, RenderOptions, Renderer, Transfer};
@@ -19,27 +19,11 @@ const H: f64 = 0.5;
 const W: f64 = 50.0 * 0.5 * 1.732_050_807_568_877_2 / 20.0;
 
 /// A box [−W, W] × [−2, 2] × [−H, H] with point properties `one` = 1 and `z`.
-fn box_grid() -> Grid {
-    let dims = [9usize, 5, 5];
-    let mut points = Vec::new();
-    for k in 0..dims[2] {
-        for j in 0..dims[1] {
-            for i in 0..dims[0] {
-                let f = |n: usize, d: usize| n as f64 / (d - 1) as f64 * 2.0 - 1.0;
-                points.push([W * f(i, dims[0]), 2.0 * f(j, dims[1]), H * f(k, dims[2])]);
-            }
-        }
-    }
-    let z = points.iter().map(|p| p[2]).collect();
-    Grid {
-        point_data: vec![
-            Property::scalar("one", vec![1.0; points.len()]),
-            Property::scalar("z", z),
-        ],
-        points,
-        topology: Topology::Structured { dims },
-        cell_data: Vec::new(),
-    }
+fn box_with_z() -> Grid {
+    let mut g = support::box_grid([9, 5, 5], [W, 2.0, H]);
+    let z = g.points.iter().map(|p| p[2]).collect();
+    g.point_data.push(Property::scalar("z", z));
+    g
 }
 
 fn flat(a: f32) -> Transfer {
@@ -67,10 +51,10 @@ fn opts(property: &str, transfer: Transfer, view: [f64; 3], slices: usize) -> Re
 
 #[test]
 fn uniform_box_reaches_the_analytic_alpha() {
-    let Some(ctx) = gpu_common::gpu("uniform_box_reaches_the_analytic_alpha") else {
+    let Some(ctx) = support::gpu("uniform_box_reaches_the_analytic_alpha") else {
         return;
     };
-    let grid = box_grid();
+    let grid = box_with_z();
     let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
     let mut r = Renderer::new(ctx).unwrap();
     let a = 0.3f64;
@@ -102,10 +86,10 @@ fn uniform_box_reaches_the_analytic_alpha() {
 
 #[test]
 fn an_empty_transfer_is_refused() {
-    let Some(ctx) = gpu_common::gpu("an_empty_transfer_is_refused") else {
+    let Some(ctx) = support::gpu("an_empty_transfer_is_refused") else {
         return;
     };
-    let grid = box_grid();
+    let grid = box_with_z();
     let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
     let mut r = Renderer::new(ctx).unwrap();
     let empty = Transfer::from_json(r#"{"points":[]}"#).unwrap();
@@ -118,10 +102,10 @@ fn an_empty_transfer_is_refused() {
 
 #[test]
 fn half_boxes_composite_in_order_from_both_sides() {
-    let Some(ctx) = gpu_common::gpu("half_boxes_composite_in_order_from_both_sides") else {
+    let Some(ctx) = support::gpu("half_boxes_composite_in_order_from_both_sides") else {
         return;
     };
-    let grid = box_grid();
+    let grid = box_with_z();
     let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
     let mut r = Renderer::new(ctx).unwrap();
     // z < 0 red, z > 0 blue, both nearly opaque over half the thickness.
@@ -159,7 +143,7 @@ fn half_boxes_composite_in_order_from_both_sides() {
 
 #[test]
 fn same_axis_cone_renders_without_dispatch() {
-    let Some(ctx) = gpu_common::gpu("same_axis_cone_renders_without_dispatch") else {
+    let Some(ctx) = support::gpu("same_axis_cone_renders_without_dispatch") else {
         return;
     };
     let grid = warped([12, 10, 8], 5);
@@ -205,7 +189,7 @@ fn same_axis_cone_renders_without_dispatch() {
 /// [`box_grid`] with cell property `half`: 0 on the cells with x < 0 (red)
 /// and 1 on those with x > 0 (blue); the boundary is the grid plane x = 0.
 fn half_cell_grid() -> Grid {
-    let mut g = box_grid();
+    let mut g = box_with_z();
     let (ni, nj, nk) = (8, 4, 4);
     let v = (0..ni * nj * nk)
         .map(|c| if c % ni < ni / 2 { 0.0 } else { 1.0 })
@@ -228,7 +212,7 @@ fn red_blue() -> Transfer {
 /// The same values averaged to the vertices do give mixed colours.
 #[test]
 fn cell_property_gives_flat_colour_per_polygon() {
-    let Some(ctx) = gpu_common::gpu("cell_property_gives_flat_colour_per_polygon") else {
+    let Some(ctx) = support::gpu("cell_property_gives_flat_colour_per_polygon") else {
         return;
     };
     let mut grid = half_cell_grid();
@@ -332,7 +316,7 @@ fn sphere_grid(n: usize) -> Grid {
 /// silhouette's centre, the shade 0.2 + 0.8·√(1 − (ρ/R)²) (white transfer).
 #[test]
 fn isosphere_shading_follows_the_analytic_normal() {
-    let Some(ctx) = gpu_common::gpu("isosphere_shading_follows_the_analytic_normal") else {
+    let Some(ctx) = support::gpu("isosphere_shading_follows_the_analytic_normal") else {
         return;
     };
     let grid = sphere_grid(25);
@@ -398,7 +382,7 @@ fn isosphere_shading_follows_the_analytic_normal() {
 /// axis-aligned box is larger than it) fills the image up to the margin.
 #[test]
 fn rotated_grid_fills_the_frame() {
-    let Some(ctx) = gpu_common::gpu("rotated_grid_fills_the_frame") else {
+    let Some(ctx) = support::gpu("rotated_grid_fills_the_frame") else {
         return;
     };
     let grid = warped([12, 12, 12], 3);
@@ -465,7 +449,7 @@ fn pixels_differing(a: &[u8], b: &[u8]) -> usize {
 /// a mean difference under 0.05 levels.
 #[test]
 fn a_faulted_grid_renders_alike_on_the_cp_graph_and_the_cgraph() {
-    let Some(ctx) = gpu_common::gpu("a_faulted_grid_renders_alike_on_the_cp_graph_and_the_cgraph")
+    let Some(ctx) = support::gpu("a_faulted_grid_renders_alike_on_the_cp_graph_and_the_cgraph")
     else {
         return;
     };
@@ -510,7 +494,7 @@ fn a_faulted_grid_renders_alike_on_the_cp_graph_and_the_cgraph() {
 /// as a fresh renderer does, not the first grid's cached slices.
 #[test]
 fn a_renderer_reused_for_another_grid_draws_that_grid() {
-    let Some(ctx) = gpu_common::gpu("a_renderer_reused_for_another_grid_draws_that_grid") else {
+    let Some(ctx) = support::gpu("a_renderer_reused_for_another_grid_draws_that_grid") else {
         return;
     };
     let a = warped([12, 10, 8], 3);
@@ -554,7 +538,7 @@ fn a_renderer_reused_for_another_grid_draws_that_grid() {
 /// ran (two more dispatches per slice set).
 #[test]
 fn gpu_binned_cells_render_as_the_sweep() {
-    let Some(ctx) = gpu_common::gpu("gpu_binned_cells_render_as_the_sweep") else {
+    let Some(ctx) = support::gpu("gpu_binned_cells_render_as_the_sweep") else {
         return;
     };
     let (faulted, layout) = small_faulted();
@@ -657,7 +641,7 @@ fn reservoir_sized(mut grid: Grid, far: bool) -> Grid {
 #[test]
 fn a_grid_without_properties_far_from_the_origin_renders_as_at_the_origin() {
     let Some(ctx) =
-        gpu_common::gpu("a_grid_without_properties_far_from_the_origin_renders_as_at_the_origin")
+        support::gpu("a_grid_without_properties_far_from_the_origin_renders_as_at_the_origin")
     else {
         return;
     };
@@ -733,11 +717,11 @@ fn the_default_property_is_the_first_that_varies() {
 /// isosurface lies inside a constant's range.
 #[test]
 fn a_constant_property_is_refused_without_a_transfer_function() {
-    let Some(ctx) = gpu_common::gpu("a_constant_property_is_refused_without_a_transfer_function")
+    let Some(ctx) = support::gpu("a_constant_property_is_refused_without_a_transfer_function")
     else {
         return;
     };
-    let grid = box_grid();
+    let grid = box_with_z();
     let s = Structure::build(&grid, StructureChoice::Auto).unwrap();
     let mut r = Renderer::new(ctx).unwrap();
     let mut o = opts("one", flat(0.3), [0.2, 0.1, -1.0], 16);

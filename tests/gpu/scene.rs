@@ -5,38 +5,18 @@
 //! detail and the vertical exaggeration keep the analytic alpha of a
 //! uniform box, 1 − (1 − a)^(L/U) with L the displayed chord.
 
-mod gpu_common;
+use crate::support;
 
 use std::sync::Arc;
 
 use stratasweep::generate::warped;
 use stratasweep::gpu::render::{Mode, RenderOptions, Renderer, Transfer};
 use stratasweep::gpu::scene::Scene;
-use stratasweep::grid::{Grid, Property, Topology};
+use stratasweep::grid::Grid;
 use stratasweep::structures::{Structure, StructureChoice};
 
 /// Half thickness of the box along z.
 const H: f64 = 0.5;
-
-/// A box [−2, 2] × [−2, 2] × [−H, H] with the point property `one` = 1.
-fn box_grid() -> Grid {
-    let dims = [5usize, 5, 5];
-    let mut points = Vec::new();
-    for k in 0..dims[2] {
-        for j in 0..dims[1] {
-            for i in 0..dims[0] {
-                let f = |n: usize, d: usize| n as f64 / (d - 1) as f64 * 2.0 - 1.0;
-                points.push([2.0 * f(i, dims[0]), 2.0 * f(j, dims[1]), H * f(k, dims[2])]);
-            }
-        }
-    }
-    Grid {
-        point_data: vec![Property::scalar("one", vec![1.0; points.len()])],
-        points,
-        topology: Topology::Structured { dims },
-        cell_data: Vec::new(),
-    }
-}
 
 fn flat(a: f32) -> Transfer {
     Transfer::from_json(&format!(
@@ -65,7 +45,7 @@ fn warped_opts() -> RenderOptions {
 
 #[test]
 fn view_change_in_cone_dispatches_nothing_and_axis_change_builds_on_the_worker() {
-    let Some(ctx) = gpu_common::gpu("view_change_in_cone_dispatches_nothing") else {
+    let Some(ctx) = support::gpu("view_change_in_cone_dispatches_nothing") else {
         return;
     };
     let mut sc = scene(ctx, warped([12, 10, 8], 1), warped_opts(), 1.0);
@@ -112,7 +92,7 @@ fn view_change_in_cone_dispatches_nothing_and_axis_change_builds_on_the_worker()
 
 #[test]
 fn dropping_a_scene_mid_build_waits_for_its_worker() {
-    let Some(ctx) = gpu_common::gpu("dropping_a_scene_mid_build_waits_for_its_worker") else {
+    let Some(ctx) = support::gpu("dropping_a_scene_mid_build_waits_for_its_worker") else {
         return;
     };
     let g = Arc::new(warped([12, 10, 8], 1));
@@ -130,7 +110,7 @@ fn dropping_a_scene_mid_build_waits_for_its_worker() {
 
 #[test]
 fn first_image_equals_render_with_z_scale() {
-    let Some(ctx) = gpu_common::gpu("first_image_equals_render_with_z_scale") else {
+    let Some(ctx) = support::gpu("first_image_equals_render_with_z_scale") else {
         return;
     };
     let g = warped([10, 9, 8], 2);
@@ -157,13 +137,13 @@ fn centre_alpha(ctx: &'static stratasweep::gpu::context::GpuContext, z: f64, lod
         mode: Mode::Volume,
         ..Default::default()
     };
-    let sc = scene(ctx, box_grid(), o, z);
+    let sc = scene(ctx, support::box_grid([5, 5, 5], [2.0, 2.0, H]), o, z);
     sc.image(lod).unwrap().pixel(16, 16)[3] as f64
 }
 
 #[test]
 fn motion_lod_and_z_scale_keep_the_analytic_alpha() {
-    let Some(ctx) = gpu_common::gpu("motion_lod_and_z_scale_keep_the_analytic_alpha") else {
+    let Some(ctx) = support::gpu("motion_lod_and_z_scale_keep_the_analytic_alpha") else {
         return;
     };
     for z in [1.0, 2.5] {
@@ -182,10 +162,10 @@ fn motion_lod_and_z_scale_keep_the_analytic_alpha() {
 
 #[test]
 fn preintegrated_uniform_box_keeps_the_analytic_alpha() {
-    let Some(ctx) = gpu_common::gpu("preintegrated_uniform_box_keeps_the_analytic_alpha") else {
+    let Some(ctx) = support::gpu("preintegrated_uniform_box_keeps_the_analytic_alpha") else {
         return;
     };
-    let g = box_grid();
+    let g = support::box_grid([5, 5, 5], [2.0, 2.0, H]);
     let s = Structure::build(&g, StructureChoice::Auto).unwrap();
     let mut r = Renderer::new(ctx).unwrap();
     r.set_preintegrated(true);
@@ -213,7 +193,7 @@ fn preintegrated_uniform_box_keeps_the_analytic_alpha() {
 
 #[test]
 fn ijk_clip_draws_the_cut_cells_of_the_box_only() {
-    let Some(ctx) = gpu_common::gpu("ijk_clip_draws_the_cut_cells_of_the_box_only") else {
+    let Some(ctx) = support::gpu("ijk_clip_draws_the_cut_cells_of_the_box_only") else {
         return;
     };
     use stratasweep::field::FieldSpec;

@@ -8,9 +8,7 @@
 //! the CLI names bad `--transfer` values, ignored `--iso`/`--preintegrated`
 //! and bad `WGPU_BACKEND` values.
 
-mod gpu_common;
-
-use std::process::Command;
+use crate::support;
 
 use stratasweep::gpu::render::{
     Mode, RenderError, RenderOptions, Renderer, Transfer, TransferSource, check_modes,
@@ -182,7 +180,7 @@ fn cell_colour(img: &stratasweep::gpu::render::Image, i: u32) -> [u8; 4] {
 
 #[test]
 fn rendered_far_point_spike_and_huge_values() {
-    let Some(ctx) = gpu_common::gpu("rendered_far_point_spike_and_huge_values") else {
+    let Some(ctx) = support::gpu("rendered_far_point_spike_and_huge_values") else {
         return;
     };
     let mut r = Renderer::new(ctx).unwrap();
@@ -306,7 +304,7 @@ impl ToJson for Transfer {
 
 #[test]
 fn the_renderer_refuses_an_empty_transfer_function() {
-    let Some(ctx) = gpu_common::gpu("the_renderer_refuses_an_empty_transfer_function") else {
+    let Some(ctx) = support::gpu("the_renderer_refuses_an_empty_transfer_function") else {
         return;
     };
     let g = row([0.0, 0.5, 1.0]);
@@ -391,7 +389,7 @@ fn json_errors_are_readable() {
 
 /// Runs the CLI with `args` (and `env`), returning (success, stderr).
 fn cli(args: &[&str], env: &[(&str, &str)]) -> (bool, String) {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_stratasweep"));
+    let mut c = support::bin();
     c.args(args).env("NODEVICE_SELECT", "1");
     for (k, v) in env {
         c.env(k, v);
@@ -403,15 +401,9 @@ fn cli(args: &[&str], env: &[(&str, &str)]) -> (bool, String) {
     )
 }
 
-fn scratch(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("stratasweep-transfer-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
-}
-
 #[test]
 fn the_cli_names_bad_transfer_values_and_ignored_options() {
-    let png = scratch("x.png");
+    let png = support::tmp("transfer", "x.png");
     let png = png.to_str().unwrap();
     let base = [
         "render", "--demo", "-o", png, "--size", "32x24", "--slices", "4",
@@ -423,7 +415,7 @@ fn the_cli_names_bad_transfer_values_and_ignored_options() {
     };
     // A transfer file not named .json: refused naming both possibilities
     // (and that the file exists), before anything is written.
-    let txt = scratch("tf.txt");
+    let txt = support::tmp("transfer", "tf.txt");
     std::fs::write(
         &txt,
         r#"{"points":[{"value":0,"color":[1,0,0],"opacity":1}]}"#,
@@ -437,7 +429,7 @@ fn the_cli_names_bad_transfer_values_and_ignored_options() {
     );
     assert!(!std::path::Path::new(png).exists());
     // BOM and a four-component colour.
-    let json = scratch("tf.json");
+    let json = support::tmp("transfer", "tf.json");
     std::fs::write(
         &json,
         "\u{feff}{\"points\":[{\"value\":0,\"color\":[1,0,0,1],\"opacity\":1}]}",
@@ -469,12 +461,12 @@ fn the_cli_names_bad_transfer_values_and_ignored_options() {
 
 #[test]
 fn the_cli_warns_when_the_transfer_function_lies_outside_the_data() {
-    let Some(_) = gpu_common::gpu("the_cli_warns_when_the_transfer_function_lies_outside_the_data")
+    let Some(_) = support::gpu("the_cli_warns_when_the_transfer_function_lies_outside_the_data")
     else {
         return;
     };
-    let png = scratch("far.png");
-    let json = scratch("far.json");
+    let png = support::tmp("transfer", "far.png");
+    let json = support::tmp("transfer", "far.json");
     // The demo's f lies in 0..1.
     std::fs::write(
         &json,
@@ -501,13 +493,13 @@ fn the_cli_warns_when_the_transfer_function_lies_outside_the_data() {
         err.contains("warning") && err.contains("wholly outside"),
         "{err}"
     );
-    let clear = scratch("clear.json");
+    let clear = support::tmp("transfer", "clear.json");
     std::fs::write(
         &clear,
         r#"{"points":[{"value":5,"color":[1,0,0],"opacity":0},{"value":6,"color":[0,0,1],"opacity":1}]}"#,
     )
     .unwrap();
-    let out = scratch("clear.png");
+    let out = support::tmp("transfer", "clear.png");
     let (ok, err) = cli(
         &[
             "render",

@@ -8,6 +8,8 @@ use stratasweep::io::egrid::{
     ArrayReader, EclData, add_init_properties, parse_egrid, read_egrid, write_array,
 };
 
+use crate::support;
+
 /// An EGRID of `generate::faulted` (f32 like a simulator writes), plus its grid.
 fn egrid_bytes(g: &stratasweep::cornerpoint::CornerPointGrid) -> Vec<u8> {
     let [nx, ny, nz] = g.dims;
@@ -78,8 +80,7 @@ fn egrid_round_trip_and_init_properties() {
         }
     }
     // Files on disk: EGRID with its INIT beside it.
-    let d = std::env::temp_dir().join(format!("stratasweep-egrid-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
+    let d = support::tmp_dir("egrid");
     std::fs::write(d.join("M.EGRID"), &bytes).unwrap();
     std::fs::write(d.join("M.INIT"), &init).unwrap();
     let f = read_egrid(d.join("M.EGRID")).unwrap();
@@ -196,22 +197,6 @@ fn fuzz_regressions() {
     assert!(parse_egrid(&b, Path::new("r.EGRID")).is_err());
 }
 
-/// `STRATASWEEP_DATA`, or `None` (the test says it skips).
-fn data_dir(test: &str) -> Option<std::path::PathBuf> {
-    let d = std::env::var_os("STRATASWEEP_DATA").map(std::path::PathBuf::from);
-    if d.is_none() {
-        eprintln!("\n*** SKIP {test}: STRATASWEEP_DATA is not set ***\n");
-    }
-    d
-}
-
-/// A scratch directory for one test.
-fn scratch(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("stratasweep-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
 /// TEST_DP is a 5×3×1 dual-porosity model (FILEHEAD[5] = 1, ACTNUM 0–3,
 /// INIT arrays of matrix then fracture values: PORV 2·15, PORO 11 + 13);
 /// TEST_SP is the same model in single porosity, its matrix. Read as its
@@ -219,7 +204,8 @@ fn scratch(name: &str) -> std::path::PathBuf {
 /// warning naming FILEHEAD[5] and the fracture cells skipped.
 #[test]
 fn dual_porosity_egrid_is_read_as_its_matrix_with_a_warning() {
-    let Some(data) = data_dir("dual_porosity_egrid_is_read_as_its_matrix_with_a_warning") else {
+    let Some(data) = support::data_dir("dual_porosity_egrid_is_read_as_its_matrix_with_a_warning")
+    else {
         return;
     };
     let dp = stratasweep::io::load(&data.join("restart/TEST_DP.EGRID")).unwrap();
@@ -304,7 +290,7 @@ fn local_grids_are_skipped_and_named_never_taken_as_the_main_grid() {
     assert_eq!(cp, parse_egrid(&plain, Path::new("P.EGRID")).unwrap());
     assert_eq!(notes.local_grids, ["LGR1", "LGR2"]);
     assert_eq!(notes.dual_porosity, None);
-    let d = scratch("lgr");
+    let d = support::tmp_dir("egrid-lgr");
     std::fs::write(d.join("L.EGRID"), &b).unwrap();
     std::fs::write(d.join("P.EGRID"), &plain).unwrap();
     let l = stratasweep::io::load(&d.join("L.EGRID")).unwrap();
@@ -346,7 +332,7 @@ fn local_grids_are_skipped_and_named_never_taken_as_the_main_grid() {
 #[test]
 fn missing_init_is_named() {
     let g = stratasweep::generate::faulted([4, 3, 2], 1, 2);
-    let d = scratch("noinit");
+    let d = support::tmp_dir("egrid-noinit");
     let egrid = d.join("M.EGRID");
     let mut b = Vec::new();
     stratasweep::io::egrid_write::write_egrid(&mut b, &g).unwrap();
@@ -358,11 +344,7 @@ fn missing_init_is_named() {
     );
     assert_eq!(l.warnings, std::slice::from_ref(&want));
     assert!(l.grid.cell_data.is_empty());
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_stratasweep"))
-        .arg("info")
-        .arg(&egrid)
-        .output()
-        .unwrap();
+    let out = support::bin().arg("info").arg(&egrid).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     assert!(err.contains(&format!("warning: {want}")), "{err}");

@@ -6,13 +6,15 @@
 //! corner-point path types them) and reports the same bulk volume, which
 //! agrees with xtgeo's.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use stratasweep::cornerpoint::{CornerPointGrid, bulk_volume};
 use stratasweep::grid::{Grid, Topology, vtk_type};
 use stratasweep::io::vtk_read::{UnstructuredArrays, grid_from_arrays};
 use stratasweep::report::{InfoContext, info_json};
 use stratasweep::structures::{Structure, StructureChoice};
+
+use crate::support;
 
 /// VTK hexahedron vertex l is corner-point corner `VTK_TO_CP[l]`.
 const VTK_TO_CP: [usize; 8] = [0, 1, 3, 2, 4, 5, 7, 6];
@@ -29,13 +31,6 @@ fn model() -> CornerPointGrid {
         f32s(m);
     }
     g
-}
-
-/// A scratch directory for one test.
-fn scratch(test: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("stratasweep-{test}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 /// What `info` reports as the bulk volume (CLI and Python alike).
@@ -109,7 +104,7 @@ fn rel(a: f64, b: f64) -> f64 {
 #[test]
 fn bulk_volume_and_cells_agree_across_formats() {
     let cp = model();
-    let d = scratch("formats");
+    let d = support::tmp_dir("formats");
     let (grdecl, egrid, vtu) = (d.join("M.grdecl"), d.join("M.EGRID"), d.join("M.vtu"));
     let mut text = Vec::new();
     stratasweep::io::grdecl::write_grdecl(&mut text, &cp).unwrap();
@@ -180,7 +175,7 @@ fn bulk_volume_and_cells_agree_across_formats() {
 #[test]
 fn grdecl_and_vtu_agree_on_the_raw_generator() {
     let cp = stratasweep::generate::faulted([9, 7, 6], 2, 5);
-    let d = scratch("formats-raw");
+    let d = support::tmp_dir("formats-raw");
     let mut text = Vec::new();
     stratasweep::io::grdecl::write_grdecl(&mut text, &cp).unwrap();
     std::fs::write(d.join("R.grdecl"), text).unwrap();
@@ -204,13 +199,12 @@ fn grdecl_and_vtu_agree_on_the_raw_generator() {
 /// stop 25: 2.2e-5). Run with `STRATASWEEP_XTGEO_PYTHON` (set by `.ci/run`).
 #[test]
 fn bulk_volume_agrees_with_xtgeo() {
-    let Some(py) = std::env::var_os("STRATASWEEP_XTGEO_PYTHON") else {
-        eprintln!("SKIP: STRATASWEEP_XTGEO_PYTHON not set: xtgeo not run");
+    let Some(py) = support::xtgeo_python("bulk_volume_agrees_with_xtgeo") else {
         return;
     };
     let cp = model();
     let (_, rep) = cp.clone().into_grid().unwrap();
-    let d = scratch("formats-xtgeo");
+    let d = support::tmp_dir("formats-xtgeo");
     let path = d.join("X.grdecl");
     let mut text = Vec::new();
     stratasweep::io::grdecl::write_grdecl(&mut text, &cp).unwrap();

@@ -6,27 +6,27 @@ use proptest::prelude::*;
 use stratasweep::io::vtk_read::{parse_vtk_legacy, parse_vtk_xml};
 
 const LEGACY: [&[u8]; 8] = [
-    include_bytes!("fixtures/vtk/a_legacy_ascii_42.vtk"),
-    include_bytes!("fixtures/vtk/a_legacy_ascii_51.vtk"),
-    include_bytes!("fixtures/vtk/a_legacy_binary_42.vtk"),
-    include_bytes!("fixtures/vtk/a_legacy_binary_51.vtk"),
-    include_bytes!("fixtures/vtk/b_legacy_ascii_42.vtk"),
-    include_bytes!("fixtures/vtk/b_legacy_binary_51.vtk"),
-    include_bytes!("fixtures/vtk/c_legacy_ascii.vtk"),
-    include_bytes!("fixtures/vtk/c_legacy_binary.vtk"),
+    include_bytes!("../fixtures/vtk/a_legacy_ascii_42.vtk"),
+    include_bytes!("../fixtures/vtk/a_legacy_ascii_51.vtk"),
+    include_bytes!("../fixtures/vtk/a_legacy_binary_42.vtk"),
+    include_bytes!("../fixtures/vtk/a_legacy_binary_51.vtk"),
+    include_bytes!("../fixtures/vtk/b_legacy_ascii_42.vtk"),
+    include_bytes!("../fixtures/vtk/b_legacy_binary_51.vtk"),
+    include_bytes!("../fixtures/vtk/c_legacy_ascii.vtk"),
+    include_bytes!("../fixtures/vtk/c_legacy_binary.vtk"),
 ];
 
 const XML: [&[u8]; 10] = [
-    include_bytes!("fixtures/vtk/a_ascii.vtu"),
-    include_bytes!("fixtures/vtk/a_base64_u64.vtu"),
-    include_bytes!("fixtures/vtk/a_appended_raw_u64.vtu"),
-    include_bytes!("fixtures/vtk/a_appended_base64_u32.vtu"),
-    include_bytes!("fixtures/vtk/a_zlib_appended_u64_blocks.vtu"),
-    include_bytes!("fixtures/vtk/a_lzma_base64_u64.vtu"),
-    include_bytes!("fixtures/vtk/a_lz4_appended_u32.vtu"),
-    include_bytes!("fixtures/vtk/b_faces_ascii.vtu"),
-    include_bytes!("fixtures/vtk/b_vtk94_ascii.vtu"),
-    include_bytes!("fixtures/vtk/c_zlib_appended.vts"),
+    include_bytes!("../fixtures/vtk/a_ascii.vtu"),
+    include_bytes!("../fixtures/vtk/a_base64_u64.vtu"),
+    include_bytes!("../fixtures/vtk/a_appended_raw_u64.vtu"),
+    include_bytes!("../fixtures/vtk/a_appended_base64_u32.vtu"),
+    include_bytes!("../fixtures/vtk/a_zlib_appended_u64_blocks.vtu"),
+    include_bytes!("../fixtures/vtk/a_lzma_base64_u64.vtu"),
+    include_bytes!("../fixtures/vtk/a_lz4_appended_u32.vtu"),
+    include_bytes!("../fixtures/vtk/b_faces_ascii.vtu"),
+    include_bytes!("../fixtures/vtk/b_vtk94_ascii.vtu"),
+    include_bytes!("../fixtures/vtk/c_zlib_appended.vts"),
 ];
 
 /// Tokens worth inserting: huge and negative counts, keywords, markup.

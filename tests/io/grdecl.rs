@@ -1,13 +1,15 @@
 //! GRDECL tokenizer and reader: syntax, every bad-input error (naming file,
 //! line and keyword), includes, fuzzing, and the writer round trip.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use proptest::prelude::*;
 use stratasweep::cornerpoint::CornerPointGrid;
 use stratasweep::io::grdecl::{
     GrdeclDeck, GrdeclError, parse_number, read_grdecl, read_grdecl_from, write_grdecl,
 };
+
+use crate::support;
 
 fn parse(text: &str) -> Result<GrdeclDeck, GrdeclError> {
     read_grdecl_from(text.as_bytes(), Path::new("mem.grdecl"))
@@ -21,13 +23,6 @@ fn small(extra: &str) -> String {
          0 1 1000 0 1 1010  1 1 1000 1 1 1010  2 1 1000 2 1 1010 /\n\
          ZCORN\n 8*1000 8*1010 /\n{extra}"
     )
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("stratasweep-grdecl-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 #[test]
@@ -269,7 +264,8 @@ fn bad_inputs_name_file_line_keyword_and_counts() {
 
 #[test]
 fn includes_relative_quoted_missing_and_cycles() {
-    let d = tmpdir("inc");
+    let dir = support::Dir::new("grdecl-inc");
+    let d = &dir.0;
     std::fs::create_dir_all(d.join("sub")).unwrap();
     std::fs::write(
         d.join("sub/geom.inc"),
@@ -399,7 +395,7 @@ proptest! {
             extra.push_str(" /\n");
         }
         extra.push_str("/\n");
-        let t = box_grid(&extra);
+        let t = box_deck(&extra);
         if let Ok(d) = read_grdecl_from(t.as_bytes(), Path::new("fuzz.grdecl")) {
             let _ = d.grid.to_grid();
         }
@@ -543,7 +539,7 @@ fn prop(g: &CornerPointGrid, name: &str) -> Vec<f64> {
 }
 
 /// A 3×2×2 grid of unit cells (vertical pillars) followed by `extra`.
-fn box_grid(extra: &str) -> String {
+fn box_deck(extra: &str) -> String {
     let mut coord = String::new();
     for j in 0..3 {
         for i in 0..4 {
@@ -558,7 +554,7 @@ fn box_grid(extra: &str) -> String {
 
 #[test]
 fn equals_multiply_add_copy_in_boxes() {
-    let d = parse(&box_grid(
+    let d = parse(&box_deck(
         "EQUALS\n 'PERMX' 100 / whole grid\n/\n\
          MULTIPLY\n PERMX 0.5 1 2 1 1 1 1 /\n PERMX 2 2* 2 2 / I 1-2 of row J = 2, same K\n/\n\
          ADD\n PORO 1 3 3 /\n/\n\
@@ -639,7 +635,7 @@ fn operator_errors_name_file_line_and_keyword() {
         ),
     ];
     for (extra, want) in cases {
-        let e = parse(&box_grid(extra)).unwrap_err().to_string();
+        let e = parse(&box_deck(extra)).unwrap_err().to_string();
         assert!(e.contains(want), "{extra:?}: got '{e}', want '{want}'");
         assert!(e.contains("mem.grdecl:"), "{e}");
     }
@@ -647,8 +643,7 @@ fn operator_errors_name_file_line_and_keyword() {
 
 #[test]
 fn spe9_and_reek_operators() {
-    let Some(data) = std::env::var_os("STRATASWEEP_DATA").map(PathBuf::from) else {
-        eprintln!("\n*** SKIP spe9_and_reek_operators: STRATASWEEP_DATA is not set ***\n");
+    let Some(data) = support::data_dir("spe9_and_reek_operators") else {
         return;
     };
     // SPE9's deck: COPY PERMX to PERMY and PERMZ, then MULTIPLY PERMZ 0.01.
@@ -660,8 +655,7 @@ fn spe9_and_reek_operators() {
     assert!(!d.skipped.iter().any(|s| s == "COPY" || s == "MULTIPLY"));
     // Reek's MULTZ barrier: EQUALS 'MULTZ' 0.01 1 40 1 64 5 5 / (a comment
     // after the '/'): layer 5 only, 1 elsewhere.
-    let dir = std::env::temp_dir().join(format!("stratasweep-multz-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = support::tmp_dir("grdecl-multz");
     let deck = dir.join("reek_multz.grdecl");
     std::fs::write(
         &deck,

@@ -6,7 +6,7 @@
 //! mapped it and is parsing), then cuts the file to a third.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 use stratasweep::io::grdecl::{read_grdecl, write_grdecl};
@@ -14,22 +14,7 @@ use stratasweep::io::mapped::MappedFile;
 use stratasweep::io::vtk_read::{parse_vtk_xml, read_vtk};
 use stratasweep::io::writers::write_vtk_xml_grid;
 
-/// A scratch folder of this test process, removed on drop.
-struct Dir(PathBuf);
-
-impl Dir {
-    fn new(name: &str) -> Dir {
-        let d = std::env::temp_dir().join(format!("ss-mapped-{name}-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        Dir(d)
-    }
-}
-
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+use crate::support;
 
 /// A faulted corner-point grid as GRDECL text of at least 8 MiB (mapped
 /// when more than one thread reads it).
@@ -83,7 +68,7 @@ fn wait_for_map(pid: &str, path: &Path, running: impl Fn() -> bool) -> bool {
 /// process has mapped it, and checks the outcome: a non-zero exit (not a
 /// signal) with a message naming the file and the truncation.
 fn info_with_truncation(path: &Path) {
-    let child = Command::new(env!("CARGO_BIN_EXE_stratasweep"))
+    let child = support::bin()
         .args(["info", path.to_str().unwrap(), "--quiet"])
         .env("NODEVICE_SELECT", "1")
         .env("RAYON_NUM_THREADS", "2")
@@ -118,7 +103,7 @@ fn info_with_truncation(path: &Path) {
 
 #[test]
 fn cli_info_on_a_grdecl_truncated_while_it_loads_fails_cleanly() {
-    let d = Dir::new("cli-grdecl");
+    let d = support::Dir::new("mapped-cli-grdecl");
     let path = d.0.join("big.grdecl");
     big_grdecl(&path, 80);
     info_with_truncation(&path);
@@ -126,7 +111,7 @@ fn cli_info_on_a_grdecl_truncated_while_it_loads_fails_cleanly() {
 
 #[test]
 fn cli_info_on_a_vts_truncated_while_it_loads_fails_cleanly() {
-    let d = Dir::new("cli-vts");
+    let d = support::Dir::new("mapped-cli-vts");
     let path = big_vts(&d.0.join("big.vts"), 100);
     info_with_truncation(&path);
 }
@@ -135,7 +120,7 @@ fn cli_info_on_a_vts_truncated_while_it_loads_fails_cleanly() {
 /// is truncated once it is mapped; the read returns an error naming it.
 #[test]
 fn read_grdecl_of_a_file_truncated_while_it_loads_is_an_error() {
-    let d = Dir::new("lib-grdecl");
+    let d = support::Dir::new("mapped-lib-grdecl");
     let path = d.0.join("lib.grdecl");
     big_grdecl(&path, 80);
     let p = path.clone();
@@ -161,7 +146,7 @@ fn read_grdecl_of_a_file_truncated_while_it_loads_is_an_error() {
 /// parse said; `read_vtk` of the truncated file then fails on its own.
 #[test]
 fn a_vts_map_truncated_before_its_parse_reports_the_truncation() {
-    let d = Dir::new("lib-vts");
+    let d = support::Dir::new("mapped-lib-vts");
     let path = big_vts(&d.0.join("lib.vts"), 100);
     let map = MappedFile::map(std::fs::File::open(&path).unwrap()).expect("mapped");
     let whole = parse_vtk_xml(&map, "lib.vts").expect("the whole file parses");

@@ -12,6 +12,8 @@ use std::path::{Path, PathBuf};
 use stratasweep::grid::{Cells, Grid, Property, Topology};
 use stratasweep::io::vtk_read::{VtkReadError, parse_vtk_legacy, parse_vtk_xml, read_vtk};
 
+use crate::support;
+
 // ------------------------------------------------------------------ fixtures
 
 fn fixture(name: &str) -> PathBuf {
@@ -501,16 +503,6 @@ fn read_vtk_errors_name_the_path() {
 
 // ------------------------------------------------------------------ real data
 
-fn data_dir(test: &str) -> Option<PathBuf> {
-    match std::env::var_os("STRATASWEEP_DATA") {
-        Some(d) => Some(PathBuf::from(d)),
-        None => {
-            eprintln!("SKIP {test}: STRATASWEEP_DATA not set");
-            None
-        }
-    }
-}
-
 /// Expected content of one real file: counts, cell-type histogram and, per
 /// property, (name, components, first value, last value).
 struct Expect {
@@ -716,7 +708,7 @@ fn histogram(g: &Grid) -> Vec<(u8, usize)> {
 
 #[test]
 fn real_files_counts_types_and_properties() {
-    let Some(dir) = data_dir("real_files_counts_types_and_properties") else {
+    let Some(dir) = support::data_dir("real_files_counts_types_and_properties") else {
         return;
     };
     for e in REAL {
@@ -745,7 +737,7 @@ fn real_files_counts_types_and_properties() {
 
 #[test]
 fn real_structured_grid_dims() {
-    let Some(dir) = data_dir("real_structured_grid_dims") else {
+    let Some(dir) = support::data_dir("real_structured_grid_dims") else {
         return;
     };
     let g = read_ok(&dir.join("structured/SampleStructGrid.vtk"));
@@ -754,7 +746,7 @@ fn real_structured_grid_dims() {
 
 #[test]
 fn real_legacy_polyhedra_face_streams() {
-    let Some(dir) = data_dir("real_legacy_polyhedra_face_streams") else {
+    let Some(dir) = support::data_dir("real_legacy_polyhedra_face_streams") else {
         return;
     };
     let g = read_ok(&dir.join("geos/supportedElements.vtk"));
@@ -779,7 +771,7 @@ fn real_legacy_polyhedra_face_streams() {
 
 #[test]
 fn real_vtu_polyhedra_face_streams() {
-    let Some(dir) = data_dir("real_vtu_polyhedra_face_streams") else {
+    let Some(dir) = support::data_dir("real_vtu_polyhedra_face_streams") else {
         return;
     };
     let g = read_ok(&dir.join("geos/pebi3d_with_properties.vtu"));
@@ -801,7 +793,7 @@ fn real_vtu_polyhedra_face_streams() {
 
 #[test]
 fn real_data_dir_is_fully_covered() {
-    let Some(dir) = data_dir("real_data_dir_is_fully_covered") else {
+    let Some(dir) = support::data_dir("real_data_dir_is_fully_covered") else {
         return;
     };
     let mut found = Vec::new();

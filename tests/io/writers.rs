@@ -3,7 +3,7 @@
 //! the `vtk` module) a peer check with VTK's own readers.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use stratasweep::generate::{warped, zoo};
 use stratasweep::grid::{Cells, Grid, Property, Topology, vtk_type};
 use stratasweep::io::writers::{
@@ -11,14 +11,10 @@ use stratasweep::io::writers::{
 };
 use stratasweep::mesh::PolyMesh;
 
+use crate::support;
+
 // ---------------------------------------------------------------------------
 // Fixtures.
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("writers");
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
 
 /// Small deterministic generator, independent of the crate's.
 struct Lcg(u64);
@@ -349,7 +345,7 @@ impl VtkXml {
 #[test]
 fn ply_round_trip() {
     let m = sample_mesh(1, 40_000, "poro (frac)");
-    let path = tmp("round_trip.ply");
+    let path = support::tmp("writers", "round_trip.ply");
     write_ply(&path, &m).unwrap();
     let els = parse_ply(&std::fs::read(&path).unwrap());
     assert_eq!(els.len(), 2);
@@ -398,7 +394,7 @@ fn ply_rejects_polygons_over_255_vertices() {
     m.poly_offsets.push(m.poly_indices.len() as u32);
     m.poly_level.push(0);
     m.poly_cell.push(0);
-    let path = tmp("too_large.ply");
+    let path = support::tmp("writers", "too_large.ply");
     match write_ply(&path, &m) {
         Err(WriteError::PolygonTooLarge {
             path: p,
@@ -410,7 +406,7 @@ fn ply_rejects_polygons_over_255_vertices() {
         other => panic!("expected PolygonTooLarge, got {other:?}"),
     }
     // ... while VTP has no such limit.
-    write_vtp(tmp("large_polygon.vtp"), &m).unwrap();
+    write_vtp(support::tmp("writers", "large_polygon.vtp"), &m).unwrap();
 }
 
 #[test]
@@ -419,11 +415,11 @@ fn empty_mesh_writes_valid_files() {
         property_name: "f".into(),
         ..Default::default()
     };
-    let path = tmp("empty.ply");
+    let path = support::tmp("writers", "empty.ply");
     write_ply(&path, &m).unwrap();
     let els = parse_ply(&std::fs::read(&path).unwrap());
     assert_eq!((els[0].count, els[1].count), (0, 0));
-    let path = tmp("empty.vtp");
+    let path = support::tmp("writers", "empty.vtp");
     write_vtp(&path, &m).unwrap();
     let x = parse_vtk_xml(&std::fs::read(&path).unwrap());
     assert_eq!(x.piece_attrs["NumberOfPoints"], "0");
@@ -447,11 +443,11 @@ fn invalid_meshes_are_rejected_naming_the_file() {
         ("values", &bad_counts),
         ("cells", &bad_cells),
     ] {
-        let path = tmp(&format!("bad_{what}.ply"));
+        let path = support::tmp("writers", &format!("bad_{what}.ply"));
         let e = write_ply(&path, m).unwrap_err();
         assert!(matches!(e, WriteError::InvalidMesh { .. }), "{what}: {e:?}");
         assert!(e.to_string().contains(path.to_str().unwrap()), "{e}");
-        let path = tmp(&format!("bad_{what}.vtp"));
+        let path = support::tmp("writers", &format!("bad_{what}.vtp"));
         assert!(
             matches!(write_vtp(&path, m), Err(WriteError::InvalidMesh { .. })),
             "{what}"
@@ -459,16 +455,16 @@ fn invalid_meshes_are_rejected_naming_the_file() {
     }
     // Levels beyond level_values only matter where level_value is written.
     assert!(matches!(
-        write_vtp(tmp("bad_level.vtp"), &bad_level),
+        write_vtp(support::tmp("writers", "bad_level.vtp"), &bad_level),
         Err(WriteError::InvalidMesh { .. })
     ));
-    write_ply(tmp("bad_level.ply"), &bad_level).unwrap();
+    write_ply(support::tmp("writers", "bad_level.ply"), &bad_level).unwrap();
 }
 
 #[test]
 fn io_errors_name_the_file() {
     let m = sample_mesh(4, 5, "f");
-    let path = tmp("no_such_dir").join("x.ply");
+    let path = support::tmp("writers", "no_such_dir").join("x.ply");
     let e = write_ply(&path, &m).unwrap_err();
     assert!(matches!(e, WriteError::Io { .. }));
     assert!(e.to_string().contains("no_such_dir"), "{e}");
@@ -480,7 +476,7 @@ fn io_errors_name_the_file() {
 #[test]
 fn vtp_round_trip() {
     let m = sample_mesh(5, 40_000, "a<b & \"c\"");
-    let path = tmp("round_trip.vtp");
+    let path = support::tmp("writers", "round_trip.vtp");
     write_vtp(&path, &m).unwrap();
     let x = parse_vtk_xml(&std::fs::read(&path).unwrap());
     assert_eq!(x.root_attrs["type"], "PolyData");
@@ -530,7 +526,7 @@ fn vtp_handles_offsets_not_starting_at_zero() {
         *o += 4;
     }
     m.poly_indices.extend([1, 2, 3]);
-    let path = tmp("offset.vtp");
+    let path = support::tmp("writers", "offset.vtp");
     write_vtp(&path, &m).unwrap();
     let x = parse_vtk_xml(&std::fs::read(&path).unwrap());
     let (_, _, conn) = x.array("Polys", "connectivity");
@@ -563,7 +559,7 @@ fn vts_round_trip_of_a_warped_grid() {
             .collect(),
     ));
     assert_eq!(grid_extension(&g), "vts");
-    let path = tmp("warped.vts");
+    let path = support::tmp("writers", "warped.vts");
     write_vtk_xml_grid(&path, &g).unwrap();
     let x = parse_vtk_xml(&std::fs::read(&path).unwrap());
     assert_eq!(x.root_attrs["type"], "StructuredGrid");
@@ -703,7 +699,7 @@ fn vtu_round_trip_of_a_zoo_grid() {
         (0..nc).map(|c| (c % 5) as f64).collect(),
     ));
     assert_eq!(grid_extension(&g), "vtu");
-    let path = tmp("zoo.vtu");
+    let path = support::tmp("writers", "zoo.vtu");
     write_vtk_xml_grid(&path, &g).unwrap();
     check_vtu(&g, &path);
 }
@@ -712,7 +708,7 @@ fn vtu_round_trip_of_a_zoo_grid() {
 fn vtu_round_trip_with_polyhedra() {
     let g = polyhedral_grid();
     g.validate().unwrap();
-    let path = tmp("polyhedra.vtu");
+    let path = support::tmp("writers", "polyhedra.vtu");
     write_vtk_xml_grid(&path, &g).unwrap();
     check_vtu(&g, &path);
 }
@@ -720,7 +716,7 @@ fn vtu_round_trip_with_polyhedra() {
 #[test]
 fn grid_writer_checks_extension_and_validity() {
     let g = warped([2, 2, 2], 1);
-    let e = write_vtk_xml_grid(tmp("warped.vtu"), &g).unwrap_err();
+    let e = write_vtk_xml_grid(support::tmp("writers", "warped.vtu"), &g).unwrap_err();
     assert!(
         matches!(
             e,
@@ -731,9 +727,9 @@ fn grid_writer_checks_extension_and_validity() {
         ),
         "{e:?}"
     );
-    write_vtk_xml_grid(tmp("warped_upper.VTS"), &g).unwrap();
+    write_vtk_xml_grid(support::tmp("writers", "warped_upper.VTS"), &g).unwrap();
     let z = zoo(100, 1);
-    let e = write_vtk_xml_grid(tmp("zoo.vts"), &z).unwrap_err();
+    let e = write_vtk_xml_grid(support::tmp("writers", "zoo.vts"), &z).unwrap_err();
     assert!(
         matches!(
             e,
@@ -746,7 +742,7 @@ fn grid_writer_checks_extension_and_validity() {
     );
     let mut bad = g.clone();
     bad.points.pop();
-    let e = write_vtk_xml_grid(tmp("bad.vts"), &bad).unwrap_err();
+    let e = write_vtk_xml_grid(support::tmp("writers", "bad.vts"), &bad).unwrap_err();
     assert!(matches!(e, WriteError::InvalidGrid { .. }), "{e:?}");
     assert!(e.to_string().contains("bad.vts"), "{e}");
 }
@@ -822,21 +818,24 @@ print(json.dumps(out))
 
 #[test]
 fn peer_vtk_reads_every_format() {
-    let Some(py) = std::env::var_os("STRATASWEEP_PEER_PYTHON") else {
-        eprintln!(
-            "\n*** SKIP peer_vtk_reads_every_format: STRATASWEEP_PEER_PYTHON is not set \
-             (point it to a python with the `vtk` module to check the files with VTK's readers) ***\n"
-        );
+    let Some(py) = support::peer_python("peer_vtk_reads_every_format") else {
         return;
     };
     let m = sample_mesh(11, 30_000, "poro <&> \"x\"");
-    let (vtp, ply) = (tmp("peer.vtp"), tmp("peer.ply"));
+    let (vtp, ply) = (
+        support::tmp("writers", "peer.vtp"),
+        support::tmp("writers", "peer.ply"),
+    );
     write_vtp(&vtp, &m).unwrap();
     write_ply(&ply, &m).unwrap();
     let w = warped([10, 8, 6], 2);
     let z = zoo(4_000, 3);
     let pg = polyhedral_grid();
-    let (vts, vtu, poly_vtu) = (tmp("peer.vts"), tmp("peer.vtu"), tmp("peer_poly.vtu"));
+    let (vts, vtu, poly_vtu) = (
+        support::tmp("writers", "peer.vts"),
+        support::tmp("writers", "peer.vtu"),
+        support::tmp("writers", "peer_poly.vtu"),
+    );
     write_vtk_xml_grid(&vts, &w).unwrap();
     write_vtk_xml_grid(&vtu, &z).unwrap();
     write_vtk_xml_grid(&poly_vtu, &pg).unwrap();

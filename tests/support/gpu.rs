@@ -1,9 +1,6 @@
 //! Shared by the GPU test files: one device per test binary, skipping loudly
 //! without an adapter unless `STRATASWEEP_REQUIRE_GPU=1` (CI), where a
 //! missing adapter fails the test.
-#![allow(dead_code)]
-
-pub mod ray;
 
 use std::sync::OnceLock;
 use stratasweep::gpu::context::{ContextOptions, GpuContext};

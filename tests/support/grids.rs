@@ -1,7 +1,6 @@
-//! Small random grids for property tests.
-#![allow(dead_code)]
-
-pub mod peer;
+//! Grids for the tests (random structured, zoo and polyhedral grids, the
+//! unit cube, a box) and slicing helpers (one request, the sweep against
+//! the brute force, two results compared).
 
 use stratasweep::field::FieldSpec;
 use stratasweep::pipeline::{LevelSpec, SliceRequest};
@@ -340,19 +339,6 @@ pub fn cube_faces() -> Vec<Vec<u32>> {
     ]
 }
 
-/// `STRATASWEEP_DATA`, or `None` after a loud skip notice naming `test`.
-pub fn data_dir(test: &str) -> Option<std::path::PathBuf> {
-    match std::env::var_os("STRATASWEEP_DATA") {
-        Some(d) => Some(std::path::PathBuf::from(d)),
-        None => {
-            eprintln!(
-                "\n*** SKIP {test}: STRATASWEEP_DATA is not set (real grids not tested) ***\n"
-            );
-            None
-        }
-    }
-}
-
 /// Slices `grid` along `axis` at `count` levels by the sweep and by the
 /// brute force, checks that they cut the same cells per level, and returns
 /// the sweep's result.
@@ -372,4 +358,64 @@ pub fn sweep_matches_brute_force(
     };
     assert_eq!(cells(&a), cells(&b), "{what}: axis {axis}");
     a
+}
+
+/// `slice` of `grid` through `s`, unwrapped.
+pub fn slice_ok(
+    grid: &Grid,
+    s: &stratasweep::structures::Structure,
+    req: &SliceRequest,
+) -> stratasweep::pipeline::SliceResult {
+    stratasweep::pipeline::slice(grid, s, req, &|_| {}).unwrap()
+}
+
+/// Per-level figures that must be identical (areas compared to 1e-12:
+/// each run sums its polygons' areas in its own order), the same number
+/// of levels, and the same polygons, vertex for vertex, bit for bit.
+pub fn assert_same(
+    a: &stratasweep::pipeline::SliceResult,
+    b: &stratasweep::pipeline::SliceResult,
+    what: &str,
+) {
+    assert_eq!(a.level_values, b.level_values, "{what}: levels");
+    assert_eq!(a.stats.len(), b.stats.len());
+    for (l, (x, y)) in a.stats.iter().zip(&b.stats).enumerate() {
+        assert_eq!(
+            (x.cells, x.polygons, x.triangles),
+            (y.cells, y.polygons, y.triangles),
+            "{what}: level {l}"
+        );
+        let tol = 1e-12 * x.area.abs().max(y.area.abs()).max(1e-300);
+        assert!(
+            (x.area - y.area).abs() <= tol,
+            "{what}: level {l} area {} vs {}",
+            x.area,
+            y.area
+        );
+    }
+    assert_eq!(a.mesh, b.mesh, "{what}: polygons");
+}
+
+/// A structured box [−h₀, h₀] × [−h₁, h₁] × [−h₂, h₂] of `dims` points,
+/// evenly spaced, with the point property `one` = 1.
+pub fn box_grid(dims: [usize; 3], half: [f64; 3]) -> Grid {
+    let mut points = Vec::new();
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let f = |n: usize, d: usize| n as f64 / (d - 1) as f64 * 2.0 - 1.0;
+                points.push([
+                    half[0] * f(i, dims[0]),
+                    half[1] * f(j, dims[1]),
+                    half[2] * f(k, dims[2]),
+                ]);
+            }
+        }
+    }
+    Grid {
+        point_data: vec![Property::scalar("one", vec![1.0; points.len()])],
+        points,
+        topology: Topology::Structured { dims },
+        cell_data: Vec::new(),
+    }
 }

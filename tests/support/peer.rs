@@ -4,28 +4,21 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The peer's Python (STRATASWEEP_PEER_PYTHON, else the crate's
-/// `.venv-peer`) and script, or `None` (after printing a loud SKIP line
-/// naming `what`) when either is missing.
+/// The peer's Python ([`super::peer_python`]) and script (beside the
+/// checkout, `../shared/peer`, else beside the data,
+/// `$STRATASWEEP_DATA/../peer`), or `None` after a loud SKIP line naming
+/// `what` when no Python is given. Panics when a Python is given and the
+/// script is missing.
 pub fn peer(what: &str) -> Option<(PathBuf, PathBuf)> {
-    let py = std::env::var("STRATASWEEP_PEER_PYTHON")
-        .ok()
-        .map(PathBuf::from)
-        .or_else(|| {
-            let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv-peer/bin/python");
-            p.exists().then_some(p)
-        });
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/peer/vtk_slices.py");
-    match py {
-        Some(py) if script.exists() => Some((py, script)),
-        Some(_) => {
-            eprintln!("SKIP {what}: {} missing", script.display());
-            None
-        }
-        None => {
-            eprintln!("SKIP {what}: no STRATASWEEP_PEER_PYTHON and no .venv-peer");
-            None
-        }
+    let py = super::peer_python(what)?;
+    let mut scripts =
+        vec![Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/peer/vtk_slices.py")];
+    if let Some(d) = std::env::var_os("STRATASWEEP_DATA") {
+        scripts.push(Path::new(&d).join("../peer/vtk_slices.py"));
+    }
+    match scripts.iter().find(|s| s.exists()) {
+        Some(s) => Some((py, s.clone())),
+        None => panic!("{what}: the VTK peer's Python is given but no script: {scripts:?}"),
     }
 }
 

@@ -29,3 +29,9 @@ pub fn integrate_ray(t: &Transfer, n: usize, len: f64, value: impl Fn(f64) -> f6
     }
     acc
 }
+
+/// [`integrate_ray`] in 20,000 steps along a ray of length `len` on which
+/// the value goes linearly from `v0` to `v1`.
+pub fn integrate_linear(t: &Transfer, v0: f64, v1: f64, len: f64) -> [f64; 4] {
+    integrate_ray(t, 20_000, len, |s| v0 + (v1 - v0) * s)
+}

@@ -9,42 +9,10 @@
 //! either they skip loudly, unless `STRATASWEEP_REQUIRE_DISPLAY=1` (CI,
 //! under `xvfb-run`) or `STRATASWEEP_REQUIRE_GPU=1` makes that a failure.
 
-mod gpu_common;
+use crate::support;
+use crate::support::{bin, display, run_ok};
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_stratasweep"))
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("stratasweep-view-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
-}
-
-/// Whether a display is there; panics without one when CI requires it.
-fn display(test: &str) -> bool {
-    let set = |v: &str| std::env::var_os(v).is_some_and(|s| !s.is_empty());
-    if set("DISPLAY") || set("WAYLAND_DISPLAY") {
-        return true;
-    }
-    if std::env::var("STRATASWEEP_REQUIRE_DISPLAY").as_deref() == Ok("1") {
-        panic!("STRATASWEEP_REQUIRE_DISPLAY=1 but neither DISPLAY nor WAYLAND_DISPLAY is set");
-    }
-    eprintln!(
-        "SKIP {test}: no display (run under `xvfb-run -a`; STRATASWEEP_REQUIRE_DISPLAY=1 fails instead)"
-    );
-    false
-}
-
-fn run_ok(args: &[&str]) -> String {
-    let o = bin().args(args).output().unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{args:?} failed: {err}");
-    String::from_utf8_lossy(&o.stdout).into()
-}
+use std::path::Path;
 
 /// Decodes an 8-bit RGBA PNG.
 fn rgba(p: &Path) -> (u32, u32, Vec<u8>) {
@@ -102,8 +70,8 @@ fn check_first_frame(headless: bool, extra: &[&str]) {
         (true, false) => "headless-extra",
     };
     let (r, v) = (
-        tmp(&format!("render-{tag}.png")),
-        tmp(&format!("view-{tag}.png")),
+        support::tmp("view", &format!("render-{tag}.png")),
+        support::tmp("view", &format!("view-{tag}.png")),
     );
     let z = ["--z-scale", "2"];
     run_ok(
@@ -144,8 +112,7 @@ fn check_first_frame(headless: bool, extra: &[&str]) {
 
 #[test]
 fn first_frame_equals_render() {
-    if gpu_common::gpu("first_frame_equals_render").is_none()
-        || !display("first_frame_equals_render")
+    if support::gpu("first_frame_equals_render").is_none() || !display("first_frame_equals_render")
     {
         return;
     }
@@ -154,7 +121,7 @@ fn first_frame_equals_render() {
 
 #[test]
 fn headless_first_frame_equals_render_without_a_display() {
-    if gpu_common::gpu("headless_first_frame_equals_render").is_none() {
+    if support::gpu("headless_first_frame_equals_render").is_none() {
         return;
     }
     check_first_frame(true, &[]);
@@ -162,7 +129,7 @@ fn headless_first_frame_equals_render_without_a_display() {
 
 #[test]
 fn gpu_binned_first_frame_equals_the_swept_render() {
-    if gpu_common::gpu("gpu_binned_first_frame_equals_the_swept_render").is_none() {
+    if support::gpu("gpu_binned_first_frame_equals_the_swept_render").is_none() {
         return;
     }
     check_first_frame(true, &["--cells", "gpu"]);
@@ -209,7 +176,7 @@ fn check_orbit_bench(headless: bool) {
 
 #[test]
 fn orbit_bench_reports_its_keys_over_a_turn() {
-    if gpu_common::gpu("orbit_bench_reports_its_keys").is_none()
+    if support::gpu("orbit_bench_reports_its_keys").is_none()
         || !display("orbit_bench_reports_its_keys")
     {
         return;
@@ -219,7 +186,7 @@ fn orbit_bench_reports_its_keys_over_a_turn() {
 
 #[test]
 fn headless_orbit_bench_reports_its_keys_without_a_display() {
-    if gpu_common::gpu("headless_orbit_bench_reports_its_keys").is_none() {
+    if support::gpu("headless_orbit_bench_reports_its_keys").is_none() {
         return;
     }
     check_orbit_bench(true);
@@ -276,10 +243,13 @@ fn bad_ijk_clip_is_a_clear_error() {
 
 #[test]
 fn render_legend_draws_in_its_corner_only() {
-    if gpu_common::gpu("render_legend_draws_in_its_corner_only").is_none() {
+    if support::gpu("render_legend_draws_in_its_corner_only").is_none() {
         return;
     }
-    let (plain, legend) = (tmp("plain.png"), tmp("legend.png"));
+    let (plain, legend) = (
+        support::tmp("view", "plain.png"),
+        support::tmp("view", "legend.png"),
+    );
     let size = ["--size", "400x300"];
     run_ok(
         &[
