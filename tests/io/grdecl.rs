@@ -329,7 +329,7 @@ fn includes_relative_quoted_missing_and_cycles() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("no-such-file.grdecl"), "{e}");
-    let _ = std::fs::remove_dir_all(&d);
+    let _ = std::fs::remove_dir_all(d);
 }
 
 #[test]
