@@ -19,16 +19,19 @@
 set -uo pipefail
 cmd=${1:-}
 dir=${2:-.dev}
-tests="gpu_layout gpu_emit gpu_render gpu_scene gpu_limits gpu_cli gpu_iso_levels gpu_preintegrate gpu_preintegrate_ijk gpu_grid_parts gpu_host_slices gpu_boundary view_window"
+# The test binaries (tests/<name>/main.rs) and, after a colon, a filter:
+# the whole gpu and view binaries, and the cli binary's GPU module only.
+tests="gpu view cli:gpu::"
+bins() { for t in $tests; do echo "${t%%:*}"; done; }
 
 pack() {
   set -e
   cargo build --release
-  cargo test --release --no-run $(printf -- '--test %s ' $tests)
+  cargo test --release --no-run $(printf -- '--test %s ' $(bins))
   local tmp
   tmp=$(mktemp -d)
   strip -o "$tmp/stratasweep" target/release/stratasweep
-  for t in $tests; do
+  for t in $(bins); do
     f=$(ls -t target/release/deps/"$t"-* | grep -v -e '\.d$' -e '\.rmeta$' | head -1)
     strip -o "$tmp/$t" "$f"
   done
@@ -63,8 +66,10 @@ run() {
     "$s" generate warped --dims $w -o /tmp/w256.vts -q) >/tmp/gen.log 2>&1 &
   local gen=$! failed=0
   el "GPU tests"
-  for t in $tests; do
-    timeout 120 "$p/$t" --test-threads=4 >"$out/$t.txt" 2>&1 || failed=$((failed + 1))
+  for e in $tests; do
+    local t=${e%%:*} filter=
+    [ "$t" != "$e" ] && filter=${e#*:}
+    timeout 300 "$p/$t" $filter --test-threads=4 >"$out/$t.txt" 2>&1 || failed=$((failed + 1))
     grep -E '^test result|panicked|FAILED' "$out/$t.txt" | cut -c1-400 | sed "s/^/$t: /"
   done
   el "tests done ($failed binaries failed)"
