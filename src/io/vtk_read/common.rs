@@ -6,7 +6,7 @@ use crate::grid::{Cells, Grid, Topology, vtk_type};
 use crate::mem::{try_filled, try_vec};
 
 pub(crate) use super::decode::{decode_f64, decode_i64, decode_u32_ids};
-use crate::structures::common::split_lengths;
+use crate::mem::split_lengths;
 
 /// A VTK scalar type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
