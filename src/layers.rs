@@ -220,22 +220,26 @@ struct Import {
     target: String,
 }
 
+/// The child modules declared in `code` (`mod x;`, `mod x {`).
+fn child_modules(code: &str) -> BTreeSet<&str> {
+    let words: Vec<&str> = code
+        .split(|ch: char| !(ch.is_alphanumeric() || ch == '_'))
+        .filter(|w| !w.is_empty())
+        .collect();
+    words
+        .windows(2)
+        .filter(|w| w[0] == "mod")
+        .map(|w| w[1])
+        .collect()
+}
+
 /// The crate paths that the file of module `module` (`["io", "grdecl"]`)
 /// uses. `src` is the file's text.
 fn imports(module: &[String], src: &str) -> Vec<Import> {
     let code = strip(src);
     let b: Vec<char> = code.chars().collect();
     let is_ident = |ch: char| ch.is_alphanumeric() || ch == '_';
-    // Child modules declared in this file (`mod x;`, `mod x {`).
-    let words: Vec<&str> = code
-        .split(|ch: char| !is_ident(ch))
-        .filter(|w| !w.is_empty())
-        .collect();
-    let children: BTreeSet<&str> = words
-        .windows(2)
-        .filter(|w| w[0] == "mod")
-        .map(|w| w[1])
-        .collect();
+    let children = child_modules(&code);
     let mut out = Vec::new();
     let mut line = 1;
     // Inline modules open here: (brace depth inside, name).
@@ -297,15 +301,12 @@ fn imports(module: &[String], src: &str) -> Vec<Import> {
         if word == "use" {
             // A use tree, up to its `;`.
             let start_line = line;
-            let mut k = i + 3;
-            let mut tree = String::new();
-            while k < b.len() && b[k] != ';' {
-                if b[k] == '\n' {
-                    line += 1;
-                }
-                tree.push(b[k]);
-                k += 1;
-            }
+            let k = b[i..]
+                .iter()
+                .position(|&ch| ch == ';')
+                .map_or(b.len(), |n| i + n);
+            let tree: String = b[i + 3..k].iter().collect();
+            line += tree.matches('\n').count();
             for path in expand(&tree) {
                 let first = path.split("::").next().unwrap_or("");
                 let relative = matches!(first, "crate" | "super" | "self")
@@ -325,21 +326,16 @@ fn imports(module: &[String], src: &str) -> Vec<Import> {
             && b.get(i + word.len()) == Some(&':')
         {
             // An inline path: crate::a::b, super::super::c.
-            let mut k = i;
-            let mut path = String::new();
-            while k < b.len() && (is_ident(b[k]) || (b[k] == ':' && b.get(k + 1) == Some(&':'))) {
-                if b[k] == ':' {
-                    path.push_str("::");
-                    k += 2;
-                } else {
-                    path.push(b[k]);
-                    k += 1;
-                }
-            }
-            if let Some(target) = resolve(&here, path.trim_end_matches("::")) {
+            let k = b[i..]
+                .iter()
+                .position(|&ch| !is_ident(ch) && ch != ':')
+                .map_or(b.len(), |n| i + n);
+            let written: String = b[i..k].iter().collect();
+            let written = written.trim_end_matches(':').to_string();
+            if let Some(target) = resolve(&here, &written) {
                 out.push(Import {
                     line,
-                    written: path.trim_end_matches("::").to_string(),
+                    written,
                     target,
                 });
             }
