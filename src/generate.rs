@@ -535,7 +535,7 @@ fn has_crossed_face(dims: [usize; 3], coord: &[f64], zcorn: &[f64]) -> bool {
         let p: [[f64; 3]; 8] = std::array::from_fn(|q| corner(i, j, k, q));
         FACES
             .iter()
-            .any(|f| crate::structures::quad_is_bow_tie(f.map(|q| p[q])))
+            .any(|f| crate::vec3::quad_is_bow_tie(f.map(|q| p[q])))
     })
 }
 

@@ -155,6 +155,19 @@ pub enum Topology {
     Unstructured(Cells),
 }
 
+/// Where the cells of an unstructured grid sit in an IJK box (a corner-point
+/// grid's, whose dead cells it drops): what
+/// [`crate::cornerpoint::CornerPointGrid::into_grid`] and the readers report
+/// beside the [`Grid`], and what the CP-Graph
+/// ([`crate::structures::cpgraph`]) is built on.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct IjkLayout {
+    /// Cells along I, J, K.
+    pub dims: [usize; 3],
+    /// Per grid cell, its IJK index `i + nx·(j + ny·k)` (increasing).
+    pub source_cell: Vec<u32>,
+}
+
 /// A grid: geometry, topology and properties.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Grid {

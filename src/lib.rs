@@ -16,6 +16,8 @@ pub mod generate;
 pub mod gpu;
 pub mod grid;
 pub mod io;
+#[cfg(test)]
+mod layers;
 pub mod limits;
 pub mod mem;
 pub mod mesh;

@@ -148,6 +148,18 @@ fn advise_huge(start: usize, bytes: usize) {
 #[cfg(not(target_os = "linux"))]
 fn advise_huge(_start: usize, _bytes: usize) {}
 
+/// `s` cut into consecutive parts of the given lengths (which sum to its
+/// length), to be filled in parallel.
+pub(crate) fn split_lengths<'a, T>(mut s: &'a mut [T], lens: &[usize]) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(lens.len());
+    for &l in lens {
+        let (a, b) = std::mem::take(&mut s).split_at_mut(l);
+        out.push(a);
+        s = b;
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -12,8 +12,8 @@ use super::shapes::{
 };
 use super::{CornerPointError, CornerPointGrid, CornerPointReport, trilinear_volume};
 use crate::grid::{Cells, Grid, Property, Topology, vtk_type};
+use crate::mem::split_lengths;
 use crate::mem::{AllocError, try_filled};
-use crate::structures::common::split_lengths;
 
 /// Pass 1's result for one IJ row: the signed volume of its active cells,
 /// the |volume| of its kept cells without cross-pillar merges, and the

@@ -65,7 +65,7 @@ pub struct Loaded {
     pub cornerpoint: Option<Value>,
     /// Corner-point input only: where each cell sits in the IJK box (for
     /// the corner-point graph).
-    pub ijk: Option<crate::structures::cpgraph::IjkLayout>,
+    pub ijk: Option<crate::grid::IjkLayout>,
 }
 
 /// Everything that can go wrong in [`load`]. Every message names the file.
@@ -213,15 +213,7 @@ pub fn load(path: &Path) -> Result<Loaded, LoadError> {
 fn load_cornerpoint(
     path: &Path,
     format: Format,
-) -> Result<
-    (
-        Grid,
-        Vec<PathBuf>,
-        Value,
-        crate::structures::cpgraph::IjkLayout,
-    ),
-    LoadError,
-> {
+) -> Result<(Grid, Vec<PathBuf>, Value, crate::grid::IjkLayout), LoadError> {
     let t = Instant::now();
     let (cp, inputs, extra): (CornerPointGrid, Vec<PathBuf>, Value) = if format == Format::Egrid {
         let e = read_egrid(path)?;
@@ -270,7 +262,7 @@ fn load_cornerpoint(
         "gridunit": gridunit, "ijk_right_handed_up": rep.ijk_right_handed_up,
         "read_s": read_s, "to_grid_s": t.elapsed().as_secs_f64() - read_s, "input": extra,
     });
-    let ijk = crate::structures::cpgraph::IjkLayout {
+    let ijk = crate::grid::IjkLayout {
         dims,
         source_cell: rep.source_cell,
     };

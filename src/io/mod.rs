@@ -8,6 +8,7 @@ pub mod grdecl;
 pub mod guard;
 pub mod load;
 pub mod mapped;
+pub(crate) mod number;
 pub mod vtk_read;
 pub mod writers;
 

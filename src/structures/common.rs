@@ -67,30 +67,9 @@ pub const CELL_CLASS_NAMES: [&str; CELL_CLASS_COUNT] = [
     "self_intersecting",
 ];
 
-/// True when the quadrilateral `a b c d` crosses itself (a bow-tie): split
-/// along either diagonal, its two triangles face opposite ways. A convex or
-/// concave (but simple) quadrilateral, planar or mildly warped, has at
-/// least one diagonal whose triangles agree; a collapsed one (zero-area
-/// triangles) is not flagged here.
-#[inline(always)]
-pub fn quad_is_bow_tie(q: [[f64; 3]; 4]) -> bool {
-    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let cross = |u: [f64; 3], v: [f64; 3]| {
-        [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ]
-    };
-    let dot = |u: [f64; 3], v: [f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-    let normal = |a: usize, b: usize, c: usize| cross(sub(q[b], q[a]), sub(q[c], q[a]));
-    // Opposite beyond rounding: cos < -1e-6 between non-zero normals.
-    let opposite = |n: [f64; 3], m: [f64; 3]| {
-        let d = dot(n, m);
-        d < 0.0 && d * d > 1e-12 * dot(n, n) * dot(m, m)
-    };
-    opposite(normal(0, 1, 2), normal(0, 2, 3)) && opposite(normal(1, 2, 3), normal(1, 3, 0))
-}
+/// The bow-tie test on a quadrilateral (pure geometry, with the vector
+/// helpers below `grid`, where the generators use it too).
+pub use crate::vec3::quad_is_bow_tie;
 
 /// Classifies one cell from its global vertex ids (local order) and the f64
 /// points. A vertex list that fits no meta-cell (empty, or longer than
@@ -194,18 +173,6 @@ pub fn is_sweepable(c: CellClass) -> bool {
 }
 
 pub use crate::cellgraph::BitSet;
-
-/// `s` cut into consecutive parts of the given lengths (which sum to its
-/// length), to be filled in parallel.
-pub(crate) fn split_lengths<'a, T>(mut s: &'a mut [T], lens: &[usize]) -> Vec<&'a mut [T]> {
-    let mut out = Vec::with_capacity(lens.len());
-    for &l in lens {
-        let (a, b) = std::mem::take(&mut s).split_at_mut(l);
-        out.push(a);
-        s = b;
-    }
-    out
-}
 
 #[cfg(test)]
 mod tests {

@@ -1,7 +1,7 @@
 //! The deck: keyword tables and the parser that fills the corner-point arrays (sections, INCLUDE, BOX, operators).
 
 use super::*;
-use super::{lexer::*, number::*, records::*};
+use super::{lexer::*, records::*};
 
 // ---------------------------------------------------------------------------
 // Keyword tables

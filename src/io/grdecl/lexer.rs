@@ -4,8 +4,8 @@ use std::sync::Arc;
 
 use crate::io::mapped::MappedFile;
 
-use super::number::*;
 use super::*;
+use crate::io::number::parse_prefix;
 
 // ---------------------------------------------------------------------------
 // Lexer
@@ -413,7 +413,7 @@ pub(super) fn scan_plain(
             p += 1;
             continue;
         }
-        let Some((mut v, len)) = parse_prefix(&b[p..]) else {
+        let Some((mut v, len)) = parse_prefix::<true>(&b[p..]) else {
             break;
         };
         let mut q = p + len;
@@ -424,7 +424,7 @@ pub(super) fn scan_plain(
                 break;
             }
             count = n.iter().fold(0usize, |a, &c| a * 10 + (c - b'0') as usize);
-            let Some((w, l)) = parse_prefix(&b[q + 1..]) else {
+            let Some((w, l)) = parse_prefix::<true>(&b[q + 1..]) else {
                 break;
             };
             if count == 0 {
@@ -498,4 +498,22 @@ impl Sink<'_> {
             source: crate::mem::AllocError::of::<f64>(self.expected, kw).into(),
         })
     }
+}
+
+/// The repeat count `N` of an `N*value` item: a plain positive integer.
+pub(super) fn repeat_count(s: &[u8]) -> Result<usize, &'static str> {
+    if s.is_empty() {
+        return Err("the repeat count is missing");
+    }
+    if !s.iter().all(|c| c.is_ascii_digit()) {
+        return Err("the repeat count is not a positive integer");
+    }
+    if s.len() > 12 {
+        return Err("the repeat count is too large");
+    }
+    let r = s.iter().fold(0usize, |a, &c| a * 10 + (c - b'0') as usize);
+    if r == 0 {
+        return Err("the repeat count is zero");
+    }
+    Ok(r)
 }

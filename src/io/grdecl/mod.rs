@@ -35,14 +35,13 @@ use crate::grid::Property;
 
 mod deck;
 mod lexer;
-mod number;
 mod parallel;
 mod records;
 mod writer;
 
+pub use crate::io::number::parse_fortran as parse_number;
 use deck::Parser;
 use lexer::Lexer;
-pub use number::parse_number;
 pub use writer::write_grdecl;
 
 /// Longest token (number, word or quoted string) in bytes.

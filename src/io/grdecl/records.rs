@@ -1,7 +1,7 @@
 //! Reading one keyword's records: values with repeats and defaults, small records, strings, operator boxes; count errors.
 
+use super::lexer::*;
 use super::*;
-use super::{lexer::*, number::*};
 
 /// Splits a value token into `(repeat, value)`; value `None` = default.
 /// Returns `None` when the token is malformed (the caller reports why).

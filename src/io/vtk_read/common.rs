@@ -1,12 +1,13 @@
 //! Pieces shared by the legacy and XML readers: scalar types, binary and ASCII
-//! number decoding, and assembly of [`Cells`] from VTK's flat arrays.
+//! number decoding (floats: [`crate::io::number`]), and assembly of [`Cells`] from VTK's flat arrays.
 
 use super::VtkReadError;
 use crate::grid::{Cells, Grid, Topology, vtk_type};
+use crate::io::number::parse_decimal;
+use crate::mem::split_lengths;
 use crate::mem::{try_filled, try_vec};
 
 pub(crate) use super::decode::{decode_f64, decode_i64, decode_u32_ids};
-use crate::structures::common::split_lengths;
 
 /// A VTK scalar type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,116 +84,6 @@ pub(crate) fn is_ws(b: u8) -> bool {
     matches!(b, b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c)
 }
 
-const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
-    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-];
-
-/// Parses a decimal floating-point token. Plain decimals with at most 15-16
-/// significant digits and small exponents take an exact fast path (one
-/// correctly rounded multiplication or division); everything else, including
-/// `nan` and `inf`, goes through the standard library parser.
-pub(crate) fn parse_f64(s: &[u8]) -> Option<f64> {
-    let slow = || std::str::from_utf8(s).ok()?.parse::<f64>().ok();
-    let mut i = 0;
-    let neg = match s.first()? {
-        b'-' => {
-            i = 1;
-            true
-        }
-        b'+' => {
-            i = 1;
-            false
-        }
-        _ => false,
-    };
-    let mut mant: u64 = 0;
-    let mut digits = 0u32; // significant digits accumulated in mant
-    let mut exp10: i32 = 0;
-    let mut any = false;
-    let mut overflow = false;
-    while let Some(&c) = s.get(i) {
-        if !c.is_ascii_digit() {
-            break;
-        }
-        any = true;
-        if digits < 19 {
-            mant = mant * 10 + u64::from(c - b'0');
-            if mant != 0 {
-                digits += 1;
-            }
-        } else {
-            overflow = true;
-        }
-        i += 1;
-    }
-    if s.get(i) == Some(&b'.') {
-        i += 1;
-        while let Some(&c) = s.get(i) {
-            if !c.is_ascii_digit() {
-                break;
-            }
-            any = true;
-            if digits < 19 {
-                mant = mant * 10 + u64::from(c - b'0');
-                if mant != 0 {
-                    digits += 1;
-                }
-                exp10 -= 1;
-            } else {
-                overflow = true;
-            }
-            i += 1;
-        }
-    }
-    if !any {
-        return slow();
-    }
-    if let Some(&(b'e' | b'E')) = s.get(i) {
-        i += 1;
-        let eneg = match s.get(i) {
-            Some(b'-') => {
-                i += 1;
-                true
-            }
-            Some(b'+') => {
-                i += 1;
-                false
-            }
-            _ => false,
-        };
-        let start = i;
-        let mut e: i32 = 0;
-        while let Some(&c) = s.get(i) {
-            if !c.is_ascii_digit() || i - start >= 6 {
-                break;
-            }
-            e = e * 10 + i32::from(c - b'0');
-            i += 1;
-        }
-        if i == start {
-            return slow();
-        }
-        exp10 += if eneg { -e } else { e };
-    }
-    if i != s.len() || overflow || mant > (1u64 << 53) {
-        return slow();
-    }
-    let m = mant as f64;
-    let v = if exp10 == 0 {
-        m
-    } else if (1..=22).contains(&exp10) {
-        m * POW10[exp10 as usize]
-    } else if (-22..=-1).contains(&exp10) {
-        m / POW10[(-exp10) as usize]
-    } else if mant == 0 {
-        0.0
-    } else {
-        return slow();
-    };
-    Some(if neg { -v } else { v })
-}
-
 /// Parses an integer token; integral floating-point tokens (`4.0`, `1e3`)
 /// are accepted too.
 pub(crate) fn parse_i64(s: &[u8]) -> Option<i64> {
@@ -208,7 +99,7 @@ pub(crate) fn parse_i64(s: &[u8]) -> Option<i64> {
         }
         return Some(if neg { -v } else { v });
     }
-    let f = parse_f64(s)?;
+    let f = parse_decimal(s)?;
     if f.is_finite() && f.fract() == 0.0 && (-9.2e18..=9.2e18).contains(&f) {
         Some(f as i64)
     } else {
@@ -827,41 +718,6 @@ mod tests {
                 assert_eq!(a, vec![5], "{s:?}: nothing appended on error");
             }
         }
-    }
-
-    #[test]
-    fn fast_float_matches_std() {
-        for s in [
-            "0",
-            "-0",
-            "1",
-            "0.1",
-            "-2.5e-3",
-            "3.90799e-16",
-            "1e22",
-            "1e23",
-            "123456789012345678901",
-            "0.000123",
-            "1.7976931348623157e308",
-            "5e-324",
-            "2.2782070e-01",
-            "9007199254740993",
-            ".5",
-            "5.",
-            "+7",
-        ] {
-            let want: f64 = s.parse().unwrap();
-            assert_eq!(
-                parse_f64(s.as_bytes()).map(f64::to_bits),
-                Some(want.to_bits()),
-                "{s}"
-            );
-        }
-        assert!(parse_f64(b"nan").unwrap().is_nan());
-        assert_eq!(parse_f64(b"-inf"), Some(f64::NEG_INFINITY));
-        assert_eq!(parse_f64(b"1e"), None);
-        assert_eq!(parse_f64(b"abc"), None);
-        assert_eq!(parse_f64(b"-"), None);
     }
 
     #[test]

@@ -7,8 +7,8 @@
 
 use super::VtkReadError;
 use super::arrays::{Parts, UnstructuredArrays};
+use crate::grid::IjkLayout;
 use crate::grid::{Grid, Property, vtk_type};
-use crate::structures::cpgraph::IjkLayout;
 
 /// The (di, dj, dk) offset of each VTK hexahedron corner in its cell.
 const HEX_CORNER: [[usize; 3]; 8] = [

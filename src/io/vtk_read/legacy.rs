@@ -3,10 +3,11 @@
 
 use super::VtkReadError;
 use super::common::{
-    PolyFaces, Scalar, build_cells, decode_f64, decode_i64, decode_name, is_ws, parse_f64,
-    parse_i64, structured_cells, to_points,
+    PolyFaces, Scalar, build_cells, decode_f64, decode_i64, decode_name, is_ws, parse_i64,
+    structured_cells, to_points,
 };
 use crate::grid::{Grid, Property, Topology};
+use crate::io::number::parse_decimal;
 
 /// Byte cursor with whitespace-delimited tokens and raw binary reads.
 struct Lexer<'a> {
@@ -235,7 +236,7 @@ impl<'a> Parser<'a> {
             let Some((p, t)) = self.lx.token() else {
                 return Err(self.count_err(hdr, format!("{what}: values"), n, i));
             };
-            match parse_f64(t) {
+            match parse_decimal(t) {
                 Some(x) => v.push(x),
                 None if looks_like_keyword(t) => {
                     return Err(self.count_err(hdr, format!("{what}: values"), n, i));

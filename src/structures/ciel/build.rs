@@ -26,9 +26,10 @@ use super::{
     NONE, VERTEX_MASK, structured_as_cells,
 };
 use crate::grid::{Cells, Grid, Topology, is_lower_dimensional, vtk_type};
+use crate::mem::split_lengths;
 use crate::mem::try_filled;
 use crate::metacell::{Catalog, VOXEL_TO_HEX, builtin};
-use crate::structures::common::{CellClass, classify_cell, is_sweepable, split_lengths};
+use crate::structures::common::{CellClass, classify_cell, is_sweepable};
 use crate::structures::polyhedron::{Scratch, check_cell, parse_faces_into};
 
 /// Cells per parallel task of the per-cell phase.

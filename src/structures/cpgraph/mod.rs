@@ -57,15 +57,9 @@ impl Divisor {
     }
 }
 
-/// Where the cells of a corner-point grid sit in its IJK box: what
-/// [`crate::cornerpoint::CornerPointGrid::into_grid`] reports.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct IjkLayout {
-    /// Cells along I, J, K.
-    pub dims: [usize; 3],
-    /// Per grid cell, its IJK index `i + nx·(j + ny·k)` (increasing).
-    pub source_cell: Vec<u32>,
-}
+/// The IJK layout a CP-Graph is built on: part of the grid model
+/// ([`crate::grid::IjkLayout`]), named here too for the graph's users.
+pub use crate::grid::IjkLayout;
 
 /// Counts found while building a [`CpGraph`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

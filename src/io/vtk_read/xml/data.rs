@@ -3,8 +3,9 @@
 
 use super::scan::Elem;
 use super::{Ctx, LZMA_MEMLIMIT, VtkReadError, label, tokens};
+use crate::io::number::parse_decimal;
 use crate::io::vtk_read::common::{
-    Scalar, decode_f64, decode_i64, decode_u32_ids, is_ws, parse_f64, parse_i64,
+    Scalar, decode_f64, decode_i64, decode_u32_ids, is_ws, parse_i64,
 };
 use std::borrow::Cow;
 use std::io::Read;
@@ -365,7 +366,7 @@ impl<'a> Ctx<'a, '_> {
         let e = self.el(i);
         let ty = self.scalar(e)?;
         match self.payload(e)? {
-            Payload::Text(t) => self.text_values(e, &t, parse_f64, "number"),
+            Payload::Text(t) => self.text_values(e, &t, parse_decimal, "number"),
             Payload::Bytes(b) => {
                 self.check_bytes(e, &b, ty)?;
                 decode_f64(&b, ty, self.big, 0, "the decoded values")
