@@ -18,6 +18,7 @@ pub mod grid_parts;
 pub mod host_slices;
 pub mod ijk_field;
 pub mod iso_cache;
+pub mod legend;
 pub mod offscreen;
 pub mod outline;
 pub mod pre_pass;

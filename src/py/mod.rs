@@ -223,7 +223,7 @@ fn faulted_corners<'py>(
 /// The GPU adapters wgpu finds: dicts of `name`, `backend`, `device_type`.
 #[pyfunction]
 fn adapters(py: Python<'_>) -> PyResult<Vec<Py<PyDict>>> {
-    let list = py.detach(render::list_adapters);
+    let list = py.detach(crate::policy::device::adapters);
     list.into_iter()
         .map(|a| {
             let d = PyDict::new(py);
