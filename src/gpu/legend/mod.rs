@@ -86,9 +86,10 @@ pub fn paint(img: &mut Image, l: &Legend) {
     let ink = gray(20);
     c.fill_rounded(card, RADIUS, [1.0, 1.0, 1.0, 235.0 / 255.0]);
     c.stroke_rounded_inside(card, RADIUS, 1.0, gray(120));
+    let title = elide(l.title, TITLE_SIZE, card.width() - 16.0);
     put_text(
         &mut c,
-        l.title,
+        &title,
         TITLE_SIZE,
         (card.x0 + 8.0, card.y0 + 5.0),
         0.0,
@@ -138,6 +139,23 @@ fn q8(c: Rgba) -> Rgba {
     c.map(|x| (x * 255.0).round() / 255.0)
 }
 
+/// `s`, cut and ended with an ellipsis when wider than `width` pixels at `size`.
+fn elide(s: &str, size: f32, width: f32) -> String {
+    let fits = |t: &str| text::layout(t, size).is_none_or(|l| l.width <= width);
+    if fits(s) {
+        return s.to_owned();
+    }
+    let mut cut: Vec<char> = s.chars().collect();
+    while !cut.is_empty() {
+        cut.pop();
+        let t: String = cut.iter().collect::<String>().trim_end().to_owned() + "…";
+        if fits(&t) {
+            return t;
+        }
+    }
+    "…".into()
+}
+
 /// Draws `s` at `size` with its top edge at `at.1` and the point `anchor`
 /// (0 left, 0.5 centre, 1 right) of its width at `at.0`, on whole pixels.
 fn put_text(c: &mut Canvas, s: &str, size: f32, at: (f32, f32), anchor: f32, ink: Rgba) {
@@ -177,3 +195,6 @@ pub fn legend_onto(
     paint(&mut img, &legend);
     Ok(img)
 }
+
+#[cfg(test)]
+mod tests;
