@@ -23,6 +23,7 @@ pub mod mem;
 pub mod mesh;
 pub mod metacell;
 pub mod pipeline;
+pub mod policy;
 pub mod properties;
 #[cfg(feature = "python")]
 pub mod py;

@@ -266,7 +266,7 @@ pub(crate) fn bench_load(a: &BenchArgs) -> Result<()> {
     let s = if a.skip_build {
         None
     } else {
-        let ijk = stratasweep::structures::cpgraph::IjkLayout {
+        let ijk = stratasweep::grid::IjkLayout {
             dims: cells_dims,
             source_cell: rep.source_cell.clone(),
         };

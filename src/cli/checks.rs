@@ -1,6 +1,6 @@
 //! The CLI's checks on its arguments, made before any file is read or
 //! written: the library's limits ([`stratasweep::limits`]: levels,
-//! threads, render slices, image sizes, frames, repeats) with each error
+//! threads, frames, repeats; render options are the policy's) with each error
 //! naming the flag, output extensions, and output paths against input
 //! paths (`io::guard`).
 
@@ -9,6 +9,30 @@ use std::path::{Path, PathBuf};
 use anyhow::{Result, bail};
 use stratasweep::io::guard::{Named, check_outputs, known_inputs};
 use stratasweep::limits::{self, LimitError};
+use stratasweep::policy::{Opt, PolicyError, Spelling, Value};
+
+/// The CLI's spelling of the policy's options: `--z-scale`, `--mode iso`,
+/// `-o` for the mesh output.
+pub struct Flags;
+
+impl Spelling for Flags {
+    fn spell(&self, opt: Opt, value: Option<&Value>) -> String {
+        let flag = match opt {
+            Opt::Mesh => "-o".to_string(),
+            o => format!("--{}", o.name().replace('_', "-")),
+        };
+        match value {
+            None | Some(Value::Bool(true)) => flag,
+            Some(Value::Word(w)) => format!("{flag} {w}"),
+            Some(Value::Bool(false)) => format!("leave out {flag}"),
+        }
+    }
+}
+
+/// A refusal of the policy in the CLI's words.
+pub fn policy_error(e: PolicyError) -> anyhow::Error {
+    anyhow::anyhow!(e.spelled(&Flags))
+}
 
 /// The library's limit error with the argument called by its flag.
 pub fn flag(name: &str) -> impl Fn(LimitError) -> anyhow::Error + '_ {
@@ -49,13 +73,6 @@ pub fn values_levels(s: &str) -> Result<Vec<f64>> {
         );
     }
     Ok(v)
-}
-
-/// Refuses more than [`limits::MAX_RENDER_SLICES`] or zero render slices
-/// (`--slices`).
-pub fn check_slices(n: usize) -> Result<()> {
-    limits::check_slices(n).map_err(flag("--slices"))?;
-    Ok(())
 }
 
 /// The lower-case extension of `path`, if it is one of `allowed`, else an

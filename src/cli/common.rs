@@ -14,9 +14,9 @@ use std::time::Instant;
 use stratasweep::field::FieldSpec;
 use stratasweep::generate;
 use stratasweep::grid::Grid;
+use stratasweep::grid::IjkLayout;
 use stratasweep::io;
 use stratasweep::pipeline::LevelSpec;
-use stratasweep::structures::cpgraph::IjkLayout;
 use stratasweep::structures::{Structure, StructureChoice};
 use stratasweep::sweep::SweepOptions;
 

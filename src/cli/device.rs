@@ -6,13 +6,13 @@ use stratasweep::gpu::compute::slice::Emitter;
 use stratasweep::gpu::compute::slice::slice_on;
 use stratasweep::gpu::context::ContextOptions;
 use stratasweep::gpu::context::GpuContext;
-use stratasweep::gpu::context::GpuError;
 use stratasweep::grid::Grid;
 use stratasweep::pipeline::SliceRequest;
 use stratasweep::pipeline::SliceResult;
+use stratasweep::policy::device::{Device, falls_back};
 use stratasweep::structures::Structure;
 
-/// Where polygons are generated.
+/// `--device`: where polygons are generated.
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
 pub(crate) enum DeviceArg {
     /// The CPU sweep emits the polygons.
@@ -21,6 +21,16 @@ pub(crate) enum DeviceArg {
     Gpu,
     /// The GPU when an adapter exists, else the CPU.
     Auto,
+}
+
+impl From<DeviceArg> for Device {
+    fn from(d: DeviceArg) -> Self {
+        match d {
+            DeviceArg::Cpu => Device::Cpu,
+            DeviceArg::Gpu => Device::Gpu,
+            DeviceArg::Auto => Device::Auto,
+        }
+    }
 }
 
 /// The backends `WGPU_BACKEND` may name (a comma-separated list), with
@@ -104,9 +114,10 @@ pub(crate) fn open(adapter: &Option<String>, quiet: bool) -> Result<GpuContext> 
     Ok(ctx)
 }
 
-/// `slice --device`: `None` means "run the CPU path" (cpu, or auto without adapter).
+/// `slice --device` (as the policy chose it): `None` means "run the CPU
+/// path" (cpu, or auto without an adapter).
 pub(crate) fn slice_gpu(
-    device: DeviceArg,
+    device: Device,
     adapter: &Option<String>,
     grid: &Grid,
     s: &Structure,
@@ -114,13 +125,13 @@ pub(crate) fn slice_gpu(
     quiet: bool,
 ) -> Result<Option<SliceResult>> {
     let ctx = match device {
-        DeviceArg::Cpu => return Ok(None),
-        DeviceArg::Gpu => {
+        Device::Cpu => return Ok(None),
+        Device::Gpu => {
             open(adapter, quiet).context("--device gpu (--device cpu slices on the CPU)")?
         }
-        DeviceArg::Auto => match open(adapter, quiet) {
+        Device::Auto => match open(adapter, quiet) {
             Ok(c) => c,
-            Err(e) if matches!(e.downcast_ref(), Some(GpuError::NoAdapter { .. })) => {
+            Err(e) if e.downcast_ref().is_some_and(|g| falls_back(device, g)) => {
                 if !quiet {
                     eprintln!("--device auto: {e}\n  falling back to the CPU path");
                 }

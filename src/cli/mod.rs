@@ -7,7 +7,6 @@ mod device;
 mod generate;
 mod info;
 mod render;
-mod render_checks;
 mod scene_args;
 mod slice;
 mod view;

@@ -1,19 +1,21 @@
 //! `stratasweep render`: volume rendering, slices and isosurfaces to PNG.
+//! The flags become the library's render request; the policy
+//! ([`stratasweep::policy::render`]) validates it, checks it against the
+//! loaded grid and draws it; this command loads, prints and writes.
 
-use super::checks::{self as cli_checks, Outputs};
+use super::checks::{self as cli_checks, Flags, Outputs, policy_error};
 use super::common::*;
 use super::device::*;
-use super::scene_args::SceneArgs;
+use super::scene_args::{SceneArgs, print_z_scale};
 use anyhow::Context;
 use anyhow::Result;
-use anyhow::bail;
 use clap::Args;
 use std::path::PathBuf;
 use std::time::Instant;
 use stratasweep::gpu::render::Mode;
 use stratasweep::gpu::render::Renderer;
-use stratasweep::gpu::render::TransferSource;
 use stratasweep::io::guard::Named;
+use stratasweep::policy::render::{Level, Target, blank_warning};
 use stratasweep::structures::StructureChoice;
 
 /// `stratasweep render`.
@@ -33,57 +35,47 @@ pub(crate) struct RenderArgs {
 
 /// `stratasweep render`.
 pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
-    cli_checks::check_slices(a.scene.slices)?;
+    let req = a.scene.request(Target::Image, a.legend)?;
     let outputs = Outputs::default().add("-o", Some(&a.output));
-    let transfer_file = matches!(
-        TransferSource::parse(&a.scene.transfer),
-        Ok(TransferSource::File(_))
-    )
-    .then(|| Named::new("the transfer function", &a.scene.transfer));
+    let transfer_file = req
+        .transfer
+        .file()
+        .map(|f| Named::new("the transfer function", f));
     outputs.check_before(a.input.grid.as_deref(), transfer_file.as_slice())?;
     cli_checks::output_ext("-o", &a.output, &["png"])?;
-    let mut o = a.scene.options()?;
-    super::render_checks::check_mode_flags(&o, &a.scene)?;
-    if a.scene.cells.is_none() {
-        // The same PNG bits on every run (see `--cells`).
-        o.cells = stratasweep::gpu::render::CellFinding::Sweep;
-    }
-    if o.mode == Mode::Iso && o.iso.is_empty() {
-        bail!("--mode iso needs --iso VALUES (comma-separated)");
-    }
+    let plan = req.resolve().map_err(policy_error)?;
+    let o = &plan.options;
     let (grid, name, _, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
-    let z_scale = a.scene.z_scale(&grid, quiet);
+    let z_scale = print_z_scale(plan.z_scale(&grid), &grid, quiet);
     // Corner-point input keeps its IJK lattice: Auto then picks the
     // corner-point graph, as `slice` does (faster to build and sweep than
     // the CGraph, the same slices), and pre-integrated slabs march its
     // cells in index space.
     let s = build_structure(&grid, StructureChoice::Auto, ijk.as_ref(), &name, quiet)?;
     s.cell_notes().iter().for_each(|n| eprintln!("note: {n}"));
-    super::render_checks::check_before(&grid, &o, &a.scene)?;
+    for n in plan.check_grid(&grid).map_err(policy_error)? {
+        let level = match n.level {
+            Level::Warning => "warning",
+            Level::Note => "note",
+        };
+        eprintln!("{level}: {}", n.text.spelled(&Flags));
+    }
     let ctx = open(&a.scene.adapter, quiet)?;
     let mut r = Renderer::new(&ctx).map_err(|e| match backend_chosen() {
         Some(hint) => anyhow::Error::new(e).context(hint),
         None => e.into(),
     })?;
-    r.set_preintegrated(a.scene.preintegrated);
     let t = Instant::now();
-    let img = r.render_exaggerated(&grid, &s, &o, z_scale)?;
-    let img = if a.legend {
-        super::view::legend_onto(&ctx, &r, &grid, &o, img)?
-    } else {
-        img
-    };
+    let drawn = plan.draw(&mut r, &grid, &s, z_scale)?;
     let secs = t.elapsed().as_secs_f64();
-    if let Some(why) = pre_fallback(&r, &grid, &o) {
+    if let Some(why) = &drawn.fallback {
         eprintln!("note: pre-integrated slabs without the index-space field ({why})");
     }
-    if super::render_checks::is_blank(&img) {
-        eprintln!(
-            "warning: nothing was drawn: every pixel of {} is the background (check --property, --transfer, --iso and --view-dir)",
-            a.output.display()
-        );
+    if drawn.blank {
+        let w = blank_warning(&a.output.display().to_string());
+        eprintln!("warning: {}", w.spelled(&Flags));
     }
-    stratasweep::io::atomic::write_bytes(&a.output, &img.png()?)
+    stratasweep::io::atomic::write_bytes(&a.output, &drawn.image.png()?)
         .with_context(|| format!("cannot write {}", a.output.display()))?;
     if !quiet {
         let what = match o.mode {
@@ -96,27 +88,9 @@ pub(crate) fn cmd_render(a: RenderArgs, quiet: bool) -> Result<()> {
             o.size.0,
             o.size.1,
             secs,
-            r.dispatches(),
+            drawn.dispatches,
             a.output.display()
         );
     }
     Ok(())
-}
-
-/// Why a pre-integrated volume frame did not march the property in index
-/// space (the slices' reason), if it did not.
-fn pre_fallback(
-    r: &Renderer,
-    grid: &stratasweep::grid::Grid,
-    o: &stratasweep::gpu::render::RenderOptions,
-) -> Option<String> {
-    use stratasweep::gpu::render::{camera::slicing_axis, slice_cache::slice_key};
-    if !r.preintegrated() || o.mode != Mode::Volume {
-        return None;
-    }
-    let d = glam::Vec3::from_array(o.view_dir.map(|c| c as f32)).normalize();
-    let k = slice_key(grid, o, slicing_axis(d))
-        .ok()?
-        .with_attr_gradient();
-    r.slices(&k.key)?.field_fallback.clone()
 }

@@ -1,13 +1,15 @@
-//! The options that `render` and `view` share (what to draw and how), and
-//! their conversion to the library's `RenderOptions`; the default vertical
-//! exaggeration is chosen and printed here.
+//! The options that `render` and `view` share (what to draw and how),
+//! parsed into the library's [`RenderRequest`]; the policy
+//! ([`stratasweep::policy::render`]) makes every choice, and the default
+//! vertical exaggeration it picks is printed here.
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 
-use stratasweep::gpu::render::camera::default_z_scale;
-use stratasweep::gpu::render::{CellFinding, Mode, RenderOptions};
+use stratasweep::gpu::render::{CellFinding, Mode};
 use stratasweep::grid::Grid;
+use stratasweep::policy::render::{Background, RenderPlan, RenderRequest, Target, ZScale};
+use stratasweep::policy::transfer::TransferChoice;
 
 use super::parse_triplet;
 
@@ -101,108 +103,84 @@ pub struct SceneArgs {
     pub cells: Option<CellsArg>,
 }
 
-/// `--size WxH`, each side at most [`stratasweep::limits::MAX_IMAGE_SIDE`].
-pub fn parse_size(s: &str) -> Result<(u32, u32)> {
+/// `--size WxH`: the two sides as numbers (their range is the policy's).
+pub fn parse_size(s: &str) -> Result<(i128, i128)> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .with_context(|| format!("--size '{s}': expected WxH, e.g. 800x600"))?;
     let max = stratasweep::limits::MAX_IMAGE_SIDE;
-    let side = |x: &str| {
-        x.trim()
-            .parse::<u64>()
-            .ok()
-            .filter(|&v| v >= 1 && v <= max as u64)
-    };
+    let side = |x: &str| x.trim().parse::<i128>().ok();
     let (Some(w), Some(h)) = (side(w), side(h)) else {
         bail!(
             "--size '{s}': each side must be a whole number in 1..={max} (the limit of the image side)"
         );
     };
-    Ok((w as u32, h as u32))
-}
-
-/// `--background R,G,B,A` or `transparent`.
-pub fn parse_background(s: &str) -> Result<Option<[f32; 4]>> {
-    if s.eq_ignore_ascii_case("transparent") {
-        return Ok(None);
-    }
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--background '{s}': expected R,G,B,A or transparent"))?;
-    if v.len() != 4 || v.iter().any(|c| !(0.0..=1.0).contains(c)) {
-        bail!("--background '{s}': expected four values in [0, 1] (R,G,B,A) or transparent");
-    }
-    Ok(Some([v[0], v[1], v[2], v[3]]))
+    Ok((w, h))
 }
 
 impl SceneArgs {
-    /// The library's options (checked before the grid is loaded).
-    pub fn options(&self) -> Result<RenderOptions> {
-        let view = parse_triplet(&self.view_dir, "--view-dir")?;
+    /// The request these flags make (their syntax checked here, every
+    /// choice in [`RenderRequest::resolve`]).
+    pub fn request(&self, target: Target, legend: bool) -> Result<RenderRequest> {
+        let view_dir = parse_triplet(&self.view_dir, "--view-dir")?;
         let up = self
             .up
             .as_deref()
             .map(|u| parse_triplet(u, "--up"))
             .transpose()?;
-        let size = parse_size(&self.size)?;
-        let background = parse_background(&self.background)?;
-        let (transfer, colormap) = super::render_checks::read_transfer(&self.transfer)?;
-        let mode = match self.mode {
-            ModeArg::Volume => Mode::Volume,
-            ModeArg::Slices => Mode::Slices,
-            ModeArg::Iso => Mode::Iso,
-        };
-        if mode == Mode::Iso && self.iso.is_empty() {
-            bail!("--mode iso needs --iso VALUES (comma-separated)");
-        }
-        stratasweep::limits::check_isovalues(self.iso.len())
-            .map_err(crate::cli::checks::flag("--iso"))?;
-        if let Some(z) = self.z_scale
-            && !(z.is_finite() && z > 0.0)
-        {
-            bail!("--z-scale {z}: must be a positive number");
-        }
-        Ok(RenderOptions {
+        Ok(RenderRequest {
             property: self.property.clone(),
-            slices: self.slices,
-            view_dir: view,
+            slices: self.slices as i128,
+            view_dir,
             up,
             perspective: self.projection == ProjectionArg::Perspective,
-            transfer,
-            colormap,
+            transfer: TransferChoice::Named(self.transfer.clone()),
             unit_distance: self.unit_distance,
-            background,
-            size,
-            mode,
-            iso: self.iso.clone(),
-            cells: match self.cells {
-                None | Some(CellsArg::Auto) => CellFinding::Auto,
-                Some(CellsArg::Sweep) => CellFinding::Sweep,
-                Some(CellsArg::Gpu) => CellFinding::Gpu,
+            background: Background::Text(self.background.clone()),
+            size: parse_size(&self.size)?,
+            mode: match self.mode {
+                ModeArg::Volume => Mode::Volume,
+                ModeArg::Slices => Mode::Slices,
+                ModeArg::Iso => Mode::Iso,
             },
+            iso: self.iso.clone(),
+            z_scale: self.z_scale,
+            preintegrated: self.preintegrated,
+            cells: self.cells.map(|c| match c {
+                CellsArg::Auto => CellFinding::Auto,
+                CellsArg::Sweep => CellFinding::Sweep,
+                CellsArg::Gpu => CellFinding::Gpu,
+            }),
+            legend,
+            target,
         })
     }
 
-    /// `--z-scale`, or the default for the grid's bounding box; printed
-    /// unless quiet.
-    pub fn z_scale(&self, grid: &Grid, quiet: bool) -> f64 {
-        let (lo, hi) = grid.bounds();
-        let (z, how) = match self.z_scale {
-            Some(z) => (z, "--z-scale"),
-            None => (default_z_scale(lo, hi), "default for this grid's extents"),
-        };
-        if !quiet {
-            eprintln!(
-                "z-scale {z} ({how}; box {:.4} x {:.4} x {:.4})",
-                hi[0] - lo[0],
-                hi[1] - lo[1],
-                hi[2] - lo[2]
-            );
-        }
-        z
+    /// The validated plan of these flags.
+    pub fn plan(&self, target: Target, legend: bool) -> Result<RenderPlan> {
+        self.request(target, legend)?
+            .resolve()
+            .map_err(super::checks::policy_error)
     }
+}
+
+/// Prints the vertical exaggeration `z` of `grid` unless quiet; returns it.
+pub fn print_z_scale(z: ZScale, grid: &Grid, quiet: bool) -> f64 {
+    let (lo, hi) = grid.bounds();
+    let how = match z.given {
+        true => "--z-scale",
+        false => "default for this grid's extents",
+    };
+    if !quiet {
+        eprintln!(
+            "z-scale {} ({how}; box {:.4} x {:.4} x {:.4})",
+            z.value,
+            hi[0] - lo[0],
+            hi[1] - lo[1],
+            hi[2] - lo[2]
+        );
+    }
+    z.value
 }
 
 /// `--ijk-clip I0:I1,J0:J1,K0:K1` → cell index ranges `lo..hi` per axis;

@@ -1,6 +1,6 @@
 //! `stratasweep slice`: slices and isosurfaces to PLY/VTP with statistics.
 
-use super::checks::{self as cli_checks, Outputs};
+use super::checks::{self as cli_checks, Outputs, policy_error};
 use super::common::*;
 use super::device::*;
 use anyhow::Context;
@@ -14,6 +14,7 @@ use stratasweep::io;
 use stratasweep::pipeline::LevelSpec;
 use stratasweep::pipeline::SliceRequest;
 use stratasweep::pipeline::slice;
+use stratasweep::policy::device::{slice_device, slice_device_on};
 use stratasweep::report::flatten_by_cell;
 use stratasweep::report::stats_json;
 use stratasweep::structures::Structure;
@@ -93,6 +94,8 @@ pub(crate) fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
         Some(o) => Some(cli_checks::output_ext("-o", o, &["ply", "vtp"])?),
         None => None,
     };
+    let device = slice_device(a.device.into(), a.output.is_some(), a.structure.into())
+        .map_err(policy_error)?;
     let (grid, name, load_s, _, ijk) = load_with_info(&a.input, quiet, &outputs)?;
     let t = Instant::now();
     let s = build_structure(&grid, a.structure.into(), ijk.as_ref(), &name, quiet)?;
@@ -121,24 +124,7 @@ pub(crate) fn cmd_slice(a: SliceArgs, quiet: bool) -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads)
         .build()?;
-    let device = match (a.device, &a.output, a.structure) {
-        (DeviceArg::Gpu, Some(_), _) => {
-            bail!("-o needs --device cpu: the GPU path gives statistics and draws, not mesh files")
-        }
-        (DeviceArg::Gpu, _, StructureArg::Bruteforce) => {
-            bail!("--structure bruteforce runs on the CPU only")
-        }
-        (_, Some(_), _) | (_, _, StructureArg::Bruteforce) => DeviceArg::Cpu,
-        // The GPU tables cover S-CGraph and CGraph grids; CIEL grids stay on the CPU.
-        (DeviceArg::Auto, _, _) if matches!(s, Structure::Ciel(_)) => DeviceArg::Cpu,
-        (DeviceArg::Gpu, _, _) if matches!(s, Structure::Ciel(_)) => {
-            bail!(
-                "the GPU path takes S-CGraph and CGraph grids; this grid needs CIEL \
-                 (polyhedra with more than 12 vertices): use --device cpu"
-            )
-        }
-        (d, None, _) => d,
-    };
+    let device = slice_device_on(device, &s).map_err(policy_error)?;
     let gpu = pool
         .install(|| slice_gpu(device, &a.adapter, &grid, &s, &req, quiet))
         .with_context(|| format!("cannot slice {name} on the GPU"))?;

@@ -10,7 +10,7 @@ use pyo3::prelude::*;
 use serde_json::Value;
 
 use crate::grid::Grid;
-use crate::structures::cpgraph::IjkLayout;
+use crate::grid::IjkLayout;
 use crate::structures::{Structure, StructureChoice};
 
 use super::errors::{invalid, value_error};

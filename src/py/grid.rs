@@ -145,12 +145,23 @@ impl PyGrid {
         slicing::slice(py, &self.data, args)
     }
 
+    /// The vertical exaggeration `render` uses when given no `z_scale`
+    /// (the CLI's default: 1 for grids at least a quarter as high as
+    /// wide, else 2, 5, 10, 20, ...).
+    #[getter]
+    fn default_z_scale(&self) -> f64 {
+        crate::policy::render::grid_z_scale(&self.data.grid)
+    }
+
     /// Volume-renders (or draws isosurfaces of) the grid into an
-    /// `(H, W, 4)` uint8 straight-RGBA array.
+    /// `(H, W, 4)` uint8 straight-RGBA array: every option of the CLI's
+    /// `render`, with its defaults and errors (`output`: also write the
+    /// PNG, as `render -o`).
     #[pyo3(signature = (property=None, slices=200, view_dir=(-1.0, -0.6, -0.8), up=None,
                         projection="ortho", transfer=None, unit_distance=None,
                         background=None, size=(800, 600), mode="volume", iso=None,
-                        adapter=None, device="auto"))]
+                        z_scale=None, preintegrated=false, cells=None, legend=false,
+                        adapter=None, device="auto", output=None))]
     // The keyword arguments are the Python API (one per render option);
     // the body hands them on as one `RenderArgs`.
     #[allow(clippy::too_many_arguments)]
@@ -168,8 +179,13 @@ impl PyGrid {
         size: (i64, i64),
         mode: &str,
         iso: Option<Vec<f64>>,
+        z_scale: Option<f64>,
+        preintegrated: bool,
+        cells: Option<String>,
+        legend: bool,
         adapter: Option<String>,
         device: &str,
+        output: Option<std::path::PathBuf>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let args = RenderArgs {
             property,
@@ -183,8 +199,13 @@ impl PyGrid {
             size,
             mode: mode.to_string(),
             iso: iso.unwrap_or_default(),
+            z_scale,
+            preintegrated,
+            cells,
+            legend,
             adapter,
             device: device.to_string(),
+            output,
         };
         render(py, &self.data, args)
     }

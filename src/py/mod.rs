@@ -21,7 +21,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::grid::Grid;
-use crate::structures::cpgraph::IjkLayout;
+use crate::grid::IjkLayout;
 
 pub use data::GridData;
 pub use errors::{guard, invalid, value_error};
@@ -223,7 +223,7 @@ fn faulted_corners<'py>(
 /// The GPU adapters wgpu finds: dicts of `name`, `backend`, `device_type`.
 #[pyfunction]
 fn adapters(py: Python<'_>) -> PyResult<Vec<Py<PyDict>>> {
-    let list = py.detach(render::list_adapters);
+    let list = py.detach(crate::policy::device::adapters);
     list.into_iter()
         .map(|a| {
             let d = PyDict::new(py);

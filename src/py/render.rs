@@ -1,7 +1,13 @@
-//! `Grid.render`: the offscreen renderer on an adapter chosen by `device`
-//! (`auto`: the best adapter, real GPUs before software rasterisers;
-//! `gpu`: a hardware adapter only; `cpu`: a software rasteriser only, e.g.
-//! Mesa's llvmpipe), returning straight RGBA as an `(H, W, 4)` array.
+//! `Grid.render`: Python's keywords parsed into the library's render
+//! request ([`crate::policy::render::RenderRequest`]), which the policy
+//! validates, checks against the grid and draws as it does for the CLI's
+//! `render` (the same defaults, limits, errors and image bits). The
+//! adapter is chosen by `device` (`auto`: the best adapter, real GPUs
+//! before software rasterisers; `gpu`: a hardware adapter only; `cpu`: a
+//! software rasteriser only, e.g. Mesa's llvmpipe). Returns straight RGBA
+//! as an `(H, W, 4)` array, and writes it as a PNG when given `output`.
+
+use std::path::PathBuf;
 
 use numpy::IntoPyArray;
 use numpy::ndarray::Array3;
@@ -9,40 +15,19 @@ use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
 
 use crate::gpu::context::{ContextOptions, GpuContext};
-use crate::gpu::render::checks::check_options;
-use crate::gpu::render::{
-    CellFinding, Mode, RenderError, RenderOptions, Renderer, Transfer, TransferSource,
+use crate::gpu::render::{RenderError, Renderer};
+use crate::policy::device::{DEVICES, Device, adapters, render_adapter};
+use crate::policy::render::{
+    Background, CELLS, Level, MODES, PROJECTIONS, RenderRequest, Target, blank_warning, word,
 };
+use crate::policy::transfer::TransferChoice;
+use crate::policy::{PolicyError, Refusal};
 use crate::structures::StructureChoice;
 
 use super::data::GridData;
-use super::errors::{gpu_error, guard, invalid, runtime, value_error};
-use super::interrupt::{interruptible, limit_error};
+use super::errors::{gpu_error, guard, invalid, os_error, runtime, value_error};
+use super::interrupt::interruptible;
 use crate::cancel::Cancel;
-use crate::limits;
-
-/// An adapter as wgpu lists it.
-pub struct AdapterInfo {
-    /// Name with backend, as `GpuContext` names it.
-    pub name: String,
-    /// Backend (`Vulkan`, `Gl`, ...).
-    pub backend: String,
-    /// `DiscreteGpu`, `IntegratedGpu`, `VirtualGpu`, `Cpu` or `Other`.
-    pub device_type: String,
-}
-
-/// The adapters a render would choose among: the primary backends', or
-/// GL's when they have none.
-pub fn list_adapters() -> Vec<AdapterInfo> {
-    crate::gpu::context::list_adapters(None)
-        .into_iter()
-        .map(|i| AdapterInfo {
-            name: format!("{} ({:?})", i.name, i.backend),
-            backend: format!("{:?}", i.backend),
-            device_type: format!("{:?}", i.device_type),
-        })
-        .collect()
-}
 
 /// The arguments of `Grid.render`, as Python gave them.
 pub struct RenderArgs<'a, 'py> {
@@ -60,7 +45,7 @@ pub struct RenderArgs<'a, 'py> {
     pub transfer: Option<&'a Bound<'py, PyAny>>,
     /// Unit distance of the opacities.
     pub unit_distance: Option<f64>,
-    /// `(r, g, b, a)` in [0, 1] or `"transparent"`.
+    /// `(r, g, b, a)` in [0, 1], `"r,g,b,a"` or `"transparent"`.
     pub background: Option<&'a Bound<'py, PyAny>>,
     /// `(width, height)`.
     pub size: (i64, i64),
@@ -68,104 +53,94 @@ pub struct RenderArgs<'a, 'py> {
     pub mode: String,
     /// Isovalues.
     pub iso: Vec<f64>,
+    /// Vertical exaggeration (`None`: the grid's default).
+    pub z_scale: Option<f64>,
+    /// Pre-integrated volume rendering.
+    pub preintegrated: bool,
+    /// `auto`, `sweep` or `gpu` (`None`: the sweep).
+    pub cells: Option<String>,
+    /// Draw the colour legend.
+    pub legend: bool,
     /// Adapter name substring.
     pub adapter: Option<String>,
     /// `auto`, `gpu` or `cpu`.
     pub device: String,
+    /// PNG to write.
+    pub output: Option<PathBuf>,
 }
 
-/// The transfer function of `transfer=`: a colormap name, a path ending
-/// in `.json`, or a dict `{"points": [...]}` (anything else refused, as on
-/// the command line).
-fn transfer_of(t: Option<&Bound<'_, PyAny>>) -> PyResult<(Option<Transfer>, String)> {
+/// A refusal of the policy as a Python exception: a file that cannot be
+/// read `OSError`, no adapter of the kind asked for and GPU faults
+/// `RuntimeError`, anything else `ValueError`; options named by their
+/// keywords.
+pub fn policy_error(e: PolicyError) -> PyErr {
+    let text = e.to_string();
+    match &e.refusal {
+        Refusal::Read { source, .. } => os_error(text, source),
+        Refusal::Unavailable(_) | Refusal::Render(RenderError::Gpu(_)) => runtime(text),
+        _ => invalid(text),
+    }
+}
+
+/// `transfer=`: a colormap name or a path (`str` or path-like) as the CLI
+/// reads it, or a dict `{"points": [...]}` as JSON.
+fn transfer_of(t: Option<&Bound<'_, PyAny>>) -> PyResult<TransferChoice> {
     let Some(t) = t else {
-        return Ok((None, "viridis".into()));
+        return Ok(TransferChoice::default());
     };
     if let Ok(s) = t.extract::<String>() {
-        let path = match TransferSource::parse(&s).map_err(|e| value_error(&e))? {
-            TransferSource::Colormap(name) => return Ok((None, name)),
-            TransferSource::File(path) => path,
-        };
-        let text = std::fs::read(&path).map_err(|e| {
-            super::errors::os_error(format!("cannot read the transfer function {path}: {e}"), &e)
-        })?;
-        let text = String::from_utf8_lossy(&text);
-        let tf = Transfer::from_json(&text).map_err(|e| invalid(format!("in {path}: {e}")))?;
-        return Ok((Some(tf), String::new()));
+        return Ok(TransferChoice::Named(s));
+    }
+    if t.hasattr("__fspath__")? {
+        let p: PathBuf = t.extract()?;
+        return Ok(TransferChoice::Named(p.display().to_string()));
     }
     let text: String = t
         .py()
         .import("json")?
         .call_method1("dumps", (t,))?
         .extract()?;
-    let tf = Transfer::from_json(&text).map_err(|e| value_error(&e))?;
-    Ok((Some(tf), String::new()))
+    Ok(TransferChoice::Json(text))
 }
 
-fn background_of(b: Option<&Bound<'_, PyAny>>) -> PyResult<Option<[f32; 4]>> {
-    let Some(b) = b else {
-        return Ok(Some([1.0; 4]));
-    };
-    if let Ok(s) = b.extract::<String>() {
-        if s.eq_ignore_ascii_case("transparent") {
-            return Ok(None);
-        }
-        return Err(invalid(format!(
-            "background '{s}': expected (r, g, b, a) in [0, 1] or 'transparent'"
-        )));
+/// `background=`: text as the CLI reads it, or a sequence of numbers.
+fn background_of(b: Option<&Bound<'_, PyAny>>) -> PyResult<Background> {
+    match b {
+        None => Ok(RenderRequest::default().background),
+        Some(b) => match b.extract::<String>() {
+            Ok(s) => Ok(Background::Text(s)),
+            Err(_) => Ok(Background::Values(b.extract()?)),
+        },
     }
-    let v: Vec<f32> = b.extract()?;
-    if v.len() != 4 || v.iter().any(|c| !(0.0..=1.0).contains(c)) {
-        return Err(invalid(format!(
-            "background {v:?}: expected four values in [0, 1] (r, g, b, a) or 'transparent'"
-        )));
-    }
-    Ok(Some([v[0], v[1], v[2], v[3]]))
 }
 
-/// The adapter name to ask for: `device` narrows the choice to hardware
-/// (`gpu`) or software (`cpu`) adapters; `auto` leaves it to `GpuContext`.
-fn adapter_for(device: &str, adapter: Option<String>) -> PyResult<Option<String>> {
-    let want_software = match device {
-        "auto" => return Ok(adapter),
-        "gpu" => false,
-        "cpu" => true,
-        _ => {
-            return Err(invalid(format!(
-                "device '{device}': expected 'auto', 'gpu' or 'cpu'"
-            )));
-        }
-    };
-    let all = list_adapters();
-    let found = all.iter().find(|a| {
-        (a.device_type == "Cpu") == want_software
-            && adapter
-                .as_ref()
-                .is_none_or(|w| a.name.to_lowercase().contains(&w.to_lowercase()))
-    });
-    match found {
-        Some(a) => Ok(Some(a.name.clone())),
-        None => Err(runtime(format!(
-            "device='{device}': no {} adapter{} among [{}]; device='auto' takes any adapter{}",
-            if want_software {
-                "software (CPU)"
-            } else {
-                "hardware GPU"
-            },
-            adapter
-                .map(|w| format!(" matching '{w}'"))
-                .unwrap_or_default(),
-            all.iter()
-                .map(|a| format!("{} [{}]", a.name, a.device_type))
-                .collect::<Vec<_>>()
-                .join(", "),
-            if want_software {
-                " (install Mesa's software Vulkan: apt install mesa-vulkan-drivers)"
-            } else {
-                ""
-            },
-        ))),
-    }
+/// The request of `a` (keywords parsed; nothing decided).
+fn request_of(a: &RenderArgs<'_, '_>) -> PyResult<RenderRequest> {
+    let e = policy_error;
+    Ok(RenderRequest {
+        property: a.property.clone(),
+        slices: a.slices as i128,
+        view_dir: a.view_dir,
+        up: a.up,
+        perspective: word(crate::policy::Opt::Projection, &a.projection, &PROJECTIONS)
+            .map_err(e)?,
+        transfer: transfer_of(a.transfer)?,
+        unit_distance: a.unit_distance,
+        background: background_of(a.background)?,
+        size: (a.size.0 as i128, a.size.1 as i128),
+        mode: word(crate::policy::Opt::Mode, &a.mode, &MODES).map_err(e)?,
+        iso: a.iso.clone(),
+        z_scale: a.z_scale,
+        preintegrated: a.preintegrated,
+        cells: a
+            .cells
+            .as_deref()
+            .map(|c| word(crate::policy::Opt::Cells, c, &CELLS))
+            .transpose()
+            .map_err(e)?,
+        legend: a.legend,
+        target: Target::Image,
+    })
 }
 
 /// Renders on the GPU without the GIL.
@@ -174,63 +149,38 @@ pub fn render<'py>(
     data: &std::sync::Arc<GridData>,
     a: RenderArgs<'_, 'py>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let (transfer, colormap) = transfer_of(a.transfer)?;
-    let background = background_of(a.background)?;
-    let mode = match a.mode.as_str() {
-        "volume" => Mode::Volume,
-        "slices" => Mode::Slices,
-        "iso" => Mode::Iso,
-        m => {
-            return Err(invalid(format!(
-                "mode '{m}': expected 'volume', 'slices' or 'iso'"
-            )));
-        }
-    };
-    if mode == Mode::Iso && a.iso.is_empty() {
-        return Err(invalid("mode='iso' needs iso values"));
+    let plan = request_of(&a)?.resolve().map_err(policy_error)?;
+    let device = word(crate::policy::Opt::Device, &a.device, &DEVICES).map_err(policy_error)?;
+    if let Some(p) = &a.output
+        && p.extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            != Some("png".into())
+    {
+        return Err(invalid(format!(
+            "output {}: the image is written as .png",
+            p.display()
+        )));
     }
-    let perspective = match a.projection.as_str() {
-        "ortho" => false,
-        "perspective" => true,
-        p => {
-            return Err(invalid(format!(
-                "projection '{p}': expected 'ortho' or 'perspective'"
-            )));
-        }
+    let adapter = match device {
+        Device::Auto => a.adapter,
+        d => render_adapter(d, a.adapter, &py.detach(adapters)).map_err(policy_error)?,
     };
-    // The library's limits, as the CLI's `--slices`, `--size` and `--iso`.
-    let slices = limits::check_slices(a.slices).map_err(limit_error)?;
-    let (w, h) = (
-        limits::check_image_side(a.size.0).map_err(limit_error)?,
-        limits::check_image_side(a.size.1).map_err(limit_error)?,
-    );
-    limits::check_isovalues(a.iso.len()).map_err(limit_error)?;
-    let opts = RenderOptions {
-        property: a.property,
-        slices,
-        view_dir: a.view_dir,
-        up: a.up,
-        perspective,
-        transfer,
-        colormap,
-        unit_distance: a.unit_distance,
-        background,
-        size: (w, h),
-        mode,
-        iso: a.iso,
-        // The same image bits on every run, as the CLI's `render`.
-        cells: CellFinding::Sweep,
-    };
-    let adapter = adapter_for(&a.device, a.adapter)?;
+    let (w, h) = plan.options.size;
     let d = data.clone();
+    let output = a.output;
     // Ctrl-C stops the render between its slicing and its drawing.
     let cancel = Cancel::new();
     let token = cancel.clone();
     let (rgba, warnings) = interruptible(py, &cancel, move || {
         guard(|| {
-            // The CLI's checks: a transfer function that draws nothing is
-            // refused, one outside the data warned about.
-            let warnings = check_options(&d.grid, &opts, false).map_err(render_error)?;
+            let mut warnings: Vec<String> = plan
+                .check_grid(&d.grid)
+                .map_err(policy_error)?
+                .into_iter()
+                .filter(|n| n.level == Level::Warning)
+                .map(|n| n.text.to_string())
+                .collect();
             let b = d.structure(StructureChoice::Auto)?;
             let ctx = GpuContext::new(&ContextOptions {
                 adapter,
@@ -240,10 +190,19 @@ pub fn render<'py>(
             .map_err(|e| gpu_error(&e))?;
             let mut r = Renderer::new(&ctx).map_err(render_error)?;
             r.cancel = token;
-            let img = r
-                .render(&d.grid, &b.structure, &opts)
+            let z_scale = plan.z_scale(&d.grid).value;
+            let drawn = plan
+                .draw(&mut r, &d.grid, &b.structure, z_scale)
                 .map_err(render_error)?;
-            Ok((img.rgba8(), warnings))
+            if drawn.blank {
+                warnings.push(blank_warning("the image").to_string());
+            }
+            if let Some(p) = &output {
+                let png = drawn.image.png().map_err(render_error)?;
+                crate::io::atomic::write_bytes(p, &png)
+                    .map_err(|e| os_error(format!("cannot write {}: {e}", p.display()), &e))?;
+            }
+            Ok((drawn.image.rgba8(), warnings))
         })
     })?;
     for w in warnings {

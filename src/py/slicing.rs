@@ -1,9 +1,10 @@
 //! `Grid.slice`: its arguments (the CLI's rules: exactly one of axis,
 //! normal or property, exactly one of count or values) and the sweep,
-//! run without the GIL on the structure the grid keeps; `device` as the
-//! CLI's `slice --device` (`cpu`: the CPU sweep emits; `gpu`: the CPU sweep
-//! finds the cut cells and the GPU emits, statistics only; `auto`: the GPU
-//! when an adapter exists and the request allows it, else the CPU).
+//! run without the GIL on the structure the grid keeps; `device` chosen by
+//! the policy as for the CLI's `slice --device`
+//! ([`crate::policy::device`]: `cpu`: the CPU sweep emits; `gpu`: the CPU
+//! sweep finds the cut cells and the GPU emits, statistics only; `auto`:
+//! the GPU when an adapter exists and the request allows it, else the CPU).
 
 use std::sync::Arc;
 
@@ -11,10 +12,13 @@ use pyo3::prelude::*;
 
 use crate::cancel::Cancel;
 use crate::field::FieldSpec;
+use crate::gpu::context::{ContextOptions, GpuContext};
 use crate::gpu::compute::slice::{Emitter, GpuSliceError, slice_on};
-use crate::gpu::context::{ContextOptions, GpuContext, GpuError};
 use crate::limits;
 use crate::pipeline::{LevelSpec, SliceRequest, SliceResult, slice as sweep};
+use crate::policy::Opt;
+use crate::policy::device::{DEVICES, Device, falls_back, slice_device, slice_device_on};
+use crate::policy::render::word;
 use crate::report::{flatten_by_cell, stats_json};
 use crate::structures::{Structure, StructureChoice};
 use crate::sweep::SweepOptions;
@@ -22,6 +26,7 @@ use crate::sweep::SweepOptions;
 use super::data::GridData;
 use super::errors::{gpu_error, guard, invalid, runtime, value_error};
 use super::interrupt::{interruptible, limit_error, warn_all};
+use super::render::policy_error;
 use super::slices::{PySlices, SliceData};
 
 /// The arguments of `Grid.slice`, as Python gave them.
@@ -52,45 +57,9 @@ pub struct SliceArgs {
     pub adapter: Option<String>,
 }
 
-/// Where the polygons of `Grid.slice` are generated.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Device {
-    Cpu,
-    Gpu,
-    Auto,
-}
-
-/// Parses `device=` and checks it against the request, as the CLI does.
-fn device_of(device: &str, mesh: bool, choice: StructureChoice) -> PyResult<Device> {
-    let d = match device {
-        "cpu" => Device::Cpu,
-        "gpu" => Device::Gpu,
-        "auto" => Device::Auto,
-        _ => {
-            return Err(invalid(format!(
-                "device '{device}': expected 'cpu', 'gpu' or 'auto'"
-            )));
-        }
-    };
-    let bruteforce = choice == StructureChoice::BruteForce;
-    if d == Device::Gpu && mesh {
-        return Err(invalid(
-            "device='gpu' gives statistics, not polygons: pass mesh=False (or device='cpu')",
-        ));
-    }
-    if d == Device::Gpu && bruteforce {
-        return Err(invalid("structure='bruteforce' runs on the CPU only"));
-    }
-    Ok(if mesh || bruteforce { Device::Cpu } else { d })
-}
-
-/// The GPU to emit on: `None` runs the CPU path (`cpu`; `auto` without an
-/// adapter, or on a CIEL grid, which the GPU tables do not cover).
-fn open_gpu(
-    device: Device,
-    adapter: &Option<String>,
-    s: &Structure,
-) -> PyResult<Option<GpuContext>> {
+/// The GPU to emit on, for the device the policy chose on the built
+/// structure: `None` runs the CPU path (`cpu`; `auto` without an adapter).
+fn open_gpu(device: Device, adapter: &Option<String>) -> PyResult<Option<GpuContext>> {
     let opts = ContextOptions {
         adapter: adapter.clone(),
         limits: None,
@@ -98,11 +67,9 @@ fn open_gpu(
     };
     match device {
         Device::Cpu => Ok(None),
-        Device::Auto if matches!(s, Structure::Ciel(_)) => Ok(None),
-        Device::Gpu => GpuContext::new(&opts).map(Some).map_err(|e| gpu_error(&e)),
-        Device::Auto => match GpuContext::new(&opts) {
+        _ => match GpuContext::new(&opts) {
             Ok(c) => Ok(Some(c)),
-            Err(GpuError::NoAdapter { .. }) => Ok(None),
+            Err(e) if falls_back(device, &e) => Ok(None),
             Err(e) => Err(gpu_error(&e)),
         },
     }
@@ -213,7 +180,8 @@ pub fn slice(py: Python<'_>, d: &Arc<GridData>, a: SliceArgs) -> PyResult<PySlic
     let threads = limits::check_threads(a.threads.unwrap_or(1)).map_err(limit_error)?;
     let flat = flat_values(d, &a.at, a.attribute.as_deref().or(a.property.as_deref()))?;
     let mesh = a.mesh;
-    let device = device_of(&a.device, mesh, choice)?;
+    let device = word(Opt::Device, &a.device, &DEVICES).map_err(policy_error)?;
+    let device = slice_device(device, mesh, choice).map_err(policy_error)?;
     let cancel = Cancel::new();
     let adapter = a.adapter;
     let req = SliceRequest {
@@ -237,7 +205,8 @@ pub fn slice(py: Python<'_>, d: &Arc<GridData>, a: SliceArgs) -> PyResult<PySlic
                 .build()
                 .map_err(|e| value_error(&e))?;
             let noop = |_: usize| {};
-            let r = match open_gpu(device, &adapter, &b.structure)? {
+            let device = slice_device_on(device, &b.structure).map_err(policy_error)?;
+            let r = match open_gpu(device, &adapter)? {
                 Some(ctx) => pool.install(|| slice_gpu(&ctx, &d, &b.structure, &req))?,
                 None => pool
                     .install(|| sweep(&d.grid, &b.structure, &req, &noop))

@@ -20,6 +20,7 @@ pub use common::{
 };
 
 use crate::cellgraph::CellGraph;
+use crate::grid::IjkLayout;
 use crate::grid::{Grid, Topology};
 use cgraph::CGraph;
 use ciel::Ciel;
@@ -27,7 +28,7 @@ use convex_split::{
     Split, SplitMap, split_non_convex_and_twisted_cells, split_non_convex_and_twisted_pieces,
     split_non_convex_cells, split_non_convex_pieces,
 };
-use cpgraph::{CpGraph, IjkLayout};
+use cpgraph::CpGraph;
 use scgraph::SCGraph;
 
 /// Errors building a structure; every message names the cell or the

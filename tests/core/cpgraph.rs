@@ -11,8 +11,8 @@ use stratasweep::cornerpoint::CornerPointGrid;
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::{faulted, faulted_with_dip};
 use stratasweep::grid::Grid;
+use stratasweep::grid::IjkLayout;
 use stratasweep::pipeline::{SliceRequest, SliceResult};
-use stratasweep::structures::cpgraph::IjkLayout;
 use stratasweep::structures::{Structure, StructureChoice};
 
 /// The zoo grid of a corner-point grid and its IJK layout.

@@ -12,10 +12,10 @@ use stratasweep::cornerpoint::CornerPointGrid;
 use stratasweep::field::FieldSpec;
 use stratasweep::generate::faulted_with_dip;
 
+use stratasweep::grid::IjkLayout;
 use stratasweep::grid::{GHOST_HIDDEN_CELL, Grid, Property, Topology};
 use stratasweep::io::vtk_read::{UnstructuredArrays, grid_from_explicit_structured};
 use stratasweep::pipeline::{SliceRequest, SliceResult};
-use stratasweep::structures::cpgraph::IjkLayout;
 use stratasweep::structures::{Structure, StructureChoice};
 
 /// Corner-point corner `q` (I + 2·J + 4·K offsets) of each VTK hexahedron corner.

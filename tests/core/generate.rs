@@ -410,8 +410,8 @@ fn warped_is_deterministic_and_seed_dependent() {
 #[test]
 fn small_faulted_grids_have_no_crossed_face_and_slice_as_the_brute_force() {
     use stratasweep::field::FieldSpec;
+    use stratasweep::grid::IjkLayout;
     use stratasweep::pipeline::{LevelSpec, SliceRequest, slice};
-    use stratasweep::structures::cpgraph::IjkLayout;
     use stratasweep::structures::{Structure, StructureChoice};
     let mut grids = 0;
     for dims in [[5, 4, 3], [3, 3, 2], [4, 4, 4], [6, 5, 3], [8, 6, 4]] {

@@ -374,7 +374,7 @@ fn isosurfaces_through_neighbouring_twisted_cells_are_closed() {
 #[test]
 fn corner_point_graph_decomposes_twisted_cells_as_the_cgraph() {
     use stratasweep::cornerpoint::CornerPointGrid;
-    use stratasweep::structures::cpgraph::IjkLayout;
+    use stratasweep::grid::IjkLayout;
     let (nx, ny, nz) = (3usize, 2usize, 2usize);
     let mut coord = Vec::new();
     for pj in 0..=ny {

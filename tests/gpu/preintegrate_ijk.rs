@@ -219,7 +219,7 @@ fn a_lattice_over_the_3d_texture_limit_keeps_the_gradient_path() {
 /// The layered box as a corner-point grid (vertical pillars, 8 flat
 /// layers, depth 0 to 2H, z = −depth): the same cells as [`layer_box`]
 /// 2H lower, K counted downward.
-fn layer_corner_point() -> (Grid, stratasweep::structures::cpgraph::IjkLayout) {
+fn layer_corner_point() -> (Grid, stratasweep::grid::IjkLayout) {
     let dims = [4usize, 4, LAYERS];
     let [nx, ny, nz] = dims;
     let mut coord = Vec::new();
@@ -254,7 +254,7 @@ fn layer_corner_point() -> (Grid, stratasweep::structures::cpgraph::IjkLayout) {
         properties: vec![Property::scalar("c", c)],
     };
     let (grid, rep) = cp.into_grid().unwrap();
-    let layout = stratasweep::structures::cpgraph::IjkLayout {
+    let layout = stratasweep::grid::IjkLayout {
         dims,
         source_cell: rep.source_cell,
     };

@@ -425,11 +425,11 @@ fn rotated_grid_fills_the_frame() {
 }
 
 /// A small faulted corner-point grid and its IJK layout.
-fn small_faulted() -> (Grid, stratasweep::structures::cpgraph::IjkLayout) {
+fn small_faulted() -> (Grid, stratasweep::grid::IjkLayout) {
     let cp = stratasweep::generate::faulted([14, 11, 7], 3, 4);
     let dims = cp.dims;
     let (grid, rep) = cp.into_grid().unwrap();
-    let layout = stratasweep::structures::cpgraph::IjkLayout {
+    let layout = stratasweep::grid::IjkLayout {
         dims,
         source_cell: rep.source_cell,
     };

@@ -1,7 +1,7 @@
 //! `stratasweep view`: the interactive window over the library's
 //! [`Scene`] (one renderer, two targets: this window and `render`'s PNG),
-//! its scripted uses (`--frames N --screenshot OUT.png`, `--orbit-bench N`)
-//! and `render --legend`.
+//! and its scripted uses (`--frames N --screenshot OUT.png`,
+//! `--orbit-bench N`).
 
 mod app;
 mod overlay;
@@ -16,18 +16,13 @@ use serde_json::json;
 use winit::event_loop::EventLoop;
 
 use stratasweep::gpu::context::GpuContext;
-use stratasweep::gpu::render::camera::slicing_axis;
-use stratasweep::gpu::render::options::transfer_for;
-use stratasweep::gpu::render::slice_cache::slice_key;
-use stratasweep::gpu::render::{Image, RenderOptions, Renderer};
 use stratasweep::gpu::view::scene::Scene;
-use stratasweep::grid::Grid;
+use stratasweep::policy::render::Target;
 use stratasweep::structures::StructureChoice;
 
 use super::scene_args::SceneArgs;
 use super::{GridArg, build_structure, load_with_info};
 use app::{App, Script, Timeline};
-use overlay::{LEGEND_SIZE, Legend, Overlay, paint_legend, read_rgba8};
 
 /// `stratasweep view`.
 #[derive(Args)]
@@ -93,7 +88,6 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         .map(check_frames)
         .transpose()
         .map_err(flag("--orbit-bench"))?;
-    crate::cli::checks::check_slices(a.scene.slices)?;
     let outputs = crate::cli::checks::Outputs::default()
         .add("--screenshot", a.screenshot.as_deref())
         .add("--window-screenshot", a.window_screenshot.as_deref());
@@ -105,7 +99,7 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
             crate::cli::checks::output_ext(flag, p, &["png"])?;
         }
     }
-    let o = a.scene.options()?;
+    let plan = a.scene.plan(Target::Window, false)?;
     let clip = a
         .ijk_clip
         .as_deref()
@@ -115,7 +109,7 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
     if let Some(c) = &clip {
         super::scene_args::check_clip(c, &grid)?;
     }
-    let z_scale = a.scene.z_scale(&grid, quiet);
+    let z_scale = super::scene_args::print_z_scale(plan.z_scale(&grid), &grid, quiet);
     // As `render`: the corner-point graph (IJK lattice) for corner-point
     // input, so the panel's pre-integration switch gets the index-space path.
     let s = build_structure(&grid, StructureChoice::Auto, ijk.as_ref(), &name, quiet)?;
@@ -138,9 +132,9 @@ pub fn cmd_view(a: ViewArgs, quiet: bool) -> Result<()> {
         ctx,
         Arc::new(grid),
         Arc::new(s),
-        o,
+        plan.options,
         z_scale,
-        a.scene.preintegrated,
+        plan.preintegrated,
     )?;
     if !quiet {
         eprintln!(
@@ -267,103 +261,4 @@ fn report_bench(app: &App, name: &str, n: u32, as_json: bool, headless: bool) ->
         mean_cut
     );
     Ok(())
-}
-
-/// `render --legend`: the viewer's legend painted (egui, on the GPU) into
-/// the bottom-right corner of `img`.
-pub fn legend_onto(
-    ctx: &GpuContext,
-    r: &Renderer,
-    grid: &Grid,
-    o: &RenderOptions,
-    img: Image,
-) -> Result<Image> {
-    let d = glam::Vec3::from_array(o.view_dir.map(|c| c as f32)).normalize();
-    let mut k = slice_key(grid, o, slicing_axis(d))?;
-    if r.preintegrated() && o.mode == stratasweep::gpu::render::Mode::Volume {
-        k = k.with_attr_gradient();
-    }
-    let set = r
-        .slices(&k.key)
-        .context("the legend needs the rendered slices")?;
-    let transfer = transfer_for(o, set.range)?;
-    let title = k
-        .property
-        .clone()
-        .unwrap_or_else(|| "(slice position)".into());
-    let (w, h) = (img.width, img.height);
-    let format = wgpu::TextureFormat::Rgba8Unorm;
-    let tex = ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("legend"),
-        size: wgpu::Extent3d {
-            width: w,
-            height: h,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-            | wgpu::TextureUsages::COPY_SRC
-            | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    });
-    let extent = tex.size();
-    ctx.queue.write_texture(
-        tex.as_image_copy(),
-        &img.rgba8(),
-        wgpu::TexelCopyBufferLayout {
-            offset: 0,
-            bytes_per_row: Some(4 * w),
-            rows_per_image: Some(h),
-        },
-        extent,
-    );
-    let view = tex.create_view(&Default::default());
-    let mut overlay = Overlay::new(ctx, format);
-    let input = egui::RawInput {
-        screen_rect: Some(egui::Rect::from_min_size(
-            egui::Pos2::ZERO,
-            egui::vec2(w as f32, h as f32),
-        )),
-        ..Default::default()
-    };
-    let mut enc = ctx.device.create_command_encoder(&Default::default());
-    let legend = Legend {
-        title: &title,
-        range: set.range,
-        transfer: &transfer,
-    };
-    overlay.paint(ctx, &mut enc, &view, (w, h), input, |ectx| {
-        let screen = ectx.content_rect();
-        let rect = egui::Align2::RIGHT_BOTTOM
-            .anchor_size(screen.max - egui::vec2(10.0, 10.0), LEGEND_SIZE);
-        paint_legend(
-            &ectx.layer_painter(egui::LayerId::background()),
-            rect,
-            &legend,
-        );
-    });
-    ctx.queue.submit([enc.finish()]);
-    let bytes = read_rgba8(ctx, &tex)?;
-    let mut px = Vec::with_capacity((w * h) as usize);
-    for y in 0..h as usize {
-        for x in 0..w as usize {
-            let o = (y * w as usize + x) * 4;
-            let a = bytes[o + 3] as f32 / 255.0;
-            px.push(std::array::from_fn(|i| {
-                if i == 3 {
-                    a
-                } else {
-                    bytes[o + i] as f32 / 255.0 * a
-                }
-            }));
-        }
-    }
-    Ok(Image {
-        width: w,
-        height: h,
-        premultiplied: px,
-    })
 }

@@ -1,12 +1,14 @@
 //! egui drawn over the scene with egui-wgpu: the viewer's panel, the colour
-//! legend (the same painter for the window and `render --legend`) and the
-//! outline box with its axes.
+//! legend and the outline box with its axes. The window's legend is the
+//! layout of the library's CPU painter ([`stratasweep::gpu::render::legend`], which
+//! draws `render --legend` and Python's `legend=True`) in egui.
 
 use egui::{Align2, Color32, FontId, Painter, Pos2, Rect, Stroke, Vec2, pos2, vec2};
 use glam::{Mat4, Vec3};
 
 use stratasweep::gpu::context::GpuContext;
-use stratasweep::gpu::render::Transfer;
+pub use stratasweep::gpu::render::legend::Legend;
+use stratasweep::gpu::render::legend::{self, fmt_value};
 
 /// egui's context and its wgpu renderer for one output format.
 pub struct Overlay {
@@ -88,31 +90,8 @@ impl Overlay {
     }
 }
 
-/// A number for the legend: 4 significant digits, scientific when large or small.
-pub fn fmt_value(v: f64) -> String {
-    let a = v.abs();
-    if v == 0.0 {
-        "0".into()
-    } else if !(1e-3..1e5).contains(&a) {
-        format!("{v:.3e}")
-    } else {
-        let digits = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
-        format!("{v:.digits$}")
-    }
-}
-
-/// What the legend shows.
-pub struct Legend<'a> {
-    /// Property name (with units when known).
-    pub title: &'a str,
-    /// The shown value range.
-    pub range: (f64, f64),
-    /// The transfer function (colour and opacity along the range).
-    pub transfer: &'a Transfer,
-}
-
-/// Size of the legend in points.
-pub const LEGEND_SIZE: Vec2 = vec2(260.0, 74.0);
+/// Size of the legend in points (the library's card, [`legend::CARD`]).
+pub const LEGEND_SIZE: Vec2 = vec2(legend::CARD[0], legend::CARD[1]);
 
 /// Paints the legend in `rect`: a framed card with the title, a colour
 /// bar (transfer colour over a checkerboard, shown with its opacity in a

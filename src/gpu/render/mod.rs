@@ -20,6 +20,7 @@ pub mod frame_setup;
 pub mod host_slices;
 pub mod image;
 pub mod iso_cache;
+pub mod legend;
 pub mod options;
 pub mod preintegrated;
 pub mod renderer;

@@ -100,6 +100,11 @@ class Grid:
         field's range cut nothing and raise a ``UserWarning`` (world z is
         minus depth: depths are negative z levels). Ctrl-C stops the sweep
         at its next level and raises ``KeyboardInterrupt``."""
+    @property
+    def default_z_scale(self) -> float:
+        """The vertical exaggeration ``render`` uses without ``z_scale``
+        (the CLI's default: 1 for grids at least a quarter as high as
+        wide, else 2, 5, 10, 20, ...)."""
     def render(
         self,
         property: Optional[str] = None,
@@ -107,20 +112,35 @@ class Grid:
         view_dir: Tuple[float, float, float] = (-1.0, -0.6, -0.8),
         up: Optional[Tuple[float, float, float]] = None,
         projection: Literal["ortho", "perspective"] = "ortho",
-        transfer: Union[None, str, Mapping[str, Any]] = None,
+        transfer: Union[None, str, PathLike[str], Mapping[str, Any]] = None,
         unit_distance: Optional[float] = None,
-        background: Union[None, Literal["transparent"], Sequence[float]] = None,
+        background: Union[None, str, Sequence[float]] = None,
         size: Tuple[int, int] = (800, 600),
         mode: Literal["volume", "slices", "iso"] = "volume",
         iso: Optional[Sequence[float]] = None,
+        z_scale: Optional[float] = None,
+        preintegrated: bool = False,
+        cells: Optional[Literal["auto", "sweep", "gpu"]] = None,
+        legend: bool = False,
         adapter: Optional[str] = None,
         device: Literal["auto", "gpu", "cpu"] = "auto",
+        output: Optional[_Path] = None,
     ) -> npt.NDArray[np.uint8]:
-        """Volume-renders (or draws isosurfaces) into ``(H, W, 4)`` RGBA.
-        ``device``: ``auto`` any adapter (GPUs first), ``gpu`` hardware
-        only, ``cpu`` a software rasteriser (Mesa llvmpipe) only. Limits as
-        the CLI's: 1 to 8192 slices, isovalues and pixels per image side.
-        Ctrl-C stops the render before its slicing or its drawing."""
+        """Volume-renders (or draws isosurfaces) into ``(H, W, 4)`` RGBA,
+        with every option of the CLI's ``render`` (the same defaults,
+        checks and errors, options named by keyword; the same image bits):
+        ``transfer`` a colormap name (viridis, magma, coolwarm, greys), a
+        ``.json`` file or a dict ``{"points": [...]}``; ``background``
+        ``(r, g, b, a)``, ``"r,g,b,a"`` or ``"transparent"``; ``z_scale``
+        the vertical exaggeration (default ``default_z_scale``);
+        ``preintegrated`` pre-integrated slabs (volume mode); ``cells``
+        how cut cells are found (default the sweep: the same bits on every
+        run); ``legend`` the colour legend in the bottom-right corner;
+        ``output`` also writes the PNG. ``device``: ``auto`` any adapter
+        (GPUs first), ``gpu`` hardware only, ``cpu`` a software rasteriser
+        (Mesa llvmpipe) only. Limits as the CLI's: 1 to 8192 slices,
+        isovalues and pixels per image side. Ctrl-C stops the render
+        before its slicing or its drawing."""
     def save(self, path: _Path) -> None:
         """Writes ``.vts`` (curvilinear) or ``.vtu`` (unstructured)."""
 

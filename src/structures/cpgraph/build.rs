@@ -9,7 +9,8 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use rayon::prelude::*;
 
-use super::{CpCounts, CpGraph, EXPLICIT, IjkLayout};
+use super::{CpCounts, CpGraph, EXPLICIT};
+use crate::grid::IjkLayout;
 use crate::grid::{Cells, Grid, Topology, origin_of, rebased};
 use crate::mem::try_filled;
 use crate::metacell::{Catalog, builtin};

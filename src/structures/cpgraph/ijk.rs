@@ -126,7 +126,7 @@ impl CpGraph {
 #[cfg(test)]
 mod tests {
     use crate::cornerpoint::CornerPointGrid;
-    use crate::structures::cpgraph::IjkLayout;
+    use crate::grid::IjkLayout;
     use crate::structures::{Structure, StructureChoice};
 
     /// A 3 × 2 × 4 corner-point box: pillars at x = i, y = j, layers 0.5

@@ -57,9 +57,6 @@ impl Divisor {
     }
 }
 
-/// The IJK layout a CP-Graph is built on: part of the grid model
-/// ([`crate::grid::IjkLayout`]), named here too for the graph's users.
-pub use crate::grid::IjkLayout;
 
 /// Counts found while building a [`CpGraph`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -443,7 +443,7 @@ fn welded(soup: &[[f32; 6]], origin: [f64; 3]) -> Surface {
 fn cp_graph(cp: &crate::cornerpoint::CornerPointGrid) -> crate::structures::cpgraph::CpGraph {
     let (grid, rep) = cp.to_grid().expect("converts");
     assert!(rep.collapsed > 0, "the test wants collapsed cells");
-    let layout = crate::structures::cpgraph::IjkLayout {
+    let layout = crate::grid::IjkLayout {
         dims: cp.dims,
         source_cell: rep.source_cell,
     };
@@ -557,7 +557,7 @@ fn a_corner_point_box_is_bounded_by_its_six_sides_with_their_nodes() {
         properties: Vec::new(),
     };
     let (grid, rep) = cp.to_grid().expect("converts");
-    let layout = crate::structures::cpgraph::IjkLayout {
+    let layout = crate::grid::IjkLayout {
         dims,
         source_cell: rep.source_cell,
     };
