@@ -1,7 +1,7 @@
 //! Every struct shared between Rust and WGSL, in one place.
 //!
 //! Each struct is `#[repr(C)]` + [`bytemuck::Pod`] and mirrors a struct of
-//! the same name in `wgsl/shared/types.wgsl`; `tests/gpu_layout.rs` checks
+//! the same name in `wgsl/shared/types.wgsl`; `tests/gpu/layout.rs` checks
 //! with naga that sizes and member offsets agree. The constants describe the
 //! layout of the flat `u32` buffers (tables, cells, control) that both the
 //! WGSL passes and the CPU twin (`gpu::compute::twin`) index.

@@ -12,8 +12,8 @@ use pyo3::prelude::*;
 
 use crate::cancel::Cancel;
 use crate::field::FieldSpec;
-use crate::gpu::context::{ContextOptions, GpuContext};
 use crate::gpu::compute::slice::{Emitter, GpuSliceError, slice_on};
+use crate::gpu::context::{ContextOptions, GpuContext};
 use crate::limits;
 use crate::pipeline::{LevelSpec, SliceRequest, SliceResult, slice as sweep};
 use crate::policy::Opt;

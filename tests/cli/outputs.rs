@@ -375,14 +375,15 @@ fn interrupt_slice(d: &Dir, grid: &str, sig: i32, ignore: bool) -> (Output, bool
     ]);
     let mut c = headless();
     c.args(&a).arg("--quiet");
-    if ignore {
-        // SAFETY: one async-signal-safe call between fork and exec.
-        unsafe {
-            c.pre_exec(move || {
-                libc::signal(sig, libc::SIG_IGN);
-                Ok(())
-            });
-        }
+    // The signal's disposition is set either way: a test run started in
+    // the background (`nohup`, `&` in a script) inherits SIGINT ignored.
+    let disposition = if ignore { libc::SIG_IGN } else { libc::SIG_DFL };
+    // SAFETY: one async-signal-safe call between fork and exec.
+    unsafe {
+        c.pre_exec(move || {
+            libc::signal(sig, disposition);
+            Ok(())
+        });
     }
     let child = c.spawn().unwrap();
     let t = Instant::now();

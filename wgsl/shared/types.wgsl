@@ -1,5 +1,5 @@
 // Structs shared with Rust: mirrors of src/gpu/shared.rs (sizes and member
-// offsets are checked by tests/gpu_layout.rs).
+// offsets are checked by tests/gpu/layout.rs).
 
 struct TableSections {
     metas: u32,

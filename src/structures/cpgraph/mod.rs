@@ -57,7 +57,6 @@ impl Divisor {
     }
 }
 
-
 /// Counts found while building a [`CpGraph`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CpCounts {
