@@ -1,8 +1,8 @@
 //! The CPU legend: the card's colours, the bar's steps against the
 //! transfer function, the text where it belongs, nothing outside the card.
 
-use super::canvas::Rect;
 use super::*;
+use crate::gpu::render::legend::canvas::Rect;
 
 /// An opaque image of `rgb` (0..=255).
 fn image(w: u32, h: u32, rgb: [u8; 3]) -> Image {
