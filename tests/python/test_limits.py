@@ -81,11 +81,15 @@ def test_ctrl_c_stops_a_long_slice_within_two_seconds(tmp_path):
         print("finished", flush=True)
         """
     )
+    # SIGINT at its default disposition in the child: a test run started in
+    # the background inherits it ignored, and Python then never installs its
+    # KeyboardInterrupt handler.
     p = subprocess.Popen(
         [sys.executable, "-c", script],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     try:
         assert p.stdout.readline().strip() == "started"
